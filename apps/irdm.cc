@@ -1,0 +1,239 @@
+// irdm: one command-line program with subcommands. Exit status: 0 ok, 2 bad input or usage,
+// 1 internal error.
+#include <irdm_common/error.h>
+#include <reference_fem/elastodynamics.h>
+#include <reference_fem/scene.h>
+#include <validation/fem_verification.h>
+
+#include <deal.II/base/mpi.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace
+{
+  const char *top_help = R"(irdm: impulse response deformation model (IRDM) validation harness
+
+Usage: irdm <command> [options]
+
+Commands (reference FEM):
+  simulate <scene.json>   run a scene with the reference FEM and write its outputs
+  static <scene.json>     static equilibrium under the scene's loads at t = 0
+  modes <scene.json>      lowest natural frequencies of the fixed body
+  verify-fem              FEM verification suite against theory; writes a report
+
+Run 'irdm <command> --help' for the options of a command. Units are SI throughout.
+Scene files: docs/scene-format.md. Result files: docs/fem-output.md.
+)";
+
+  struct Args
+  {
+    std::vector<std::string>           positional;
+    std::map<std::string, std::string> options; // --key value, or --flag -> ""
+  };
+
+  // Parses "--key value" / "--flag"; rejects options not in the allowed lists.
+  Args
+  parse(const int argc, char **argv, const int first,
+        const std::vector<std::string> &with_value, const std::vector<std::string> &flags)
+  {
+    Args a;
+    for (int i = first; i < argc; ++i)
+      {
+        const std::string s = argv[i];
+        if (s.rfind("--", 0) == 0)
+          {
+            const auto is = [&](const std::vector<std::string> &l) {
+              for (const auto &x : l)
+                if (x == s)
+                  return true;
+              return false;
+            };
+            if (is(with_value))
+              {
+                if (i + 1 >= argc)
+                  throw irdm::InputError("option " + s + " needs a value");
+                a.options[s] = argv[++i];
+              }
+            else if (is(flags))
+              a.options[s] = "";
+            else
+              throw irdm::InputError("unknown option '" + s + "' (see --help)");
+          }
+        else
+          a.positional.push_back(s);
+      }
+    return a;
+  }
+
+  unsigned
+  positive_integer(const std::string &option, const std::string &value)
+  {
+    char *end = nullptr;
+    const long v = std::strtol(value.c_str(), &end, 10);
+    if (value.empty() || *end != '\0' || v < 1 || v > 100000)
+      throw irdm::InputError("option " + option + " needs a whole number >= 1, got '" +
+                             value + "'");
+    return static_cast<unsigned>(v);
+  }
+
+  void
+  print_progress(const double fraction)
+  {
+    std::fprintf(stderr, "\r  %3.0f %%", 100 * fraction);
+    if (fraction >= 1)
+      std::fprintf(stderr, "\n");
+  }
+
+  int
+  cmd_simulate(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm simulate <scene.json> [--quiet]
+
+Runs the scene with the reference FEM (linear elasticity, P1/P2 tetrahedra, implicit
+Newmark or generalized-alpha) from its initial state to its duration, and writes the outputs
+the scene asks for (HDF5, CSV, VTU) into its output directory.
+  --quiet   no progress on stderr
+)";
+    const Args a = parse(argc, argv, 2, {}, {"--help", "--quiet"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (a.positional.size() != 1)
+      throw irdm::InputError("simulate takes one scene file (see --help)");
+    const auto scene = irdm::fem::read_scene(a.positional[0]);
+    irdm::fem::ElasticDynamics fem(scene);
+    std::fprintf(stderr, "%s: %u cells, %u DoFs (P%u), %u steps of %g s\n", scene.name.c_str(),
+                 fem.n_cells(), fem.n_dofs(), scene.fe_degree, scene.n_steps(), scene.time_step);
+    const auto result = fem.run(a.options.count("--quiet") ? nullptr : print_progress);
+    fem.write_outputs(result);
+    std::printf("setup %.3f s, factorization %.3f s, %u steps in %.3f s (%.3g ms/step)\n",
+                result.setup_seconds, result.factorization_seconds, result.n_steps,
+                result.stepping_seconds, 1e3 * result.stepping_seconds / result.n_steps);
+    for (const auto &[name, f] : result.probe_force)
+      std::printf("probe %s: final force (%.6g, %.6g, %.6g) N\n", name.c_str(), f.back()[0],
+                  f.back()[1], f.back()[2]);
+    if (!scene.outputs.directory.empty())
+      std::printf("outputs in %s\n", scene.outputs.directory.c_str());
+    return 0;
+  }
+
+  int
+  cmd_static(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm static <scene.json>
+
+Solves K u = f for the scene's loads (and gravity) at t = 0 with its fixed surfaces and
+prescribed displacements, prints the reactions and observed displacements, and writes the
+outputs like 'simulate' (one sample).
+)";
+    const Args a = parse(argc, argv, 2, {}, {"--help"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (a.positional.size() != 1)
+      throw irdm::InputError("static takes one scene file (see --help)");
+    const auto scene = irdm::fem::read_scene(a.positional[0]);
+    irdm::fem::ElasticDynamics fem(scene);
+    const auto r = fem.solve_static(0.0);
+    std::printf("volume %.9g m^3, %u DoFs\n", fem.volume(), fem.n_dofs());
+    for (const auto &[name, s] : r.fixed_reaction)
+      std::printf("reaction on %s: (%.9g, %.9g, %.9g) N\n", name.c_str(), s[0][0], s[0][1],
+                  s[0][2]);
+    for (const auto &[name, s] : r.vertex_displacement)
+      std::printf("vertex %s: u = (%.9g, %.9g, %.9g) m\n", name.c_str(), s[0][0], s[0][1],
+                  s[0][2]);
+    for (const auto &[name, s] : r.probe_force)
+      std::printf("probe %s: F = (%.9g, %.9g, %.9g) N\n", name.c_str(), s[0][0], s[0][1],
+                  s[0][2]);
+    fem.write_outputs(r);
+    return 0;
+  }
+
+  int
+  cmd_modes(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm modes <scene.json> [--count N]
+
+Lowest natural frequencies (Hz) of the scene's body with its fixed surfaces, undamped.
+  --count N   number of frequencies (default 6)
+)";
+    const Args a = parse(argc, argv, 2, {"--count"}, {"--help"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (a.positional.size() != 1)
+      throw irdm::InputError("modes takes one scene file (see --help)");
+    const unsigned n =
+      a.options.count("--count") ? positive_integer("--count", a.options.at("--count")) : 6;
+    const auto scene = irdm::fem::read_scene(a.positional[0]);
+    irdm::fem::ElasticDynamics fem(scene);
+    const auto f = fem.natural_frequencies(n);
+    for (unsigned i = 0; i < f.size(); ++i)
+      std::printf("mode %u: %.9g Hz\n", i + 1, f[i]);
+    return 0;
+  }
+
+  int
+  cmd_verify_fem(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm verify-fem [--meshes DIR] [--out DIR] [--quick]
+
+Runs the reference-FEM verification suite (cantilever frequency and convergence, static tip
+deflection, energy conservation and dissipation, gravity reaction, damping, prescribed
+displacement reaction) and writes a Markdown report with CSV data under --out.
+  --meshes DIR  folder with the project's meshes (default: meshes)
+  --out DIR     report folder (default: reports/fem-verification)
+  --quick       skip the finest beam mesh (for a fast look; the report says so)
+)";
+    const Args a = parse(argc, argv, 2, {"--meshes", "--out"}, {"--help", "--quick"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (!a.positional.empty())
+      throw irdm::InputError("verify-fem takes no positional arguments (see --help)");
+    irdm::validation::FemVerificationOptions o;
+    if (a.options.count("--meshes"))
+      o.mesh_dir = a.options.at("--meshes");
+    if (a.options.count("--out"))
+      o.report_dir = a.options.at("--out");
+    o.quick = a.options.count("--quick") > 0;
+    const bool all_pass = irdm::validation::run_fem_verification(o, std::cout);
+    return all_pass ? 0 : 3;
+  }
+} // namespace
+
+int
+main(int argc, char **argv)
+{
+  try
+    {
+      dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
+      if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")
+        {
+          std::printf("%s", top_help);
+          return argc < 2 ? 2 : 0;
+        }
+      const std::string cmd = argv[1];
+      if (cmd == "simulate")
+        return cmd_simulate(argc, argv);
+      if (cmd == "static")
+        return cmd_static(argc, argv);
+      if (cmd == "modes")
+        return cmd_modes(argc, argv);
+      if (cmd == "verify-fem")
+        return cmd_verify_fem(argc, argv);
+      std::fprintf(stderr, "irdm: unknown command '%s'\n\n%s", cmd.c_str(), top_help);
+      return 2;
+    }
+  catch (const irdm::InputError &e)
+    {
+      std::fprintf(stderr, "irdm: error: %s\n", e.what());
+      return 2;
+    }
+  catch (const std::exception &e)
+    {
+      std::fprintf(stderr, "irdm: internal error: %s\n", e.what());
+      return 1;
+    }
+}

@@ -1,0 +1,86 @@
+#pragma once
+// Thin RAII layer over the HDF5 C API, shared by the FEM output and the IRDM model files.
+// Arrays are row-major (C order), as HDF5 stores them. Writers are atomic: data go to
+// "<path>.part" and are renamed to <path> only by commit(), so no half-written file ever
+// carries the final name.
+#include <hdf5.h>
+
+#include <string>
+#include <vector>
+
+namespace irdm::h5
+{
+  /// An HDF5 file being written; becomes visible under its final name on commit().
+  class Writer
+  {
+  public:
+    explicit Writer(const std::string &path);
+    ~Writer(); // without commit(): the partial file is removed
+    Writer(const Writer &) = delete;
+    Writer &
+    operator=(const Writer &) = delete;
+
+    void
+    create_group(const std::string &name);
+    void
+    write(const std::string &name,
+          const std::vector<hsize_t> &dims,
+          const double *data);
+    void
+    write(const std::string &name,
+          const std::vector<hsize_t> &dims,
+          const float *data);
+    void
+    write(const std::string &name,
+          const std::vector<hsize_t> &dims,
+          const long long *data);
+    /// Attribute on an object ("/" for the file root).
+    void
+    attribute(const std::string &object,
+              const std::string &name,
+              const std::string &value);
+    void
+    attribute(const std::string &object, const std::string &name, double value);
+    void
+    attribute(const std::string &object,
+              const std::string &name,
+              long long value);
+    void
+    commit();
+
+  private:
+    std::string path_;
+    std::string part_path_;
+    hid_t       file_ = -1;
+  };
+
+  /// Read access with shape checks; every failure is an InputError naming file and dataset.
+  class Reader
+  {
+  public:
+    explicit Reader(const std::string &path);
+    ~Reader();
+    Reader(const Reader &) = delete;
+    Reader &
+    operator=(const Reader &) = delete;
+
+    bool
+    exists(const std::string &name) const;
+    std::vector<hsize_t>
+    shape(const std::string &name) const;
+    std::vector<double>
+    read_double(const std::string &name,
+                const std::vector<hsize_t> &expected_dims) const;
+    std::vector<long long>
+    read_int(const std::string &name,
+             const std::vector<hsize_t> &expected_dims) const;
+    std::string
+    string_attribute(const std::string &object, const std::string &name) const;
+    double
+    double_attribute(const std::string &object, const std::string &name) const;
+
+  private:
+    std::string path_;
+    hid_t       file_ = -1;
+  };
+} // namespace irdm::h5

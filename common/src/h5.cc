@@ -1,0 +1,353 @@
+#include <irdm_common/error.h>
+#include <irdm_common/h5.h>
+
+#include <cstdio>
+#include <sstream>
+
+namespace irdm::h5
+{
+  namespace
+  {
+    // HDF5 prints its own error stack by default; we report errors ourselves.
+    void
+    silence_hdf5()
+    {
+      H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    }
+
+    std::string
+    dims_to_string(const std::vector<hsize_t> &dims)
+    {
+      std::ostringstream s;
+      s << '(';
+      for (std::size_t i = 0; i < dims.size(); ++i)
+        s << (i ? ", " : "") << dims[i];
+      s << ')';
+      return s.str();
+    }
+
+    hid_t
+    open_object(hid_t file, const std::string &object)
+    {
+      return H5Oopen(file, object.c_str(), H5P_DEFAULT);
+    }
+  } // namespace
+
+  Writer::Writer(const std::string &path)
+    : path_(path)
+    , part_path_(path + ".part")
+  {
+    silence_hdf5();
+    file_ = H5Fcreate(part_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    if (file_ < 0)
+      throw InputError("cannot create HDF5 file '" + part_path_ + "'");
+  }
+
+  Writer::~Writer()
+  {
+    if (file_ >= 0)
+      {
+        H5Fclose(file_);
+        std::remove(part_path_.c_str());
+      }
+  }
+
+  void
+  Writer::create_group(const std::string &name)
+  {
+    const hid_t g =
+      H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    if (g < 0)
+      throw InputError("cannot create group '" + name + "' in '" + path_ + "'");
+    H5Gclose(g);
+  }
+
+  namespace
+  {
+    void
+    write_any(hid_t file,
+              const std::string &path,
+              const std::string &name,
+              const std::vector<hsize_t> &dims,
+              hid_t file_type,
+              hid_t mem_type,
+              const void *data)
+    {
+      const hid_t space = H5Screate_simple(static_cast<int>(dims.size()),
+                                           dims.data(),
+                                           nullptr);
+      const hid_t set = H5Dcreate2(file,
+                                   name.c_str(),
+                                   file_type,
+                                   space,
+                                   H5P_DEFAULT,
+                                   H5P_DEFAULT,
+                                   H5P_DEFAULT);
+      bool ok = set >= 0;
+      if (ok)
+        ok = H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
+      if (set >= 0)
+        H5Dclose(set);
+      H5Sclose(space);
+      if (!ok)
+        throw InputError("cannot write dataset '" + name + "' " +
+                         dims_to_string(dims) + " to '" + path + "'");
+    }
+  } // namespace
+
+  void
+  Writer::write(const std::string &name,
+                const std::vector<hsize_t> &dims,
+                const double *data)
+  {
+    write_any(file_, path_, name, dims, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data);
+  }
+
+  void
+  Writer::write(const std::string &name,
+                const std::vector<hsize_t> &dims,
+                const float *data)
+  {
+    write_any(file_, path_, name, dims, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, data);
+  }
+
+  void
+  Writer::write(const std::string &name,
+                const std::vector<hsize_t> &dims,
+                const long long *data)
+  {
+    write_any(file_, path_, name, dims, H5T_STD_I64LE, H5T_NATIVE_LLONG, data);
+  }
+
+  namespace
+  {
+    void
+    write_attribute(hid_t file,
+                    const std::string &path,
+                    const std::string &object,
+                    const std::string &name,
+                    hid_t type,
+                    const void *value)
+    {
+      const hid_t obj = open_object(file, object);
+      if (obj < 0)
+        throw InputError("no object '" + object + "' in '" + path + "'");
+      const hid_t space = H5Screate(H5S_SCALAR);
+      const hid_t attr =
+        H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
+      const bool ok = attr >= 0 && H5Awrite(attr, type, value) >= 0;
+      if (attr >= 0)
+        H5Aclose(attr);
+      H5Sclose(space);
+      H5Oclose(obj);
+      if (!ok)
+        throw InputError("cannot write attribute '" + name + "' on '" + object +
+                         "' in '" + path + "'");
+    }
+  } // namespace
+
+  void
+  Writer::attribute(const std::string &object,
+                    const std::string &name,
+                    const std::string &value)
+  {
+    const hid_t type = H5Tcopy(H5T_C_S1);
+    H5Tset_size(type, value.empty() ? 1 : value.size());
+    H5Tset_strpad(type, H5T_STR_NULLPAD);
+    try
+      {
+        write_attribute(file_, path_, object, name, type, value.c_str());
+      }
+    catch (...)
+      {
+        H5Tclose(type);
+        throw;
+      }
+    H5Tclose(type);
+  }
+
+  void
+  Writer::attribute(const std::string &object,
+                    const std::string &name,
+                    const double value)
+  {
+    write_attribute(file_, path_, object, name, H5T_NATIVE_DOUBLE, &value);
+  }
+
+  void
+  Writer::attribute(const std::string &object,
+                    const std::string &name,
+                    const long long value)
+  {
+    write_attribute(file_, path_, object, name, H5T_NATIVE_LLONG, &value);
+  }
+
+  void
+  Writer::commit()
+  {
+    const herr_t closed = H5Fclose(file_);
+    file_ = -1;
+    if (closed < 0 || std::rename(part_path_.c_str(), path_.c_str()) != 0)
+      {
+        std::remove(part_path_.c_str());
+        throw InputError("cannot finish HDF5 file '" + path_ + "'");
+      }
+  }
+
+  Reader::Reader(const std::string &path)
+    : path_(path)
+  {
+    silence_hdf5();
+    if (FILE *f = std::fopen(path.c_str(), "rb"))
+      std::fclose(f);
+    else
+      throw InputError("cannot open '" + path + "': no such file or not readable");
+    file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (file_ < 0)
+      throw InputError("'" + path + "' is not an HDF5 file");
+  }
+
+  Reader::~Reader()
+  {
+    if (file_ >= 0)
+      H5Fclose(file_);
+  }
+
+  bool
+  Reader::exists(const std::string &name) const
+  {
+    // Walk the path so that a missing intermediate group is not an HDF5 error.
+    std::string partial;
+    std::istringstream parts(name);
+    std::string part;
+    while (std::getline(parts, part, '/'))
+      {
+        if (part.empty())
+          continue;
+        partial += "/" + part;
+        if (H5Lexists(file_, partial.c_str(), H5P_DEFAULT) <= 0)
+          return false;
+      }
+    return true;
+  }
+
+  std::vector<hsize_t>
+  Reader::shape(const std::string &name) const
+  {
+    if (!exists(name))
+      throw InputError("'" + path_ + "' has no dataset '" + name + "'");
+    const hid_t set = H5Dopen2(file_, name.c_str(), H5P_DEFAULT);
+    if (set < 0)
+      throw InputError("'" + name + "' in '" + path_ + "' is not a dataset");
+    const hid_t space = H5Dget_space(set);
+    const int   rank  = H5Sget_simple_extent_ndims(space);
+    std::vector<hsize_t> dims(rank > 0 ? rank : 0);
+    if (rank > 0)
+      H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+    H5Sclose(space);
+    H5Dclose(set);
+    return dims;
+  }
+
+  namespace
+  {
+    template <typename T>
+    std::vector<T>
+    read_any(hid_t file,
+             const Reader &reader,
+             const std::string &path,
+             const std::string &name,
+             const std::vector<hsize_t> &expected,
+             hid_t mem_type)
+    {
+      const auto dims = reader.shape(name);
+      if (dims != expected)
+        throw InputError("dataset '" + name + "' in '" + path + "' has shape " +
+                         dims_to_string(dims) + ", expected " +
+                         dims_to_string(expected));
+      std::size_t n = 1;
+      for (const auto d : dims)
+        n *= d;
+      std::vector<T> data(n);
+      const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+      const bool  ok  = H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT,
+                              data.data()) >= 0;
+      H5Dclose(set);
+      if (!ok)
+        throw InputError("cannot read dataset '" + name + "' from '" + path +
+                         "'");
+      return data;
+    }
+  } // namespace
+
+  std::vector<double>
+  Reader::read_double(const std::string &name,
+                      const std::vector<hsize_t> &expected_dims) const
+  {
+    return read_any<double>(file_, *this, path_, name, expected_dims,
+                            H5T_NATIVE_DOUBLE);
+  }
+
+  std::vector<long long>
+  Reader::read_int(const std::string &name,
+                   const std::vector<hsize_t> &expected_dims) const
+  {
+    return read_any<long long>(file_, *this, path_, name, expected_dims,
+                               H5T_NATIVE_LLONG);
+  }
+
+  std::string
+  Reader::string_attribute(const std::string &object,
+                           const std::string &name) const
+  {
+    const hid_t obj = open_object(file_, object);
+    if (obj < 0 || H5Aexists(obj, name.c_str()) <= 0)
+      {
+        if (obj >= 0)
+          H5Oclose(obj);
+        throw InputError("'" + path_ + "' has no attribute '" + name +
+                         "' on '" + object + "'");
+      }
+    const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
+    const hid_t ftype = H5Aget_type(attr);
+    std::string value;
+    if (H5Tget_class(ftype) == H5T_STRING && !H5Tis_variable_str(ftype))
+      {
+        value.resize(H5Tget_size(ftype));
+        const hid_t mtype = H5Tcopy(H5T_C_S1);
+        H5Tset_size(mtype, value.size());
+        H5Tset_strpad(mtype, H5T_STR_NULLPAD); // else the last character makes room for a NUL
+        H5Aread(attr, mtype, value.data());
+        H5Tclose(mtype);
+        value.resize(value.find('\0') == std::string::npos ? value.size()
+                                                            : value.find('\0'));
+      }
+    H5Tclose(ftype);
+    H5Aclose(attr);
+    H5Oclose(obj);
+    return value;
+  }
+
+  double
+  Reader::double_attribute(const std::string &object,
+                           const std::string &name) const
+  {
+    const hid_t obj = open_object(file_, object);
+    if (obj < 0 || H5Aexists(obj, name.c_str()) <= 0)
+      {
+        if (obj >= 0)
+          H5Oclose(obj);
+        throw InputError("'" + path_ + "' has no attribute '" + name +
+                         "' on '" + object + "'");
+      }
+    const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
+    double      value = 0;
+    const bool  ok    = H5Aread(attr, H5T_NATIVE_DOUBLE, &value) >= 0;
+    H5Aclose(attr);
+    H5Oclose(obj);
+    if (!ok)
+      throw InputError("attribute '" + name + "' in '" + path_ +
+                       "' is not a number");
+    return value;
+  }
+} // namespace irdm::h5

@@ -1,0 +1,87 @@
+#pragma once
+// Reference FEM: linear elastodynamics on linear-tetrahedron meshes with P1 or P2 elements,
+// consistent mass, Rayleigh damping, Newmark (average acceleration) or generalized-alpha with a
+// fixed step and one factorization reused for every step. Units SI.
+//
+// Time convention: state k is at t_k = k * dt (k = 0..N); the step to state k uses the loads and
+// prescribed displacements at t_k. Forces reported for a prescribed displacement are the forces
+// the constraint applies to the body at t_k; applying them as vertex loads reproduces the run.
+//
+// deal.II stays behind the pimpl so that this header is cheap to include.
+#include <reference_fem/scene.h>
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace irdm::fem
+{
+  struct SurfaceMesh
+  {
+    std::vector<long long>               node_tags;   // gmsh node tags
+    std::vector<Vec3>                    coordinates; // m, undeformed
+    std::vector<std::array<unsigned, 3>> triangles;   // indices into the arrays above, outward
+  };
+
+  struct RunResult
+  {
+    std::vector<double> time;           // s, the output samples
+    std::vector<double> kinetic_energy; // J, 1/2 v'Mv
+    std::vector<double> strain_energy;  // J, 1/2 u'Ku
+    std::map<std::string, std::vector<Vec3>> vertex_displacement; // m, observed vertices
+    std::map<std::string, long long>         vertex_node_tag;     // observed and probe vertices
+    std::map<std::string, std::vector<Vec3>> probe_displacement;  // m, prescribed vertices
+    std::map<std::string, std::vector<Vec3>> probe_force;         // N, on the body
+    std::map<std::string, std::vector<Vec3>> fixed_reaction;      // N, total on each fixed surface
+    SurfaceMesh                              surface;             // filled if outputs.surface
+    std::vector<std::vector<double>>         surface_displacement; // per sample: 3 * n_vertices, m
+
+    // Cost, s (wall clock).
+    double setup_seconds = 0, factorization_seconds = 0, stepping_seconds = 0;
+    unsigned n_steps = 0;
+  };
+
+  class ElasticDynamics
+  {
+  public:
+    /// Reads the mesh, distributes DoFs, assembles K, M, loads and factorizes K_eff.
+    explicit ElasticDynamics(const Scene &scene);
+    ~ElasticDynamics();
+    ElasticDynamics(const ElasticDynamics &) = delete;
+    ElasticDynamics &
+    operator=(const ElasticDynamics &) = delete;
+
+    /// Runs the scene from its initial state to its duration. The callback, if given, is
+    /// called with the fraction done, about every 5 %.
+    RunResult
+    run(const std::function<void(double)> &progress = {});
+
+    /// Static equilibrium K u = f under the loads at time t (and gravity), with prescribed
+    /// displacements at t: one output sample.
+    RunResult
+    solve_static(double t = 0) const;
+
+    /// Lowest natural frequencies (Hz) of the undamped, fixed system (subspace iteration).
+    std::vector<double>
+    natural_frequencies(unsigned n) const;
+
+    /// Writes the scene's outputs (HDF5 and CSV as configured) for a result of this solver.
+    void
+    write_outputs(const RunResult &result) const;
+
+    unsigned
+    n_dofs() const;
+    unsigned
+    n_cells() const;
+    double
+    volume() const; // m^3, sum of cell measures
+    const Scene &
+    scene() const;
+
+  private:
+    class Impl;
+    std::unique_ptr<Impl> impl_;
+  };
+} // namespace irdm::fem

@@ -1,0 +1,139 @@
+#pragma once
+// A scene: everything one reference-FEM run needs (mesh, material, damping, integrator, time,
+// boundary conditions, loads, outputs). Read from a JSON file, format "irdm-scene/1",
+// documented in docs/scene-format.md. Units are SI throughout (m, s, N, kg, Pa).
+// This header is plain C++ (no deal.II) so downstream modules can read scenes cheaply.
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace irdm::fem
+{
+  using Vec3 = std::array<double, 3>;
+
+  /// A mesh vertex, named by its gmsh node tag or as the vertex nearest to a point.
+  struct VertexSelector
+  {
+    long long           node_tag = -1; // >= 1 when given
+    std::optional<Vec3> point;         // m
+  };
+
+  /// A vector-valued history, linear between samples and constant outside them.
+  struct History
+  {
+    std::vector<double> times; // s, strictly increasing
+    std::vector<Vec3>   values;
+
+    Vec3
+    at(double t) const;
+    static History
+    constant(const Vec3 &v);
+  };
+
+  struct VertexForce
+  {
+    std::string    name;
+    VertexSelector vertex;
+    History        force; // N
+  };
+
+  /// A total force spread over a named surface as a uniform traction (force / area).
+  struct SurfaceForce
+  {
+    std::string name;
+    std::string surface;
+    History     total_force; // N
+  };
+
+  /// The haptic probe of the seed papers: a vertex follows a displacement history and the
+  /// force it takes is reported.
+  struct PrescribedDisplacement
+  {
+    std::string    name;
+    VertexSelector vertex;
+    History        displacement; // m
+  };
+
+  struct ObservedVertex
+  {
+    std::string    name;
+    VertexSelector vertex;
+  };
+
+  enum class Integrator
+  {
+    newmark,          // average acceleration: beta = 1/4, gamma = 1/2
+    generalized_alpha // Chung-Hulbert, parametrised by rho_inf
+  };
+
+  enum class InitialState
+  {
+    rest,  // u = v = 0, a from the balance at t = 0
+    static_equilibrium // u from K u = f(0), v = a = 0
+  };
+
+  struct Scene
+  {
+    std::string name;
+    std::string source;     // file it was read from ("" if from a string)
+    std::string json_text;  // the scene as given, stored with every result
+    std::string mesh_file;  // resolved path
+    unsigned    fe_degree = 2;
+
+    double youngs_modulus = 0; // Pa
+    double poisson_ratio  = 0;
+    double density        = 0; // kg/m^3
+
+    // Rayleigh damping C = alpha M + beta K (alpha in 1/s, beta in s). If the scene gave
+    // damping ratios at two frequencies, they are kept here too and alpha, beta solved from them.
+    double                rayleigh_alpha = 0;
+    double                rayleigh_beta  = 0;
+    std::optional<Vec3>   damping_ratios_spec; // zeta1, zeta2 (unused third = 0)
+    std::optional<Vec3>   damping_freqs_spec;  // f1, f2 in Hz (third = 0)
+
+    Integrator   integrator = Integrator::newmark;
+    double       rho_inf    = 1.0; // generalized-alpha spectral radius at infinity
+    double       time_step  = 0;   // s
+    double       duration   = 0;   // s
+    InitialState initial    = InitialState::rest;
+
+    bool gravity_enabled = false;
+    Vec3 gravity         = {0, 0, -9.81}; // m/s^2
+
+    std::vector<std::string>            fixed_surfaces;
+    std::vector<VertexForce>            vertex_forces;
+    std::vector<SurfaceForce>           surface_forces;
+    std::vector<PrescribedDisplacement> prescribed;
+
+    struct Outputs
+    {
+      std::string                 directory; // resolved; empty: no files written
+      std::vector<ObservedVertex> vertices;
+      bool                        surface    = false; // all surface vertices
+      unsigned                    every      = 1;     // keep every k-th step
+      unsigned                    vtu_every  = 0;     // 0: no VTU output
+      bool                        hdf5       = true;
+      bool                        csv        = true;
+    } outputs;
+
+    unsigned
+    n_steps() const; // duration / time_step, rounded; checked to be a whole number
+  };
+
+  /// Reads and validates a scene file. Relative paths inside it are relative to its folder.
+  /// Throws InputError naming the offending key.
+  Scene
+  read_scene(const std::string &path);
+
+  /// Same from a JSON string; base_dir resolves relative paths.
+  Scene
+  parse_scene(const std::string &json_text,
+              const std::string &base_dir,
+              const std::string &origin = "<string>");
+
+  /// Rayleigh coefficients giving damping ratios zeta1 at f1 and zeta2 at f2 (Hz):
+  /// zeta(omega) = alpha / (2 omega) + beta omega / 2.
+  std::array<double, 2>
+  rayleigh_from_ratios(double zeta1, double f1, double zeta2, double f2);
+} // namespace irdm::fem

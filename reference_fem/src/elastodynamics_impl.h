@@ -1,0 +1,146 @@
+#pragma once
+// Internal: the deal.II side of ElasticDynamics, shared by its translation units.
+#include <deal.II/base/quadrature_lib.h>
+#include <deal.II/dofs/dof_handler.h>
+#include <deal.II/fe/fe_simplex_p.h>
+#include <deal.II/fe/fe_system.h>
+#include <deal.II/fe/mapping_fe.h>
+#include <deal.II/grid/tria.h>
+#include <deal.II/lac/affine_constraints.h>
+#include <deal.II/lac/full_matrix.h>
+#include <deal.II/lac/petsc_solver.h>
+#include <deal.II/lac/petsc_sparse_matrix.h>
+#include <deal.II/lac/petsc_vector.h>
+#include <deal.II/lac/solver_control.h>
+#include <deal.II/lac/sparse_matrix.h>
+#include <deal.II/lac/sparsity_pattern.h>
+#include <deal.II/lac/vector.h>
+
+#include <reference_fem/elastodynamics.h>
+#include <reference_fem/mesh.h>
+
+namespace irdm::fem
+{
+  using namespace dealii;
+
+  /// Time-integration coefficients; Newmark average acceleration is alpha_m = alpha_f = 0.
+  struct IntegratorCoefficients
+  {
+    double alpha_m = 0, alpha_f = 0, gamma = 0.5, beta = 0.25;
+    static IntegratorCoefficients
+    from_scene(const Scene &s);
+  };
+
+  /// A sparse symmetric positive definite matrix factorized once (MUMPS Cholesky through
+  /// PETSc, serial); every solve reuses the factors. About 9x faster per solve than UMFPACK
+  /// on this machine class (shared/notes).
+  class DirectSolver
+  {
+  public:
+    void
+    initialize(const SparseMatrix<double> &A);
+    /// Solves A x = b in place.
+    void
+    solve(Vector<double> &rhs_and_solution) const;
+
+  private:
+    PETScWrappers::SparseMatrix                               matrix;
+    mutable SolverControl                                     control;
+    mutable std::unique_ptr<PETScWrappers::SparseDirectMUMPS> mumps;
+    mutable PETScWrappers::MPI::Vector                        x, b;
+  };
+
+  /// A factorized matrix plus what is needed to impose prescribed vertex displacements on
+  /// top of it without refactorizing: X = A^{-1} E_P and S = X_PP (Schur complement).
+  struct ConstrainedSolver
+  {
+    DirectSolver                              inverse;
+    std::vector<types::global_dof_index>      prescribed_dofs;
+    std::vector<Vector<double>>               columns; // X
+    FullMatrix<double>                        schur_inverse;
+
+    void
+    initialize(const SparseMatrix<double> &A,
+               const AffineConstraints<double> &constraints,
+               const std::vector<types::global_dof_index> &dofs);
+    /// Solves A u = rhs + scale E_P lambda with u_P = g; returns lambda.
+    Vector<double>
+    solve(const AffineConstraints<double> &constraints,
+          Vector<double> &rhs_in_u_out,
+          const Vector<double> &g,
+          double scale) const;
+  };
+
+  class ElasticDynamics::Impl
+  {
+  public:
+    explicit Impl(const Scene &scene);
+
+    // step-8/step-23 shape: setup, assemble, then the time loop in run().
+    void
+    setup();
+    void
+    assemble();
+    void
+    factorize();
+    RunResult
+    run(const std::function<void(double)> &progress);
+    RunResult
+    solve_static(double t) const;
+    std::vector<double>
+    natural_frequencies(unsigned n) const;
+    void
+    write_outputs(const RunResult &result) const;
+    void
+    write_vtu(const Vector<double> &u, unsigned step, double t,
+              std::vector<std::pair<double, std::string>> &records) const;
+
+    // Loads at time t (N, assembled): vertex forces, surface forces, gravity.
+    void
+    external_force(double t, Vector<double> &f) const;
+    Vector<double>
+    prescribed_values(double t) const;
+    void
+    record(const Vector<double> &u, const Vector<double> &v, const Vector<double> &a,
+           const Vector<double> &f, const Vector<double> &lambda, double t,
+           RunResult &out) const;
+    void
+    init_result(RunResult &out) const;
+    SparseMatrix<double>
+    condensed(const SparseMatrix<double> &A) const;
+    std::array<types::global_dof_index, 3>
+    vertex_dofs(unsigned vertex) const;
+    unsigned
+    select_vertex(const VertexSelector &sel, const std::string &what) const;
+
+    Scene   scene;
+    TetMesh mesh;
+
+    Triangulation<3>            triangulation;
+    const MappingFE<3>          mapping;
+    const FESystem<3>           fe;
+    const QGaussSimplex<3>      quadrature;
+    const QGaussSimplex<2>      face_quadrature;
+    DoFHandler<3>               dof_handler;
+    AffineConstraints<double>   constraints; // homogeneous: the fixed surfaces
+
+    SparsityPattern      sparsity; // unconstrained: the full matrices also give reactions
+    SparseMatrix<double> stiffness, mass;
+    Vector<double>       gravity_force;
+    std::vector<std::array<Vector<double>, 3>> surface_force_unit; // per surface load, per axis
+    std::vector<double>                        surface_area;
+    std::vector<std::array<types::global_dof_index, 3>> dofs_of_vertex;
+    std::vector<unsigned> force_vertex, probe_vertex, observed_vertex;
+    std::vector<unsigned> surface_vertices;
+    std::vector<std::array<unsigned, 3>> surface_triangles;
+    std::vector<std::vector<types::global_dof_index>> fixed_dofs; // per fixed surface
+    std::vector<types::global_dof_index> probe_dofs;
+    std::vector<unsigned char> dof_component; // 0, 1, 2 = x, y, z
+    double total_volume = 0;
+
+    IntegratorCoefficients coeffs;
+    SparseMatrix<double>   effective;
+    ConstrainedSolver      step_solver;
+    double                 setup_seconds = 0, factorization_seconds = 0;
+  };
+} // namespace irdm::fem

@@ -1,0 +1,354 @@
+#include <irdm_common/error.h>
+#include <reference_fem/mesh.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <unordered_map>
+
+namespace irdm::fem
+{
+  namespace
+  {
+    [[noreturn]] void
+    fail(const std::string &file, const std::string &what)
+    {
+      throw InputError("mesh '" + file + "': " + what);
+    }
+
+    struct RawElement
+    {
+      int                    type;
+      int                    tag; // physical tag (0 if none)
+      std::vector<long long> nodes;
+    };
+
+    // Nodes per gmsh element type for the types we may meet; second-order ones are rejected.
+    int
+    nodes_of_type(const int type)
+    {
+      switch (type)
+        {
+          case 15: return 1; // point
+          case 1:  return 2; // line
+          case 2:  return 3; // triangle
+          case 3:  return 4; // quadrangle
+          case 4:  return 4; // tetrahedron
+          case 5:  return 8; // hexahedron
+          case 6:  return 6; // prism
+          case 7:  return 5; // pyramid
+          case 8:  return 3; // line3
+          case 9:  return 6; // triangle6
+          case 11: return 10; // tetrahedron10
+          default: return -1;
+        }
+    }
+  } // namespace
+
+  double
+  signed_volume(const std::array<double, 3> &a,
+                const std::array<double, 3> &b,
+                const std::array<double, 3> &c,
+                const std::array<double, 3> &d)
+  {
+    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    const double w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+    return (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+            u[2] * (v[0] * w[1] - v[1] * w[0])) /
+           6.0;
+  }
+
+  std::string
+  file_hash(const std::string &path)
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+      throw InputError("cannot read '" + path + "'");
+    unsigned long long h = 1469598103934665603ULL;
+    char               buf[65536];
+    while (in.read(buf, sizeof buf) || in.gcount() > 0)
+      for (std::streamsize i = 0; i < in.gcount(); ++i)
+        {
+          h ^= static_cast<unsigned char>(buf[i]);
+          h *= 1099511628211ULL;
+        }
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", h);
+    return hex;
+  }
+
+  int
+  TetMesh::surface_tag(const std::string &name) const
+  {
+    const auto it = surface_names.find(name);
+    if (it != surface_names.end())
+      return it->second;
+    std::string list;
+    for (const auto &kv : surface_names)
+      list += (list.empty() ? "" : ", ") + kv.first;
+    throw InputError("mesh '" + file + "' has no physical surface named '" + name +
+                     "' (it has: " + (list.empty() ? "none" : list) + ")");
+  }
+
+  unsigned
+  TetMesh::vertex_of_node_tag(const long long tag) const
+  {
+    for (unsigned i = 0; i < node_tags.size(); ++i)
+      if (node_tags[i] == tag)
+        return i;
+    throw InputError("mesh '" + file + "' has no vertex with node tag " +
+                     std::to_string(tag));
+  }
+
+  TetMesh
+  read_gmsh(const std::string &path)
+  {
+    std::ifstream in(path);
+    if (!in)
+      fail(path, "cannot open the file");
+    std::string line;
+    double      version = 0;
+    std::unordered_map<long long, std::array<double, 3>> nodes;
+    std::vector<RawElement>                              elements;
+    std::map<std::pair<int, int>, int>                   entity_tag; // (dim, entity) -> physical
+    TetMesh                                              mesh;
+    mesh.file = path;
+
+    const auto expect = [&](std::istream &s, const char *what) {
+      if (!s)
+        fail(path, std::string("malformed ") + what + " section");
+    };
+
+    while (std::getline(in, line))
+      {
+        if (!line.empty() && line.back() == '\r')
+          line.pop_back();
+        if (line == "$MeshFormat")
+          {
+            int file_type = 0, data_size = 0;
+            in >> version >> file_type >> data_size;
+            expect(in, "$MeshFormat");
+            if (file_type != 0)
+              fail(path, "binary .msh is not supported; save as ASCII");
+            if (version != 2.2 && !(version >= 4.0 && version < 4.2))
+              fail(path, "MSH version " + std::to_string(version) +
+                           " is not supported (2.2 or 4.1)");
+          }
+        else if (line == "$PhysicalNames")
+          {
+            int n = 0;
+            in >> n;
+            expect(in, "$PhysicalNames");
+            std::getline(in, line);
+            for (int i = 0; i < n; ++i)
+              {
+                std::getline(in, line);
+                std::istringstream s(line);
+                int                dim = 0, tag = 0;
+                s >> dim >> tag;
+                const auto q1 = line.find('"'), q2 = line.rfind('"');
+                if (!s || q1 == std::string::npos || q2 <= q1)
+                  fail(path, "malformed $PhysicalNames line '" + line + "'");
+                const std::string name = line.substr(q1 + 1, q2 - q1 - 1);
+                (dim == 2 ? mesh.surface_names : mesh.volume_names)[name] = tag;
+              }
+          }
+        else if (line == "$Entities" && version >= 4)
+          {
+            // Only the physical tag of each surface and volume entity matters here.
+            std::size_t n[4];
+            in >> n[0] >> n[1] >> n[2] >> n[3];
+            expect(in, "$Entities");
+            std::getline(in, line);
+            for (int dim = 0; dim < 4; ++dim)
+              for (std::size_t i = 0; i < n[dim]; ++i)
+                {
+                  std::getline(in, line);
+                  std::istringstream s(line);
+                  int                tag = 0;
+                  double             box;
+                  s >> tag;
+                  for (int k = 0; k < (dim == 0 ? 3 : 6); ++k)
+                    s >> box;
+                  std::size_t n_phys = 0;
+                  s >> n_phys;
+                  int phys = 0;
+                  if (n_phys > 1)
+                    fail(path, "an entity has more than one physical tag");
+                  if (n_phys == 1)
+                    s >> phys;
+                  expect(s, "$Entities");
+                  entity_tag[{dim, tag}] = phys;
+                }
+          }
+        else if (line == "$Nodes")
+          {
+            if (version < 4)
+              {
+                std::size_t n = 0;
+                in >> n;
+                for (std::size_t i = 0; i < n; ++i)
+                  {
+                    long long             tag;
+                    std::array<double, 3> x;
+                    in >> tag >> x[0] >> x[1] >> x[2];
+                    nodes[tag] = x;
+                  }
+                expect(in, "$Nodes");
+              }
+            else
+              {
+                std::size_t blocks = 0, n = 0, min_tag, max_tag;
+                in >> blocks >> n >> min_tag >> max_tag;
+                for (std::size_t b = 0; b < blocks; ++b)
+                  {
+                    int         dim, ent, parametric;
+                    std::size_t count;
+                    in >> dim >> ent >> parametric >> count;
+                    if (parametric)
+                      fail(path, "parametric nodes are not supported");
+                    std::vector<long long> tags(count);
+                    for (auto &t : tags)
+                      in >> t;
+                    for (const auto t : tags)
+                      {
+                        std::array<double, 3> x;
+                        in >> x[0] >> x[1] >> x[2];
+                        nodes[t] = x;
+                      }
+                  }
+                expect(in, "$Nodes");
+              }
+          }
+        else if (line == "$Elements")
+          {
+            const auto read_nodes = [&](std::istream &s, RawElement &e) {
+              const int nn = nodes_of_type(e.type);
+              if (nn < 0)
+                fail(path, "unsupported gmsh element type " + std::to_string(e.type));
+              e.nodes.resize(nn);
+              for (auto &v : e.nodes)
+                s >> v;
+            };
+            if (version < 4)
+              {
+                std::size_t n = 0;
+                in >> n;
+                for (std::size_t i = 0; i < n; ++i)
+                  {
+                    long long  tag;
+                    int        n_tags;
+                    RawElement e;
+                    in >> tag >> e.type >> n_tags;
+                    std::vector<int> tags(n_tags);
+                    for (auto &t : tags)
+                      in >> t;
+                    e.tag = n_tags > 0 ? tags[0] : 0;
+                    read_nodes(in, e);
+                    elements.push_back(std::move(e));
+                  }
+                expect(in, "$Elements");
+              }
+            else
+              {
+                std::size_t blocks = 0, n = 0, min_tag, max_tag;
+                in >> blocks >> n >> min_tag >> max_tag;
+                for (std::size_t b = 0; b < blocks; ++b)
+                  {
+                    int         dim, ent, type;
+                    std::size_t count;
+                    in >> dim >> ent >> type >> count;
+                    const auto it   = entity_tag.find({dim, ent});
+                    const int  phys = it == entity_tag.end() ? 0 : it->second;
+                    for (std::size_t i = 0; i < count; ++i)
+                      {
+                        long long  tag;
+                        RawElement e;
+                        e.type = type;
+                        e.tag  = phys;
+                        in >> tag;
+                        read_nodes(in, e);
+                        elements.push_back(std::move(e));
+                      }
+                  }
+                expect(in, "$Elements");
+              }
+          }
+      }
+    if (version == 0)
+      fail(path, "no $MeshFormat section: not a gmsh .msh file");
+
+    // Volume elements: linear tetrahedra only.
+    std::unordered_map<long long, unsigned> index_of_tag;
+    const auto vertex_index = [&](const long long tag) {
+      const auto it = index_of_tag.find(tag);
+      if (it != index_of_tag.end())
+        return it->second;
+      const auto nt = nodes.find(tag);
+      if (nt == nodes.end())
+        fail(path, "an element refers to the missing node " + std::to_string(tag));
+      const unsigned i = static_cast<unsigned>(mesh.vertices.size());
+      mesh.vertices.push_back(nt->second);
+      mesh.node_tags.push_back(tag);
+      index_of_tag[tag] = i;
+      return i;
+    };
+    std::size_t element_no = 0;
+    for (const auto &e : elements)
+      {
+        ++element_no;
+        if (e.type == 11 || e.type == 9 || e.type == 8)
+          fail(path, "second-order elements found: export linear tetrahedra "
+                     "(Mesh.ElementOrder = 1); the FEM adds P2 itself");
+        if (e.type == 5 || e.type == 6 || e.type == 7)
+          fail(path, "only tetrahedra are supported as volume elements");
+        if (e.type != 4)
+          continue;
+        std::array<unsigned, 4> t;
+        for (int k = 0; k < 4; ++k)
+          t[k] = vertex_index(e.nodes[k]);
+        const auto &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]],
+                   &c = mesh.vertices[t[2]], &d = mesh.vertices[t[3]];
+        const double vol = signed_volume(a, b, c, d);
+        double       longest = 0;
+        for (int i = 0; i < 4; ++i)
+          for (int j = i + 1; j < 4; ++j)
+            {
+              const auto &p = mesh.vertices[t[i]], &q = mesh.vertices[t[j]];
+              longest = std::max(longest, std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]));
+            }
+        // A regular tetrahedron has V = 0.118 L^3; 1e-6 L^3 is flat by any standard.
+        if (std::abs(vol) <= 1e-6 * longest * longest * longest)
+          fail(path, "tetrahedron " + std::to_string(element_no) +
+                       " is degenerate (volume " + std::to_string(vol) + " m^3)");
+        if (vol < 0)
+          fail(path, "tetrahedron " + std::to_string(element_no) +
+                       " is inverted (negative volume); the mesh is corrupt");
+        mesh.tets.push_back(t);
+        mesh.tet_tags.push_back(e.tag);
+      }
+    if (mesh.tets.empty())
+      fail(path, "no tetrahedra (with physical groups defined, gmsh saves only "
+                 "elements in a Physical Volume)");
+    for (const auto &e : elements)
+      if (e.type == 2 && e.tag != 0)
+        {
+          std::array<unsigned, 3> t;
+          for (int k = 0; k < 3; ++k)
+            {
+              const auto it = index_of_tag.find(e.nodes[k]);
+              if (it == index_of_tag.end())
+                fail(path, "a tagged triangle has a node on no tetrahedron");
+              t[k] = it->second;
+            }
+          if (e.tag < 1 || e.tag > 250)
+            fail(path, "physical surface tag " + std::to_string(e.tag) +
+                         " outside 1..250");
+          mesh.triangles.push_back(t);
+          mesh.triangle_tags.push_back(e.tag);
+        }
+    return mesh;
+  }
+} // namespace irdm::fem

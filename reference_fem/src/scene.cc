@@ -1,0 +1,524 @@
+// Scene file parsing. Every object is checked for unknown keys, so a typo is an error
+// instead of a silently ignored setting.
+#include <irdm_common/error.h>
+#include <reference_fem/scene.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace irdm::fem
+{
+  using json = nlohmann::json;
+  namespace fs = std::filesystem;
+
+  Vec3
+  History::at(const double t) const
+  {
+    if (times.empty())
+      return {0, 0, 0};
+    if (t <= times.front())
+      return values.front();
+    if (t >= times.back())
+      return values.back();
+    const auto   it = std::upper_bound(times.begin(), times.end(), t);
+    const size_t k  = static_cast<size_t>(it - times.begin()); // times[k-1] <= t < times[k]
+    const double w  = (t - times[k - 1]) / (times[k] - times[k - 1]);
+    Vec3         v;
+    for (int d = 0; d < 3; ++d)
+      v[d] = (1 - w) * values[k - 1][d] + w * values[k][d];
+    return v;
+  }
+
+  History
+  History::constant(const Vec3 &v)
+  {
+    return History{{0.0}, {v}};
+  }
+
+  unsigned
+  Scene::n_steps() const
+  {
+    return static_cast<unsigned>(std::llround(duration / time_step));
+  }
+
+  std::array<double, 2>
+  rayleigh_from_ratios(const double zeta1,
+                       const double f1,
+                       const double zeta2,
+                       const double f2)
+  {
+    const double w1 = 2 * M_PI * f1, w2 = 2 * M_PI * f2;
+    // [1/(2 w1)  w1/2; 1/(2 w2)  w2/2] [alpha; beta] = [zeta1; zeta2]
+    const double det = w2 / (4 * w1) - w1 / (4 * w2);
+    const double alpha = (zeta1 * w2 / 2 - zeta2 * w1 / 2) / det;
+    const double beta  = (zeta2 / (2 * w1) - zeta1 / (2 * w2)) / det;
+    return {alpha, beta};
+  }
+
+  namespace
+  {
+    [[noreturn]] void
+    fail(const std::string &where, const std::string &what)
+    {
+      throw InputError("scene " + where + ": " + what);
+    }
+
+    // A JSON object with its path in the scene, for error messages.
+    struct Node
+    {
+      const json &j;
+      std::string where;
+
+      void
+      allow_only(std::initializer_list<const char *> keys) const
+      {
+        if (!j.is_object())
+          fail(where, "must be an object");
+        const std::set<std::string> allowed(keys.begin(), keys.end());
+        for (const auto &item : j.items())
+          if (!allowed.count(item.key()))
+            {
+              std::string list;
+              for (const auto &k : allowed)
+                list += (list.empty() ? "" : ", ") + k;
+              fail(where, "unknown key '" + item.key() + "' (allowed: " + list + ")");
+            }
+      }
+      bool
+      has(const char *key) const
+      {
+        return j.contains(key);
+      }
+      Node
+      at(const char *key) const
+      {
+        if (!j.contains(key))
+          fail(where, "missing key '" + std::string(key) + "'");
+        return Node{j.at(key), where + "." + key};
+      }
+      double
+      number() const
+      {
+        if (!j.is_number())
+          fail(where, "must be a number");
+        const double v = j.get<double>();
+        if (!std::isfinite(v))
+          fail(where, "must be finite");
+        return v;
+      }
+      double
+      positive() const
+      {
+        const double v = number();
+        if (!(v > 0))
+          fail(where, "must be > 0 (got " + j.dump() + ")");
+        return v;
+      }
+      long long
+      integer() const
+      {
+        if (!j.is_number_integer())
+          fail(where, "must be an integer");
+        return j.get<long long>();
+      }
+      bool
+      boolean() const
+      {
+        if (!j.is_boolean())
+          fail(where, "must be true or false");
+        return j.get<bool>();
+      }
+      std::string
+      string() const
+      {
+        if (!j.is_string())
+          fail(where, "must be a string");
+        return j.get<std::string>();
+      }
+      std::vector<Node>
+      array() const
+      {
+        if (!j.is_array())
+          fail(where, "must be an array");
+        std::vector<Node> out;
+        for (size_t i = 0; i < j.size(); ++i)
+          out.push_back(Node{j[i], where + "[" + std::to_string(i) + "]"});
+        return out;
+      }
+      Vec3
+      vec3() const
+      {
+        const auto a = array();
+        if (a.size() != 3)
+          fail(where, "must be an array of 3 numbers");
+        return {a[0].number(), a[1].number(), a[2].number()};
+      }
+    };
+
+    std::string
+    resolve(const std::string &base_dir, const std::string &p)
+    {
+      if (p.empty() || fs::path(p).is_absolute())
+        return p;
+      return (fs::path(base_dir) / p).lexically_normal().string();
+    }
+
+    VertexSelector
+    parse_vertex(const Node &n)
+    {
+      n.allow_only({"node_tag", "nearest_to_m"});
+      VertexSelector v;
+      if (n.has("node_tag") == n.has("nearest_to_m"))
+        fail(n.where, "give exactly one of 'node_tag' or 'nearest_to_m'");
+      if (n.has("node_tag"))
+        {
+          v.node_tag = n.at("node_tag").integer();
+          if (v.node_tag < 1)
+            fail(n.where + ".node_tag", "gmsh node tags start at 1");
+        }
+      else
+        v.point = n.at("nearest_to_m").vec3();
+      return v;
+    }
+
+    // "history": {"times_s": [...], "factors": [...]} scales a vector; or
+    // {"csv": "file"} with columns time_s,x,y,z gives the vector directly.
+    History
+    parse_history(const Node &parent,
+                  const char *vector_key,
+                  const std::string &base_dir)
+    {
+      const bool has_vec = parent.has(vector_key);
+      if (!parent.has("history"))
+        {
+          if (!has_vec)
+            fail(parent.where, "missing key '" + std::string(vector_key) + "'");
+          return History::constant(parent.at(vector_key).vec3());
+        }
+      const Node h = parent.at("history");
+      h.allow_only({"times_s", "factors", "csv"});
+      History out;
+      if (h.has("csv"))
+        {
+          if (has_vec)
+            fail(parent.where, "a csv history gives the vector itself: drop '" +
+                                 std::string(vector_key) + "'");
+          if (h.has("times_s") || h.has("factors"))
+            fail(h.where, "give either 'csv' or 'times_s' with 'factors'");
+          const std::string file = resolve(base_dir, h.at("csv").string());
+          std::ifstream     in(file);
+          if (!in)
+            fail(h.where + ".csv", "cannot open '" + file + "'");
+          std::string line;
+          size_t      line_no = 0;
+          while (std::getline(in, line))
+            {
+              ++line_no;
+              if (line.empty() || line[0] == '#' || std::isalpha(line[0]))
+                continue; // comments and the header line
+              std::replace(line.begin(), line.end(), ',', ' ');
+              std::istringstream s(line);
+              double             t;
+              Vec3               v;
+              if (!(s >> t >> v[0] >> v[1] >> v[2]))
+                fail(h.where + ".csv", file + ":" + std::to_string(line_no) +
+                                         ": expected 4 numbers: time_s,x,y,z");
+              out.times.push_back(t);
+              out.values.push_back(v);
+            }
+        }
+      else
+        {
+          if (!has_vec)
+            fail(parent.where, "missing key '" + std::string(vector_key) + "'");
+          const Vec3 vec     = parent.at(vector_key).vec3();
+          const auto times   = h.at("times_s").array();
+          const auto factors = h.at("factors").array();
+          if (times.size() != factors.size())
+            fail(h.where, "'times_s' and 'factors' differ in length");
+          for (size_t i = 0; i < times.size(); ++i)
+            {
+              out.times.push_back(times[i].number());
+              const double f = factors[i].number();
+              out.values.push_back({f * vec[0], f * vec[1], f * vec[2]});
+            }
+        }
+      if (out.times.empty())
+        fail(h.where, "is empty");
+      for (size_t i = 1; i < out.times.size(); ++i)
+        if (!(out.times[i] > out.times[i - 1]))
+          fail(h.where, "times must be strictly increasing");
+      for (const auto &v : out.values)
+        for (const double x : v)
+          if (!std::isfinite(x))
+            fail(h.where, "values must be finite");
+      return out;
+    }
+
+    std::string
+    parse_name(const Node &n, const std::string &fallback)
+    {
+      if (!n.has("name"))
+        return fallback;
+      const std::string s = n.at("name").string();
+      if (s.empty() || s.find_first_of("/ \t\n,") != std::string::npos)
+        fail(n.where + ".name", "must be non-empty, without '/', ',' or spaces");
+      return s;
+    }
+  } // namespace
+
+  Scene
+  parse_scene(const std::string &json_text,
+              const std::string &base_dir,
+              const std::string &origin)
+  {
+    json root;
+    try
+      {
+        root = json::parse(json_text);
+      }
+    catch (const json::parse_error &e)
+      {
+        throw InputError("scene " + origin + ": malformed JSON: " + e.what());
+      }
+    const Node top{root, "'" + origin + "'"};
+    top.allow_only({"format", "name", "mesh", "fe_degree", "material", "damping",
+                    "integrator", "time", "initial_state", "gravity",
+                    "fixed_surfaces", "loads", "prescribed_displacements",
+                    "outputs", "comment"});
+    Scene s;
+    s.source    = origin;
+    s.json_text = json_text;
+    if (top.at("format").string() != "irdm-scene/1")
+      fail(top.where + ".format", "unknown format '" + top.at("format").string() +
+                                    "' (this program reads irdm-scene/1)");
+    s.name = parse_name(top, "scene");
+
+    {
+      const Node m = top.at("mesh");
+      m.allow_only({"file"});
+      s.mesh_file = resolve(base_dir, m.at("file").string());
+      if (!fs::exists(s.mesh_file))
+        fail(m.where + ".file", "mesh file '" + s.mesh_file + "' does not exist");
+    }
+    if (top.has("fe_degree"))
+      {
+        const long long p = top.at("fe_degree").integer();
+        if (p != 1 && p != 2)
+          fail(top.where + ".fe_degree", "must be 1 or 2 (linear or quadratic tetrahedra)");
+        s.fe_degree = static_cast<unsigned>(p);
+      }
+    {
+      const Node m = top.at("material");
+      m.allow_only({"youngs_modulus_Pa", "poisson_ratio", "density_kg_m3"});
+      s.youngs_modulus = m.at("youngs_modulus_Pa").number();
+      if (!(s.youngs_modulus > 0))
+        fail(m.where + ".youngs_modulus_Pa", "must be > 0");
+      s.poisson_ratio = m.at("poisson_ratio").number();
+      if (!(s.poisson_ratio > -1 && s.poisson_ratio < 0.5))
+        fail(m.where + ".poisson_ratio",
+             "must lie in (-1, 0.5) for a stable isotropic solid (got " +
+               std::to_string(s.poisson_ratio) + ")");
+      s.density = m.at("density_kg_m3").positive();
+    }
+    if (top.has("damping"))
+      {
+        const Node d = top.at("damping");
+        d.allow_only({"rayleigh_alpha_1_s", "rayleigh_beta_s", "ratios", "frequencies_Hz"});
+        const bool coeffs = d.has("rayleigh_alpha_1_s") || d.has("rayleigh_beta_s");
+        const bool ratios = d.has("ratios") || d.has("frequencies_Hz");
+        if (coeffs && ratios)
+          fail(d.where, "give either Rayleigh coefficients or ratios with frequencies, not both");
+        if (coeffs)
+          {
+            if (d.has("rayleigh_alpha_1_s"))
+              s.rayleigh_alpha = d.at("rayleigh_alpha_1_s").number();
+            if (d.has("rayleigh_beta_s"))
+              s.rayleigh_beta = d.at("rayleigh_beta_s").number();
+            if (s.rayleigh_alpha < 0 || s.rayleigh_beta < 0)
+              fail(d.where, "Rayleigh coefficients must be >= 0");
+          }
+        if (ratios)
+          {
+            const auto z = d.at("ratios").array();
+            const auto f = d.at("frequencies_Hz").array();
+            if (z.size() != 2 || f.size() != 2)
+              fail(d.where, "'ratios' and 'frequencies_Hz' take two numbers each");
+            const double z1 = z[0].number(), z2 = z[1].number();
+            const double f1 = f[0].positive(), f2 = f[1].positive();
+            if (z1 < 0 || z2 < 0 || z1 >= 1 || z2 >= 1)
+              fail(d.where + ".ratios", "damping ratios must lie in [0, 1)");
+            if (f1 == f2)
+              fail(d.where + ".frequencies_Hz", "the two frequencies must differ");
+            const auto ab    = rayleigh_from_ratios(z1, f1, z2, f2);
+            s.rayleigh_alpha = ab[0];
+            s.rayleigh_beta  = ab[1];
+            if (s.rayleigh_alpha < 0 || s.rayleigh_beta < 0)
+              fail(d.where, "these ratios need a negative Rayleigh coefficient "
+                            "(alpha = " + std::to_string(ab[0]) + ", beta = " +
+                              std::to_string(ab[1]) + "), which is not dissipative");
+            s.damping_ratios_spec = Vec3{z1, z2, 0};
+            s.damping_freqs_spec  = Vec3{f1, f2, 0};
+          }
+      }
+    if (top.has("integrator"))
+      {
+        const Node in = top.at("integrator");
+        in.allow_only({"type", "rho_inf"});
+        const std::string t = in.at("type").string();
+        if (t == "newmark")
+          {
+            if (in.has("rho_inf"))
+              fail(in.where, "'rho_inf' belongs to generalized_alpha");
+            s.integrator = Integrator::newmark;
+          }
+        else if (t == "generalized_alpha")
+          {
+            s.integrator = Integrator::generalized_alpha;
+            s.rho_inf    = in.at("rho_inf").number();
+            if (!(s.rho_inf >= 0 && s.rho_inf <= 1))
+              fail(in.where + ".rho_inf", "must lie in [0, 1]");
+          }
+        else
+          fail(in.where + ".type", "unknown integrator '" + t +
+                                     "' (newmark or generalized_alpha)");
+      }
+    {
+      const Node t = top.at("time");
+      t.allow_only({"step_s", "duration_s"});
+      s.time_step = t.at("step_s").positive();
+      s.duration  = t.at("duration_s").positive();
+      const double n = s.duration / s.time_step;
+      if (std::abs(n - std::round(n)) > 1e-6 * n || std::round(n) < 1)
+        fail(t.where, "duration_s must be a whole number (>= 1) of steps");
+      if (n > 1e8)
+        fail(t.where, "more than 1e8 steps");
+    }
+    if (top.has("initial_state"))
+      {
+        const std::string i = top.at("initial_state").string();
+        if (i == "rest")
+          s.initial = InitialState::rest;
+        else if (i == "static")
+          s.initial = InitialState::static_equilibrium;
+        else
+          fail(top.where + ".initial_state", "must be 'rest' or 'static'");
+      }
+    if (top.has("gravity"))
+      {
+        const Node g = top.at("gravity");
+        g.allow_only({"enabled", "acceleration_m_s2"});
+        s.gravity_enabled = g.at("enabled").boolean();
+        if (g.has("acceleration_m_s2"))
+          s.gravity = g.at("acceleration_m_s2").vec3();
+      }
+    if (top.has("fixed_surfaces"))
+      for (const auto &n : top.at("fixed_surfaces").array())
+        s.fixed_surfaces.push_back(n.string());
+
+    std::set<std::string> names;
+    const auto unique = [&](const Node &n, const std::string &name) {
+      if (!names.insert(name).second)
+        fail(n.where, "name '" + name + "' is used twice");
+      return name;
+    };
+    if (top.has("loads"))
+      for (const auto &n : top.at("loads").array())
+        {
+          const std::string type = n.at("type").string();
+          if (type == "vertex_force")
+            {
+              n.allow_only({"type", "name", "vertex", "force_N", "history"});
+              VertexForce f;
+              f.name   = unique(n, parse_name(n, "force" + std::to_string(names.size())));
+              f.vertex = parse_vertex(n.at("vertex"));
+              f.force  = parse_history(n, "force_N", base_dir);
+              s.vertex_forces.push_back(f);
+            }
+          else if (type == "surface_force")
+            {
+              n.allow_only({"type", "name", "surface", "total_force_N", "history"});
+              SurfaceForce f;
+              f.name        = unique(n, parse_name(n, "force" + std::to_string(names.size())));
+              f.surface     = n.at("surface").string();
+              f.total_force = parse_history(n, "total_force_N", base_dir);
+              s.surface_forces.push_back(f);
+            }
+          else
+            fail(n.where + ".type", "unknown load type '" + type +
+                                      "' (vertex_force or surface_force)");
+        }
+    if (top.has("prescribed_displacements"))
+      for (const auto &n : top.at("prescribed_displacements").array())
+        {
+          n.allow_only({"name", "vertex", "displacement_m", "history"});
+          PrescribedDisplacement p;
+          p.name         = unique(n, parse_name(n, "probe" + std::to_string(names.size())));
+          p.vertex       = parse_vertex(n.at("vertex"));
+          p.displacement = parse_history(n, "displacement_m", base_dir);
+          s.prescribed.push_back(p);
+        }
+    if (top.has("outputs"))
+      {
+        const Node o = top.at("outputs");
+        o.allow_only({"directory", "vertices", "surface", "every", "vtu_every", "hdf5", "csv"});
+        if (o.has("directory"))
+          s.outputs.directory = resolve(base_dir, o.at("directory").string());
+        if (o.has("vertices"))
+          for (const auto &n : o.at("vertices").array())
+            {
+              n.allow_only({"name", "vertex"});
+              ObservedVertex v;
+              v.name   = unique(n, parse_name(n, "vertex" + std::to_string(names.size())));
+              v.vertex = parse_vertex(n.at("vertex"));
+              s.outputs.vertices.push_back(v);
+            }
+        if (o.has("surface"))
+          s.outputs.surface = o.at("surface").boolean();
+        if (o.has("every"))
+          {
+            const long long k = o.at("every").integer();
+            if (k < 1)
+              fail(o.where + ".every", "must be >= 1");
+            s.outputs.every = static_cast<unsigned>(k);
+          }
+        if (o.has("vtu_every"))
+          {
+            const long long k = o.at("vtu_every").integer();
+            if (k < 0)
+              fail(o.where + ".vtu_every", "must be >= 0 (0: no VTU output)");
+            s.outputs.vtu_every = static_cast<unsigned>(k);
+          }
+        if (o.has("hdf5"))
+          s.outputs.hdf5 = o.at("hdf5").boolean();
+        if (o.has("csv"))
+          s.outputs.csv = o.at("csv").boolean();
+      }
+    if (s.initial == InitialState::rest)
+      for (const auto &p : s.prescribed)
+        {
+          const Vec3 g0 = p.displacement.at(0.0);
+          if (g0[0] != 0 || g0[1] != 0 || g0[2] != 0)
+            fail(top.where + ".prescribed_displacements",
+                 "'" + p.name + "' is not zero at t = 0, but the body starts at rest");
+        }
+    return s;
+  }
+
+  Scene
+  read_scene(const std::string &path)
+  {
+    std::ifstream in(path);
+    if (!in)
+      throw InputError("cannot open scene file '" + path + "'");
+    std::stringstream buf;
+    buf << in.rdbuf();
+    return parse_scene(buf.str(), fs::path(path).parent_path().string(), path);
+  }
+} // namespace irdm::fem

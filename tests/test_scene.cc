@@ -1,0 +1,127 @@
+// Scene files: valid input parses to the right values; every kind of bad input is an
+// InputError that names the problem.
+#include <irdm_common/error.h>
+#include <reference_fem/scene.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+using irdm::InputError;
+using irdm::fem::parse_scene;
+
+namespace
+{
+  const std::string mesh = IRDM_MESH_DIR "/beam_2.msh";
+
+  std::string
+  scene(const std::string &extra, const std::string &material =
+                                    R"("youngs_modulus_Pa": 2e5, "poisson_ratio": 0.4, "density_kg_m3": 1100)")
+  {
+    return R"({"format": "irdm-scene/1", "mesh": {"file": ")" + mesh + R"("}, "material": {)" +
+           material + R"(}, "time": {"step_s": 0.01, "duration_s": 1})" + extra + "}";
+  }
+
+  // Expects an InputError whose message contains `needle`.
+  void
+  expect_error(const std::string &json, const std::string &needle)
+  {
+    try
+      {
+        parse_scene(json, ".");
+        ADD_FAILURE() << "no error for: " << json;
+      }
+    catch (const InputError &e)
+      {
+        EXPECT_NE(std::string(e.what()).find(needle), std::string::npos)
+          << "message '" << e.what() << "' lacks '" << needle << "'";
+      }
+  }
+} // namespace
+
+TEST(Scene, ParsesValuesAndDefaults)
+{
+  const auto s = parse_scene(scene(R"(, "name": "b", "fixed_surfaces": ["clamp"],
+      "integrator": {"type": "generalized_alpha", "rho_inf": 0.8})"), ".");
+  EXPECT_EQ(s.name, "b");
+  EXPECT_EQ(s.fe_degree, 2u);
+  EXPECT_EQ(s.n_steps(), 100u);
+  EXPECT_DOUBLE_EQ(s.youngs_modulus, 2e5);
+  EXPECT_EQ(s.integrator, irdm::fem::Integrator::generalized_alpha);
+  EXPECT_DOUBLE_EQ(s.rho_inf, 0.8);
+  EXPECT_EQ(s.initial, irdm::fem::InitialState::rest);
+  EXPECT_FALSE(s.gravity_enabled);
+}
+
+TEST(Scene, RayleighFromRatiosHitsBothTargets)
+{
+  const auto ab = irdm::fem::rayleigh_from_ratios(0.02, 1.5, 0.05, 30);
+  for (const auto [zeta, f] : {std::pair{0.02, 1.5}, std::pair{0.05, 30.0}})
+    {
+      const double w = 2 * M_PI * f;
+      EXPECT_NEAR(ab[0] / (2 * w) + ab[1] * w / 2, zeta, 1e-15);
+    }
+}
+
+TEST(Scene, HistoryIsPiecewiseLinearAndHeldOutside)
+{
+  const auto s = parse_scene(scene(R"(, "loads": [{"type": "vertex_force",
+      "vertex": {"node_tag": 3}, "force_N": [0, 0, -2],
+      "history": {"times_s": [0.1, 0.3], "factors": [1, 3]}}])"), ".");
+  const auto &h = s.vertex_forces[0].force;
+  EXPECT_DOUBLE_EQ(h.at(0.0)[2], -2);
+  EXPECT_DOUBLE_EQ(h.at(0.2)[2], -4);
+  EXPECT_DOUBLE_EQ(h.at(0.3)[2], -6);
+  EXPECT_DOUBLE_EQ(h.at(5.0)[2], -6);
+}
+
+TEST(Scene, BadInputIsAClearError)
+{
+  expect_error("{not json", "malformed JSON");
+  expect_error(scene(R"(, "dampin": {})"), "unknown key 'dampin'");
+  expect_error(R"({"format": "irdm-scene/1", "mesh": {"file": ")" + mesh +
+                 R"("}, "material": {"youngs_modulus_Pa": 1, "poisson_ratio": 0.3,
+                 "density_kg_m3": 1}, "time": {"step_s": 0.01, "duration_s": 0.015}})",
+               "whole number");
+  EXPECT_NO_THROW(parse_scene(scene(""), "."));
+}
+
+TEST(Scene, RejectsNonPhysicalValues)
+{
+  expect_error(scene("", R"("youngs_modulus_Pa": 0, "poisson_ratio": 0.4, "density_kg_m3": 1)"),
+               "youngs_modulus_Pa");
+  expect_error(scene("", R"("youngs_modulus_Pa": 1, "poisson_ratio": 0.5, "density_kg_m3": 1)"),
+               "poisson_ratio");
+  expect_error(scene("", R"("youngs_modulus_Pa": 1, "poisson_ratio": 0.3, "density_kg_m3": -1)"),
+               "density_kg_m3");
+  expect_error(R"({"format": "irdm-scene/1", "mesh": {"file": ")" + mesh +
+                 R"("}, "material": {"youngs_modulus_Pa": 1, "poisson_ratio": 0.3,
+                 "density_kg_m3": 1}, "time": {"step_s": -0.01, "duration_s": 1}})",
+               "step_s");
+  expect_error(R"({"format": "irdm-scene/1", "mesh": {"file": ")" + mesh +
+                 R"("}, "material": {"youngs_modulus_Pa": 1, "poisson_ratio": 0.3,
+                 "density_kg_m3": 1}, "time": {"step_s": 0.01, "duration_s": 0}})",
+               "duration_s");
+  expect_error(scene(R"(, "integrator": {"type": "generalized_alpha", "rho_inf": 1.5})"),
+               "rho_inf");
+  expect_error(scene(R"(, "fe_degree": 3)"), "fe_degree");
+}
+
+TEST(Scene, RejectsMissingMeshAndInconsistentKeys)
+{
+  expect_error(R"({"format": "irdm-scene/1", "mesh": {"file": "/nonexistent.msh"},
+                   "material": {"youngs_modulus_Pa": 1, "poisson_ratio": 0.3, "density_kg_m3": 1},
+                   "time": {"step_s": 0.01, "duration_s": 1}})",
+               "does not exist");
+  expect_error(scene(R"(, "loads": [{"type": "vertex_force", "vertex": {"node_tag": 3,
+      "nearest_to_m": [0, 0, 0]}, "force_N": [0, 0, 1]}])"), "exactly one");
+  expect_error(scene(R"(, "loads": [{"type": "vertex_force", "vertex": {"node_tag": 3},
+      "force_N": [0, 0, 1], "history": {"times_s": [0, 0], "factors": [1, 2]}}])"),
+               "strictly increasing");
+  expect_error(scene(R"(, "prescribed_displacements": [{"vertex": {"node_tag": 3},
+      "displacement_m": [0, 0, 0.01]}])"), "not zero at t = 0");
+  std::string v2 = scene("");
+  v2.replace(v2.find("irdm-scene/1"), 12, "irdm-scene/2");
+  expect_error(v2, "unknown format");
+}
