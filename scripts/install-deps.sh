@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Installs every dependency from Debian 12 packages (run as root). Safe to run again.
+set -euo pipefail
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libdeal.ii-dev            # deal.II 9.4 with PETSc/MUMPS, MPI, HDF5 (openmpi flavour)
+  libeigen3-dev nlohmann-json3-dev libgtest-dev libbenchmark-dev
+  gmsh                      # mesh generation (meshes/generate.sh)
+  python3-matplotlib python3-numpy   # report charts (run with /usr/bin/python3)
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "installing: ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
