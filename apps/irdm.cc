@@ -2,8 +2,10 @@
 // 1 internal error.
 #include <irdm_common/error.h>
 #include <reference_fem/elastodynamics.h>
+#include <reference_fem/impulse_response.h>
 #include <reference_fem/scene.h>
 #include <validation/fem_verification.h>
+#include <validation/point_validation.h>
 
 #include <deal.II/base/mpi.h>
 
@@ -25,6 +27,10 @@ Commands (reference FEM):
   static <scene.json>     static equilibrium under the scene's loads at t = 0
   modes <scene.json>      lowest natural frequencies of the fixed body
   verify-fem              FEM verification suite against theory; writes a report
+
+Commands (IRDM):
+  precompute <scene.json> impulse-response model of the scene's body (HDF5); mpirun-able
+  validate                IRDM against the FEM on validation/scenes; writes reports/
 
 Run 'irdm <command> --help' for the options of a command. Units are SI throughout.
 Scene files: docs/scene-format.md. Result files: docs/fem-output.md.
@@ -176,6 +182,104 @@ Lowest natural frequencies (Hz) of the scene's body with its fixed surfaces, und
   }
 
   int
+  cmd_precompute(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm precompute <scene.json> --out MODEL.h5 [options]
+       mpirun -np N irdm precompute <scene.json> --out MODEL.h5 [options]
+
+Computes the impulse-response model H[s] of the scene's body (mesh, material, damping, fixed
+surfaces, integrator and time step tau = the scene's step) by exact modal decoupling of the
+reference FEM's own integrator, and writes it to an HDF5 file (layout: docs/model-format.md).
+Inputs, outputs, length T and storage come from the scene's "model" section (default: every
+free surface vertex DoF in and out, T = 500, float). Under mpirun the inputs are split
+across ranks; the file is the same as a serial run's. An interrupted run leaves MODEL.h5.part
+and the next run with the same spec resumes it.
+  --out FILE        model file to write (required)
+  --length T        samples per response (overrides the scene)
+  --storage S       float or double (overrides the scene)
+  --chunk K         inputs per chunk (default: about 64 MB of responses)
+  --restart         ignore a partial file and start over
+  --quiet           no progress on stderr
+)";
+    const Args a = parse(argc, argv, 2, {"--out", "--length", "--storage", "--chunk"},
+                         {"--help", "--restart", "--quiet"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (a.positional.size() != 1)
+      throw irdm::InputError("precompute takes one scene file (see --help)");
+    if (!a.options.count("--out"))
+      throw irdm::InputError("precompute needs --out MODEL.h5");
+    const auto scene = irdm::fem::read_scene(a.positional[0]);
+    irdm::fem::PrecomputeOptions o;
+    o.output = a.options.at("--out");
+    if (a.options.count("--length"))
+      o.length = positive_integer("--length", a.options.at("--length"));
+    if (a.options.count("--chunk"))
+      o.inputs_per_chunk = positive_integer("--chunk", a.options.at("--chunk"));
+    if (a.options.count("--storage"))
+      {
+        const std::string st = a.options.at("--storage");
+        if (st != "float" && st != "double")
+          throw irdm::InputError("--storage must be float or double, got '" + st + "'");
+        o.double_storage = st == "double";
+      }
+    o.restart = a.options.count("--restart") > 0;
+    if (!a.options.count("--quiet"))
+      o.log = [](const std::string &s) { std::fprintf(stderr, "  %s\n", s.c_str()); };
+    const auto r = irdm::fem::precompute_impulse_responses(scene, o);
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    if (rank == 0)
+      std::printf("model %s: %u outputs x %u inputs x %u samples, %.1f MB (%s), %d rank(s)\n"
+                  "time: total %.2f s = FEM %.2f + modes %.2f + responses %.2f + write %.2f "
+                  "(+ other)\nenergy left after T: mean %.3g, max %.3g\n",
+                  o.output.c_str(), r.n_outputs, r.n_inputs, r.length, r.bytes / 1e6,
+                  r.double_storage ? "double" : "float", r.ranks, r.seconds_total,
+                  r.seconds_fem, r.seconds_eigen, r.seconds_responses, r.seconds_write,
+                  r.energy_left_mean, r.energy_left_max);
+    return 0;
+  }
+
+  int
+  cmd_validate(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm validate [--scenes DIR] [--out DIR] [--models DIR] [--scene NAME]... [--no-full-model]
+
+Runs every scene of --scenes through the reference FEM (ground truth) and the IRDM runtime
+with a model precomputed for the scene, and writes reports/<scene>/report.md with CSV and
+charts, and a summary reports/validation.md: (a) exactness of the untruncated model (double
+and float), (b) error against the response length T, (c) both against the FEM at tau/10,
+(d) time per step of each, measured in the same run. Exit status 3 if an untruncated double
+model differs from the FEM by more than 1e-9.
+  --scenes DIR     scene folder (default: validation/scenes)
+  --out DIR        report folder (default: reports)
+  --models DIR     where models are written while they are used (default: out/models)
+  --scene NAME     run only this scene (repeatable)
+  --no-full-model  skip timing the precompute of the full cat model (about 45 s, 4.8 GB)
+)";
+    const Args a = parse(argc, argv, 2, {"--scenes", "--out", "--models", "--scene"},
+                         {"--help", "--no-full-model"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (!a.positional.empty())
+      throw irdm::InputError("validate takes no positional arguments (see --help)");
+    irdm::validation::PointValidationOptions o;
+    if (a.options.count("--scenes"))
+      o.scenes_dir = a.options.at("--scenes");
+    if (a.options.count("--out"))
+      o.report_dir = a.options.at("--out");
+    if (a.options.count("--models"))
+      o.model_dir = a.options.at("--models");
+    for (int i = 2; i + 1 < argc; ++i)
+      if (std::string(argv[i]) == "--scene")
+        o.only.push_back(argv[i + 1]);
+    o.full_model  = a.options.count("--no-full-model") == 0;
+    o.plot_script = IRDM_SOURCE_DIR "/validation/plot_point_validation.py";
+    const bool exact = irdm::validation::run_point_validation(o, std::cout);
+    return exact ? 0 : 3;
+  }
+
+  int
   cmd_verify_fem(const int argc, char **argv)
   {
     const char *help = R"(Usage: irdm verify-fem [--meshes DIR] [--out DIR] [--quick]
@@ -203,12 +307,25 @@ displacement reaction) and writes a Markdown report with CSV data under --out.
   }
 } // namespace
 
+namespace
+{
+  // With several MPI ranks, an error on one rank must stop all of them, not hang the rest.
+  void
+  abort_other_ranks()
+  {
+    int size = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    if (size > 1)
+      MPI_Abort(MPI_COMM_WORLD, 2);
+  }
+} // namespace
+
 int
 main(int argc, char **argv)
 {
+  dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
   try
     {
-      dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
       if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")
         {
           std::printf("%s", top_help);
@@ -223,17 +340,23 @@ main(int argc, char **argv)
         return cmd_modes(argc, argv);
       if (cmd == "verify-fem")
         return cmd_verify_fem(argc, argv);
+      if (cmd == "precompute")
+        return cmd_precompute(argc, argv);
+      if (cmd == "validate")
+        return cmd_validate(argc, argv);
       std::fprintf(stderr, "irdm: unknown command '%s'\n\n%s", cmd.c_str(), top_help);
       return 2;
     }
   catch (const irdm::InputError &e)
     {
       std::fprintf(stderr, "irdm: error: %s\n", e.what());
+      abort_other_ranks();
       return 2;
     }
   catch (const std::exception &e)
     {
       std::fprintf(stderr, "irdm: internal error: %s\n", e.what());
+      abort_other_ranks();
       return 1;
     }
 }

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# The main job: install, build, run the default validation suite, write the report.
+# The main job: install, build, run the default validation suites, write the reports.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
 scripts/build.sh
+build/apps/irdm validate --scenes validation/scenes --out reports --models out/models
 build/apps/irdm verify-fem --meshes meshes --out reports/fem-verification
+echo "reports: reports/validation.md, reports/<scene>/report.md, reports/fem-verification/report.md"

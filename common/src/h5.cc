@@ -1,6 +1,7 @@
 #include <irdm_common/error.h>
 #include <irdm_common/h5.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -33,11 +34,23 @@ namespace irdm::h5
     }
   } // namespace
 
-  Writer::Writer(const std::string &path)
+  Writer::Writer(const std::string &path, const Mode mode)
     : path_(path)
     , part_path_(path + ".part")
   {
     silence_hdf5();
+    if (mode == Mode::resume)
+      if (FILE *f = std::fopen(part_path_.c_str(), "rb"))
+        {
+          std::fclose(f);
+          file_ = H5Fopen(part_path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+          if (file_ >= 0)
+            {
+              resumed_ = true;
+              return;
+            }
+          std::remove(part_path_.c_str()); // unreadable (killed mid-write): start over
+        }
     file_ = H5Fcreate(part_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (file_ < 0)
       throw InputError("cannot create HDF5 file '" + part_path_ + "'");
@@ -48,8 +61,137 @@ namespace irdm::h5
     if (file_ >= 0)
       {
         H5Fclose(file_);
-        std::remove(part_path_.c_str());
+        if (!keep_partial_)
+          std::remove(part_path_.c_str());
       }
+  }
+
+  void
+  Writer::create_dataset(const std::string &name, const std::vector<hsize_t> &dims,
+                         const bool is_double, const hsize_t chunk_rows)
+  {
+    const hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr);
+    const hid_t plist = H5Pcreate(H5P_DATASET_CREATE);
+    std::vector<hsize_t> chunk = dims;
+    chunk[0] = std::max<hsize_t>(1, std::min(chunk_rows, dims[0]));
+    H5Pset_chunk(plist, static_cast<int>(chunk.size()), chunk.data());
+    const hid_t set = H5Dcreate2(file_, name.c_str(), is_double ? H5T_IEEE_F64LE : H5T_IEEE_F32LE,
+                                 space, H5P_DEFAULT, plist, H5P_DEFAULT);
+    H5Pclose(plist);
+    H5Sclose(space);
+    if (set < 0)
+      throw InputError("cannot create dataset '" + name + "' " + dims_to_string(dims) +
+                       " in '" + path_ + "'");
+    H5Dclose(set);
+  }
+
+  namespace
+  {
+    void
+    write_rows_any(hid_t file, const std::string &path, const std::string &name,
+                   const hsize_t first, const hsize_t n_rows, hid_t mem_type, const void *data)
+    {
+      const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+      if (set < 0)
+        throw InputError("no dataset '" + name + "' in '" + path + "'");
+      const hid_t          space = H5Dget_space(set);
+      const int            rank  = H5Sget_simple_extent_ndims(space);
+      std::vector<hsize_t> dims(rank), start(rank, 0), count;
+      H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+      count    = dims;
+      start[0] = first;
+      count[0] = n_rows;
+      bool ok  = first + n_rows <= dims[0] &&
+                H5Sselect_hyperslab(space, H5S_SELECT_SET, start.data(), nullptr,
+                                    count.data(), nullptr) >= 0;
+      if (ok)
+        {
+          const hid_t mem = H5Screate_simple(rank, count.data(), nullptr);
+          ok = H5Dwrite(set, mem_type, mem, space, H5P_DEFAULT, data) >= 0;
+          H5Sclose(mem);
+        }
+      H5Sclose(space);
+      H5Dclose(set);
+      if (!ok)
+        throw InputError("cannot write rows " + std::to_string(first) + ".." +
+                         std::to_string(first + n_rows) + " of '" + name + "' in '" + path +
+                         "'");
+    }
+  } // namespace
+
+  void
+  Writer::write_rows(const std::string &name, hsize_t first, hsize_t n, const float *data)
+  {
+    write_rows_any(file_, part_path_, name, first, n, H5T_NATIVE_FLOAT, data);
+  }
+  void
+  Writer::write_rows(const std::string &name, hsize_t first, hsize_t n, const double *data)
+  {
+    write_rows_any(file_, part_path_, name, first, n, H5T_NATIVE_DOUBLE, data);
+  }
+  void
+  Writer::write_rows(const std::string &name, hsize_t first, hsize_t n, const long long *data)
+  {
+    write_rows_any(file_, part_path_, name, first, n, H5T_NATIVE_LLONG, data);
+  }
+
+  bool
+  Writer::exists(const std::string &name) const
+  {
+    return H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0;
+  }
+
+  std::vector<long long>
+  Writer::read_int(const std::string &name) const
+  {
+    const hid_t set = H5Dopen2(file_, name.c_str(), H5P_DEFAULT);
+    if (set < 0)
+      throw InputError("no dataset '" + name + "' in '" + part_path_ + "'");
+    const hid_t space = H5Dget_space(set);
+    const hssize_t n  = H5Sget_simple_extent_npoints(space);
+    std::vector<long long> out(n > 0 ? n : 0);
+    const bool ok = H5Dread(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) >= 0;
+    H5Sclose(space);
+    H5Dclose(set);
+    if (!ok)
+      throw InputError("cannot read '" + name + "' from '" + part_path_ + "'");
+    return out;
+  }
+
+  std::string
+  Writer::string_attribute(const std::string &object, const std::string &name) const
+  {
+    const hid_t obj = open_object(file_, object);
+    if (obj < 0)
+      return "";
+    std::string value;
+    if (H5Aexists(obj, name.c_str()) > 0)
+      {
+        const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
+        const hid_t ftype = H5Aget_type(attr);
+        if (H5Tget_class(ftype) == H5T_STRING && !H5Tis_variable_str(ftype))
+          {
+            value.resize(H5Tget_size(ftype));
+            const hid_t mtype = H5Tcopy(H5T_C_S1);
+            H5Tset_size(mtype, value.size());
+            H5Tset_strpad(mtype, H5T_STR_NULLPAD);
+            H5Aread(attr, mtype, value.data());
+            H5Tclose(mtype);
+            value.resize(value.find('\0') == std::string::npos ? value.size()
+                                                                : value.find('\0'));
+          }
+        H5Tclose(ftype);
+        H5Aclose(attr);
+      }
+    H5Oclose(obj);
+    return value;
+  }
+
+  void
+  Writer::flush()
+  {
+    if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0)
+      throw InputError("cannot flush '" + part_path_ + "'");
   }
 
   void
@@ -294,6 +436,35 @@ namespace irdm::h5
   {
     return read_any<long long>(file_, *this, path_, name, expected_dims,
                                H5T_NATIVE_LLONG);
+  }
+
+  std::vector<float>
+  Reader::read_float(const std::string &name, const std::vector<hsize_t> &expected_dims) const
+  {
+    return read_any<float>(file_, *this, path_, name, expected_dims, H5T_NATIVE_FLOAT);
+  }
+
+  bool
+  Reader::is_double(const std::string &name) const
+  {
+    shape(name); // checks existence
+    const hid_t set  = H5Dopen2(file_, name.c_str(), H5P_DEFAULT);
+    const hid_t type = H5Dget_type(set);
+    const bool  r    = H5Tget_class(type) == H5T_FLOAT && H5Tget_size(type) == 8;
+    H5Tclose(type);
+    H5Dclose(set);
+    return r;
+  }
+
+  bool
+  Reader::has_attribute(const std::string &object, const std::string &name) const
+  {
+    const hid_t obj = open_object(file_, object);
+    if (obj < 0)
+      return false;
+    const bool r = H5Aexists(obj, name.c_str()) > 0;
+    H5Oclose(obj);
+    return r;
   }
 
   std::string

@@ -19,6 +19,8 @@
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/mesh.h>
 
+#include <map>
+
 namespace irdm::fem
 {
   using namespace dealii;
@@ -133,6 +135,19 @@ namespace irdm::fem
     std::vector<unsigned> force_vertex, probe_vertex, observed_vertex;
     std::vector<unsigned> surface_vertices;
     std::vector<std::array<unsigned, 3>> surface_triangles;
+    std::vector<int>                     surface_triangle_tag; // physical surface tag
+    // Probes between vertices (scene.probes): candidate triangles per probe, and the
+    // columns K_eff^{-1} e_i of the DoFs they have touched, computed on first touch.
+    std::vector<std::vector<std::array<unsigned, 3>>>               probe_triangles;
+    mutable std::map<types::global_dof_index, Vector<double>>      probe_columns;
+    std::vector<std::array<double, 10>> last_probe; // the latest solve_probes() result
+    const Vector<double> &
+    probe_column(types::global_dof_index dof) const;
+    /// Imposes the probes at time t on u (free solution in, constrained solution out),
+    /// adds their forces to f; returns per probe: force (3), contact point (3), active flag,
+    /// displacement of the contact point (3).
+    std::vector<std::array<double, 10>>
+    solve_probes(double t, double scale, Vector<double> &u, Vector<double> &f) const;
     std::vector<std::vector<types::global_dof_index>> fixed_dofs; // per fixed surface
     std::vector<types::global_dof_index> probe_dofs;
     std::vector<unsigned char> dof_component; // 0, 1, 2 = x, y, z

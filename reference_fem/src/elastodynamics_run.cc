@@ -1,5 +1,6 @@
 // ElasticDynamics: the time loop, static equilibrium and natural frequencies.
 #include <irdm_common/error.h>
+#include <irdm_common/geometry.h>
 
 #include "elastodynamics_impl.h"
 
@@ -18,6 +19,8 @@ namespace irdm::fem
       out.vertex_node_tag[scene.outputs.vertices[i].name] = mesh.node_tags[observed_vertex[i]];
     for (unsigned i = 0; i < scene.prescribed.size(); ++i)
       out.vertex_node_tag[scene.prescribed[i].name] = mesh.node_tags[probe_vertex[i]];
+    for (const auto &p : scene.probes)
+      out.vertex_node_tag[p.name] = -1; // between vertices: see probe_contact_point
     if (scene.outputs.surface)
       {
         std::vector<int> index(triangulation.n_vertices(), -1);
@@ -27,6 +30,7 @@ namespace irdm::fem
             index[v]         = static_cast<int>(i);
             out.surface.node_tags.push_back(mesh.node_tags[v]);
             out.surface.coordinates.push_back(mesh.vertices[v]);
+            out.surface.mesh_vertex.push_back(v);
           }
         for (const auto &t : surface_triangles)
           out.surface.triangles.push_back({{static_cast<unsigned>(index[t[0]]),
@@ -62,6 +66,15 @@ namespace irdm::fem
         out.probe_displacement[scene.prescribed[i].name].push_back(at_vertex(u, probe_vertex[i]));
         out.probe_force[scene.prescribed[i].name].push_back(
           {lambda[3 * i], lambda[3 * i + 1], lambda[3 * i + 2]});
+      }
+    for (unsigned p = 0; p < scene.probes.size(); ++p)
+      {
+        const auto &x    = last_probe[p];
+        const auto &name = scene.probes[p].name;
+        out.probe_force[name].push_back({x[0], x[1], x[2]});
+        out.probe_contact_point[name].push_back({x[3], x[4], x[5]});
+        out.probe_active[name].push_back(x[6] != 0);
+        out.probe_displacement[name].push_back({x[7], x[8], x[9]});
       }
     if (!fixed_dofs.empty())
       {
@@ -109,6 +122,8 @@ namespace irdm::fem
 
     Vector<double> u(n_dofs), v(n_dofs), a(n_dofs), f(n_dofs), lambda(probe_dofs.size());
     external_force(0.0, f);
+    if (scene.initial == InitialState::static_equilibrium && !scene.probes.empty())
+      throw InputError("probes need initial_state 'rest'");
     if (scene.initial == InitialState::static_equilibrium)
       {
         if (constraints.n_constraints() == 0)
@@ -131,6 +146,14 @@ namespace irdm::fem
         a = f;
         constraints.set_zero(a);
         m_inverse.solve(a);
+      }
+    last_probe.assign(scene.probes.size(), {});
+    for (unsigned p = 0; p < scene.probes.size(); ++p)
+      {
+        const auto sp = geometry::closest_point(mesh.vertices, probe_triangles[p],
+                                                scene.probes[p].path.at(0.0));
+        for (int d = 0; d < 3; ++d)
+          last_probe[p][3 + d] = sp.point[d];
       }
     record(u, v, a, f, lambda, 0.0, out);
     std::vector<std::pair<double, std::string>> vtu_records;
@@ -173,6 +196,8 @@ namespace irdm::fem
         lambda = step_solver.solve(constraints, u_new, prescribed_values(t), 1 - c.alpha_f);
         for (unsigned i = 0; i < probe_dofs.size(); ++i)
           f_new[probe_dofs[i]] += lambda[i];
+        if (!scene.probes.empty())
+          last_probe = solve_probes(t, 1 - c.alpha_f, u_new, f_new);
 
         // Newmark updates of acceleration and velocity.
         a_new = u_new;
@@ -208,6 +233,8 @@ namespace irdm::fem
     if (constraints.n_constraints() == 0)
       throw InputError("static equilibrium needs at least one fixed surface "
                        "(scene key 'fixed_surfaces'): a free body has no static state");
+    if (!scene.probes.empty())
+      throw InputError("static equilibrium does not take probes (they are dynamic contacts)");
     RunResult out;
     init_result(out);
     const unsigned    n = dof_handler.n_dofs();

@@ -196,6 +196,7 @@ namespace irdm::fem
               if (normal * (face->center() - cell->center()) < 0)
                 std::swap(tri[1], tri[2]);
               surface_triangles.push_back(tri);
+              surface_triangle_tag.push_back(static_cast<int>(face->boundary_id()));
               on_surface.insert(tri.begin(), tri.end());
             }
       }
@@ -247,6 +248,33 @@ namespace irdm::fem
             probe_dofs.push_back(dof);
           }
         probe_vertex.push_back(v);
+      }
+    for (const auto &p : scene.probes)
+      {
+        const int tag = [&] {
+          try
+            {
+              return mesh.surface_tag(p.surface);
+            }
+          catch (const InputError &e)
+            {
+              throw InputError("probe '" + p.name + "': " + e.what());
+            }
+        }();
+        std::vector<std::array<unsigned, 3>> tris;
+        for (unsigned t = 0; t < surface_triangles.size(); ++t)
+          if (surface_triangle_tag[t] == tag)
+            {
+              bool fixed = false;
+              for (const unsigned v : surface_triangles[t])
+                fixed = fixed || constraints.is_constrained(dofs_of_vertex[v][0]);
+              if (!fixed) // a probe on a fixed vertex would fight the support
+                tris.push_back(surface_triangles[t]);
+            }
+        if (tris.empty())
+          throw InputError("probe '" + p.name + "': surface '" + p.surface +
+                           "' has no triangle off the fixed surfaces");
+        probe_triangles.push_back(std::move(tris));
       }
     for (const auto &o : scene.outputs.vertices)
       observed_vertex.push_back(select_vertex(o.vertex, "output vertex '" + o.name + "'"));

@@ -35,6 +35,21 @@ namespace irdm::fem
     return v;
   }
 
+  double
+  ScalarHistory::at(const double t) const
+  {
+    if (times.empty())
+      return 0;
+    if (t <= times.front())
+      return values.front();
+    if (t >= times.back())
+      return values.back();
+    const auto   it = std::upper_bound(times.begin(), times.end(), t);
+    const size_t k  = static_cast<size_t>(it - times.begin());
+    const double w  = (t - times[k - 1]) / (times[k] - times[k - 1]);
+    return (1 - w) * values[k - 1] + w * values[k];
+  }
+
   History
   History::constant(const Vec3 &v)
   {
@@ -261,6 +276,49 @@ namespace irdm::fem
       return out;
     }
 
+    // {"times_s": [...], <key>: [...]} with strictly increasing times.
+    void
+    parse_samples(const Node &h, const char *key, std::vector<double> &times,
+                  std::vector<Node> &samples)
+    {
+      h.allow_only({"times_s", key});
+      for (const auto &t : h.at("times_s").array())
+        times.push_back(t.number());
+      samples = h.at(key).array();
+      if (times.empty())
+        fail(h.where, "is empty");
+      if (times.size() != samples.size())
+        fail(h.where, "'times_s' and '" + std::string(key) + "' differ in length");
+      for (size_t i = 1; i < times.size(); ++i)
+        if (!(times[i] > times[i - 1]))
+          fail(h.where, "times must be strictly increasing");
+    }
+
+    VertexRegion
+    parse_region(const Node &n)
+    {
+      n.allow_only({"surfaces", "within"});
+      VertexRegion r;
+      if (n.has("surfaces"))
+        for (const auto &x : n.at("surfaces").array())
+          r.surfaces.push_back(x.string());
+      if (n.has("within"))
+        {
+          const Node              w = n.at("within");
+          std::vector<Node>       balls;
+          if (w.j.is_array())
+            balls = w.array();
+          else
+            balls.push_back(w);
+          for (const auto &b : balls)
+            {
+              b.allow_only({"center_m", "radius_m"});
+              r.balls.emplace_back(b.at("center_m").vec3(), b.at("radius_m").positive());
+            }
+        }
+      return r;
+    }
+
     std::string
     parse_name(const Node &n, const std::string &fallback)
     {
@@ -291,7 +349,7 @@ namespace irdm::fem
     top.allow_only({"format", "name", "mesh", "fe_degree", "material", "damping",
                     "integrator", "time", "initial_state", "gravity",
                     "fixed_surfaces", "loads", "prescribed_displacements",
-                    "outputs", "comment"});
+                    "probes", "model", "outputs", "comment"});
     Scene s;
     s.source    = origin;
     s.json_text = json_text;
@@ -464,6 +522,59 @@ namespace irdm::fem
           p.displacement = parse_history(n, "displacement_m", base_dir);
           s.prescribed.push_back(p);
         }
+    if (top.has("probes"))
+      for (const auto &n : top.at("probes").array())
+        {
+          n.allow_only({"name", "surface", "direction", "unilateral", "path", "depth"});
+          Probe p;
+          p.name    = unique(n, parse_name(n, "probe" + std::to_string(names.size())));
+          p.surface = n.at("surface").string();
+          const Vec3   d    = n.at("direction").vec3();
+          const double norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+          if (!(norm > 0))
+            fail(n.where + ".direction", "must not be zero");
+          p.direction = {d[0] / norm, d[1] / norm, d[2] / norm};
+          if (n.has("unilateral"))
+            p.unilateral = n.at("unilateral").boolean();
+          std::vector<Node> samples;
+          parse_samples(n.at("path"), "points_m", p.path.times, samples);
+          for (const auto &x : samples)
+            p.path.values.push_back(x.vec3());
+          samples.clear();
+          parse_samples(n.at("depth"), "values_m", p.depth.times, samples);
+          for (const auto &x : samples)
+            p.depth.values.push_back(x.number());
+          if (s.initial == InitialState::rest && p.depth.at(0.0) != 0)
+            fail(n.where + ".depth", "must be 0 at t = 0: the body starts at rest");
+          s.probes.push_back(p);
+        }
+    if (!s.probes.empty() && !s.prescribed.empty())
+      fail(top.where, "use either 'probes' or 'prescribed_displacements' in one scene, not both");
+    if (s.probes.size() > 4)
+      fail(top.where + ".probes", "at most 4 probes");
+    if (top.has("model"))
+      {
+        const Node m = top.at("model");
+        m.allow_only({"length", "storage", "inputs", "outputs"});
+        if (m.has("length"))
+          {
+            const long long T = m.at("length").integer();
+            if (T < 1 || T > 1000000)
+              fail(m.where + ".length", "must be a whole number of samples in [1, 1e6]");
+            s.model.length = static_cast<unsigned>(T);
+          }
+        if (m.has("storage"))
+          {
+            const std::string st = m.at("storage").string();
+            if (st != "float" && st != "double")
+              fail(m.where + ".storage", "must be 'float' or 'double'");
+            s.model.double_storage = st == "double";
+          }
+        if (m.has("inputs"))
+          s.model.inputs = parse_region(m.at("inputs"));
+        if (m.has("outputs"))
+          s.model.outputs = parse_region(m.at("outputs"));
+      }
     if (top.has("outputs"))
       {
         const Node o = top.at("outputs");

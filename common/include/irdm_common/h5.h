@@ -14,7 +14,47 @@ namespace irdm::h5
   class Writer
   {
   public:
-    explicit Writer(const std::string &path);
+    enum class Mode
+    {
+      create, // always start a new "<path>.part"
+      resume  // reopen an existing "<path>.part" (see resumed()), else create
+    };
+    explicit Writer(const std::string &path, Mode mode = Mode::create);
+    /// True if an existing partial file was reopened.
+    bool
+    resumed() const
+    {
+      return resumed_;
+    }
+    /// Keep "<path>.part" when destroyed without commit(), for a later resume.
+    void
+    keep_partial(bool keep)
+    {
+      keep_partial_ = keep;
+    }
+    /// A dataset written in blocks of rows (first dimension) by write_rows(), chunked so
+    /// that a block of chunk_rows rows is one HDF5 chunk.
+    void
+    create_dataset(const std::string &name, const std::vector<hsize_t> &dims, bool is_double,
+                   hsize_t chunk_rows);
+    void
+    write_rows(const std::string &name, hsize_t first_row, hsize_t n_rows, const float *data);
+    void
+    write_rows(const std::string &name, hsize_t first_row, hsize_t n_rows, const double *data);
+    void
+    write_rows(const std::string &name, hsize_t first_row, hsize_t n_rows,
+               const long long *data);
+    /// Reading back from a partial file (resume): a whole integer dataset, and a string
+    /// attribute ("" if absent).
+    std::vector<long long>
+    read_int(const std::string &name) const;
+    std::string
+    string_attribute(const std::string &object, const std::string &name) const;
+    bool
+    exists(const std::string &name) const;
+    /// Pushes everything written so far to disk.
+    void
+    flush();
     ~Writer(); // without commit(): the partial file is removed
     Writer(const Writer &) = delete;
     Writer &
@@ -51,7 +91,9 @@ namespace irdm::h5
   private:
     std::string path_;
     std::string part_path_;
-    hid_t       file_ = -1;
+    hid_t       file_         = -1;
+    bool        resumed_      = false;
+    bool        keep_partial_ = false;
   };
 
   /// Read access with shape checks; every failure is an InputError naming file and dataset.
@@ -74,6 +116,13 @@ namespace irdm::h5
     std::vector<long long>
     read_int(const std::string &name,
              const std::vector<hsize_t> &expected_dims) const;
+    std::vector<float>
+    read_float(const std::string &name, const std::vector<hsize_t> &expected_dims) const;
+    /// True if the dataset is stored as 8-byte floating point.
+    bool
+    is_double(const std::string &name) const;
+    bool
+    has_attribute(const std::string &object, const std::string &name) const;
     std::string
     string_attribute(const std::string &object, const std::string &name) const;
     double

@@ -23,6 +23,18 @@ namespace irdm::fem
     std::vector<long long>               node_tags;   // gmsh node tags
     std::vector<Vec3>                    coordinates; // m, undeformed
     std::vector<std::array<unsigned, 3>> triangles;   // indices into the arrays above, outward
+    std::vector<unsigned>                mesh_vertex;      // index in the mesh of each vertex
+    std::vector<std::string>             triangle_surface; // physical surface of each triangle
+  };
+
+  /// The free part of the assembled linear system, dense: the DoFs of fixed surfaces are
+  /// removed. For the modal precompute of impulse responses. Row-major, symmetric.
+  struct DenseSystem
+  {
+    unsigned            n_free = 0;
+    std::vector<double> stiffness; // N/m, n_free x n_free
+    std::vector<double> mass;      // kg, n_free x n_free (consistent)
+    std::vector<int>    vertex_dof_to_free; // [3 * mesh vertex + d] -> free index, -1 if fixed
   };
 
   struct RunResult
@@ -34,6 +46,8 @@ namespace irdm::fem
     std::map<std::string, long long>         vertex_node_tag;     // observed and probe vertices
     std::map<std::string, std::vector<Vec3>> probe_displacement;  // m, prescribed vertices
     std::map<std::string, std::vector<Vec3>> probe_force;         // N, on the body
+    std::map<std::string, std::vector<Vec3>> probe_contact_point; // m, undeformed (probes)
+    std::map<std::string, std::vector<bool>> probe_active;        // in contact (probes)
     std::map<std::string, std::vector<Vec3>> fixed_reaction;      // N, total on each fixed surface
     SurfaceMesh                              surface;             // filled if outputs.surface
     std::vector<std::vector<double>>         surface_displacement; // per sample: 3 * n_vertices, m
@@ -70,6 +84,14 @@ namespace irdm::fem
     /// Writes the scene's outputs (HDF5 and CSV as configured) for a result of this solver.
     void
     write_outputs(const RunResult &result) const;
+
+    /// Dense K and M on the free DoFs (fixed-surface rows and columns removed).
+    DenseSystem
+    dense_free_system() const;
+
+    /// All boundary triangles with their surface names; vertices in mesh order.
+    SurfaceMesh
+    boundary() const;
 
     unsigned
     n_dofs() const;

@@ -55,6 +55,51 @@ namespace irdm::fem
     History        displacement; // m
   };
 
+  /// A scalar history, linear between samples and constant outside them.
+  struct ScalarHistory
+  {
+    std::vector<double> times; // s, strictly increasing
+    std::vector<double> values;
+
+    double
+    at(double t) const;
+  };
+
+  /// A haptic probe that touches the surface anywhere, not only at vertices (seed 000,
+  /// section 2, with the contact point between vertices). At each step the contact point is
+  /// the point of the named surface (undeformed) closest to path(t); the probe prescribes the
+  /// displacement depth(t) * direction there, spread over the three vertices of its triangle
+  /// by barycentric weights. The force it takes is reported. A unilateral probe pushes along
+  /// 'direction' but never pulls: it lets go when it would pull and touches again when the
+  /// surface would pass it.
+  struct Probe
+  {
+    std::string   name;
+    std::string   surface;   // named physical surface it may touch
+    Vec3          direction; // unit vector, the direction it pushes in
+    bool          unilateral = true;
+    History       path;  // m, points near the undeformed surface
+    ScalarHistory depth; // m, along direction
+  };
+
+  /// A set of surface vertices: those of the named surfaces (all surfaces if none named),
+  /// optionally only those within one of some balls. Vertices of fixed surfaces never belong
+  /// to a set.
+  struct VertexRegion
+  {
+    std::vector<std::string> surfaces;
+    std::vector<std::pair<Vec3, double>> balls; // center (m), radius (m); empty: no limit
+  };
+
+  /// What an impulse-response model of this scene holds (irdm precompute).
+  struct ModelSpec
+  {
+    unsigned                    length         = 500;   // T, samples of each response
+    bool                        double_storage = false; // float (4 bytes) by default
+    std::optional<VertexRegion> inputs;  // default: every free surface vertex
+    std::optional<VertexRegion> outputs; // default: every free surface vertex
+  };
+
   struct ObservedVertex
   {
     std::string    name;
@@ -105,6 +150,8 @@ namespace irdm::fem
     std::vector<VertexForce>            vertex_forces;
     std::vector<SurfaceForce>           surface_forces;
     std::vector<PrescribedDisplacement> prescribed;
+    std::vector<Probe>                  probes;
+    ModelSpec                           model;
 
     struct Outputs
     {

@@ -1,0 +1,55 @@
+#pragma once
+// An impulse-response model as written by 'irdm precompute' (docs/model-format.md).
+// Units SI; H in m/N. Convention: u[n] = sum_s H[s] f[n - s], f[n] the force held during step
+// n (impulse = f * time_step), H[0] the direct feed-through.
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace irdm
+{
+  struct ImpulseResponseModel
+  {
+    double   time_step = 0; // s
+    unsigned length    = 0; // T, samples per response
+    unsigned n_inputs  = 0; // input DoFs (3 per input vertex)
+    unsigned n_outputs = 0; // output DoFs (3 per output vertex)
+
+    std::vector<long long>             output_node_tags;
+    std::vector<std::array<double, 3>> output_coordinates; // m, undeformed
+    std::vector<long long>             input_node_tags;
+    std::vector<unsigned>              input_output_index; // output vertex of each input vertex
+    std::vector<int>                   output_input_index; // input vertex, or -1
+    std::vector<std::array<unsigned, 3>> triangles;        // output vertex indices, outward
+    std::vector<int>                     triangle_surface; // index into surface_names
+    std::vector<std::string>             surface_names;
+
+    std::string integrator, mesh_hash, storage_on_disk;
+    bool        double_storage = true; // which of h_double / h_float holds H
+    std::vector<double> h_double;      // [input DoF][s][output DoF]
+    std::vector<float>  h_float;
+
+    double
+    h(unsigned input_dof, unsigned s, unsigned output_dof) const
+    {
+      const size_t i = (static_cast<size_t>(input_dof) * length + s) * n_outputs + output_dof;
+      return double_storage ? h_double[i] : static_cast<double>(h_float[i]);
+    }
+    /// Bytes of H in memory.
+    double
+    bytes() const
+    {
+      return double_storage ? 8.0 * h_double.size() : 4.0 * h_float.size();
+    }
+    /// A copy with H rounded to float (to measure what float storage costs).
+    ImpulseResponseModel
+    as_float() const;
+  };
+
+  /// Loads and checks a model file. InputError for: a missing or non-HDF5 file, an unknown
+  /// format or version, missing datasets, inconsistent shapes, NaN or Inf in H, and a time
+  /// step different from expected_time_step (relative 1e-12) when one is given.
+  ImpulseResponseModel
+  load_model(const std::string &path, std::optional<double> expected_time_step = {});
+} // namespace irdm

@@ -1,0 +1,96 @@
+#pragma once
+// IRDM point interaction (seed 000, section 2; shared/notes/irdm-method.md section 3).
+//
+// Each probe prescribes the displacement of a surface point: a point of a model triangle given
+// by barycentric weights, so a probe can move between vertices and trace along the surface.
+// Every step (the force loop):
+//   h_C   = sum_{s>=1} H_C[s] f[n-s]                  history term at the contact rows
+//   S     = B H_CC[0] B^T                              (3P x 3P), B the barycentric spreading
+//   S lambda = ubar - B h_C                            contact forces (irdm_common/contact.h)
+//   f[n]  = B^T lambda                                 pushed into the force history
+// and on demand the displacement of every output (the full surface update).
+//
+// step() and surface_displacement() allocate nothing and take no locks: every buffer is sized
+// in the constructor.
+#include <irdm/model.h>
+#include <irdm_common/contact.h>
+
+#include <array>
+#include <vector>
+
+namespace irdm
+{
+  struct ProbeTarget
+  {
+    int                   triangle = -1;        // model triangle touched
+    std::array<double, 3> weights  = {1, 0, 0}; // barycentric, on its vertices
+    std::array<double, 3> displacement = {0, 0, 0}; // m, prescribed for that surface point
+    std::array<double, 3> direction    = {0, 0, -1}; // unit push direction (unilateral)
+    bool                  unilateral   = false;
+  };
+
+  class PointInteraction
+  {
+  public:
+    /// taps: how many samples of each response to use (0: all; fewer truncates).
+    explicit PointInteraction(const ImpulseResponseModel &model, unsigned taps = 0);
+
+    /// True if a probe may touch the triangle: all its vertices are model inputs.
+    bool
+    can_touch(int triangle) const;
+
+    /// One force-loop step with n_probes <= contact::max_probes probes. Returns false (and
+    /// applies no force) if a probe is on a triangle it cannot touch.
+    bool
+    step(const ProbeTarget *probes, int n_probes);
+
+    /// After step(): the force on the body at probe p (N), its contact state, and the
+    /// displacement of the probed point (m).
+    const std::array<double, 3> &
+    force(int p) const
+    {
+      return force_[p];
+    }
+    bool
+    active(int p) const
+    {
+      return active_[p];
+    }
+    const std::array<double, 3> &
+    probe_displacement(int p) const
+    {
+      return probe_u_[p];
+    }
+
+    /// The full surface update: displacement of every output DoF after the last step (m).
+    void
+    surface_displacement(double *u) const;
+
+    /// Steps taken so far; the state after step n is FEM time (n + 1) * time_step.
+    long long
+    steps() const
+    {
+      return n_;
+    }
+    void
+    reset();
+
+  private:
+    template <typename Scalar>
+    void
+    surface_kernel(const Scalar *H, double *u) const;
+    template <typename Scalar>
+    double
+    history_at(const Scalar *H, unsigned output_dof) const;
+
+    const ImpulseResponseModel &model_;
+    unsigned                    taps_;
+    long long                   n_ = 0; // steps taken
+    std::vector<double>         history_;      // [input DoF][slot], slot = step % taps
+    std::vector<long long>      last_nonzero_; // per input DoF, -1: never
+    std::vector<unsigned>       active_inputs_; // inputs with force inside the window
+    std::vector<char>           is_active_input_;
+    std::array<std::array<double, 3>, contact::max_probes> force_{}, probe_u_{};
+    std::array<bool, contact::max_probes>                  active_{};
+  };
+} // namespace irdm

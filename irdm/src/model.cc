@@ -1,0 +1,122 @@
+#include <irdm/model.h>
+#include <irdm_common/error.h>
+#include <irdm_common/h5.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace irdm
+{
+  ImpulseResponseModel
+  ImpulseResponseModel::as_float() const
+  {
+    ImpulseResponseModel m = *this;
+    if (double_storage)
+      {
+        m.h_float.assign(h_double.begin(), h_double.end());
+        m.h_double.clear();
+        m.h_double.shrink_to_fit();
+        m.double_storage = false;
+      }
+    return m;
+  }
+
+  ImpulseResponseModel
+  load_model(const std::string &path, const std::optional<double> expected_time_step)
+  {
+    h5::Reader r(path);
+    const auto fail = [&](const std::string &what) -> void {
+      throw InputError("model '" + path + "': " + what);
+    };
+    if (!r.has_attribute("/", "format") ||
+        r.string_attribute("/", "format") != "irdm-impulse-response")
+      fail("not an IRDM impulse-response model (attribute 'format' is missing or different)");
+    const double version = r.double_attribute("/", "format_version");
+    if (version != 1)
+      fail("format version " + std::to_string(version) + " is not supported (this build reads 1)");
+    ImpulseResponseModel m;
+    m.time_step = r.double_attribute("/", "time_step_s");
+    m.length    = static_cast<unsigned>(r.double_attribute("/", "length"));
+    if (!(m.time_step > 0) || m.length < 1)
+      fail("time_step_s and length must be positive");
+    if (expected_time_step &&
+        std::abs(m.time_step - *expected_time_step) > 1e-12 * *expected_time_step)
+      fail("it was made with time step " + std::to_string(m.time_step) + " s but the scene uses " +
+           std::to_string(*expected_time_step) + " s; the responses encode the step, so "
+           "precompute a model at the scene's step");
+    m.integrator      = r.string_attribute("/", "integrator");
+    m.mesh_hash       = r.string_attribute("/", "mesh_hash");
+    m.storage_on_disk = r.string_attribute("/", "storage");
+
+    for (const char *name : {"/outputs/node_tags", "/outputs/coordinates", "/inputs/node_tags",
+                             "/inputs/output_index", "/surface/triangles",
+                             "/surface/triangle_surface", "/impulse_response/H"})
+      if (!r.exists(name))
+        fail("missing dataset '" + std::string(name) + "'");
+    const auto n_out_v = r.shape("/outputs/node_tags");
+    const auto n_in_v  = r.shape("/inputs/node_tags");
+    if (n_out_v.size() != 1 || n_in_v.size() != 1)
+      fail("node_tags must be one-dimensional");
+    m.output_node_tags = r.read_int("/outputs/node_tags", n_out_v);
+    const auto xyz     = r.read_double("/outputs/coordinates", {n_out_v[0], 3});
+    for (size_t i = 0; i < n_out_v[0]; ++i)
+      m.output_coordinates.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
+    m.input_node_tags = r.read_int("/inputs/node_tags", n_in_v);
+    m.n_outputs       = 3 * n_out_v[0];
+    m.n_inputs        = 3 * n_in_v[0];
+    m.output_input_index.assign(n_out_v[0], -1);
+    const auto io = r.read_int("/inputs/output_index", n_in_v);
+    for (size_t k = 0; k < io.size(); ++k)
+      {
+        if (io[k] < 0 || io[k] >= static_cast<long long>(n_out_v[0]))
+          fail("inputs/output_index out of range");
+        m.input_output_index.push_back(static_cast<unsigned>(io[k]));
+        m.output_input_index[io[k]] = static_cast<int>(k);
+      }
+    const auto ts = r.shape("/surface/triangles");
+    if (ts.size() != 2 || ts[1] != 3)
+      fail("surface/triangles must have shape (n, 3)");
+    const auto tri = r.read_int("/surface/triangles", ts);
+    const auto tsf = r.read_int("/surface/triangle_surface", {ts[0]});
+    for (size_t t = 0; t < ts[0]; ++t)
+      {
+        std::array<unsigned, 3> v;
+        for (int i = 0; i < 3; ++i)
+          {
+            if (tri[3 * t + i] < 0 || tri[3 * t + i] >= static_cast<long long>(n_out_v[0]))
+              fail("surface/triangles refers to a vertex that is not an output");
+            v[i] = static_cast<unsigned>(tri[3 * t + i]);
+          }
+        m.triangles.push_back(v);
+        m.triangle_surface.push_back(static_cast<int>(tsf[t]));
+      }
+    {
+      std::istringstream names(r.string_attribute("/surface", "surface_names"));
+      std::string        s;
+      while (std::getline(names, s, ','))
+        m.surface_names.push_back(s);
+    }
+    const std::vector<hsize_t> hs = {m.n_inputs, m.length, m.n_outputs};
+    if (r.shape("/impulse_response/H") != hs)
+      fail("impulse_response/H has the wrong shape (expected inputs x length x outputs = " +
+           std::to_string(m.n_inputs) + " x " + std::to_string(m.length) + " x " +
+           std::to_string(m.n_outputs) + ")");
+    m.double_storage = r.is_double("/impulse_response/H");
+    bool finite      = true;
+    if (m.double_storage)
+      {
+        m.h_double = r.read_double("/impulse_response/H", hs);
+        for (const double x : m.h_double)
+          finite = finite && std::isfinite(x);
+      }
+    else
+      {
+        m.h_float = r.read_float("/impulse_response/H", hs);
+        for (const float x : m.h_float)
+          finite = finite && std::isfinite(x);
+      }
+    if (!finite)
+      fail("impulse_response/H contains NaN or Inf");
+    return m;
+  }
+} // namespace irdm

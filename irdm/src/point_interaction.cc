@@ -1,0 +1,184 @@
+#include <irdm/point_interaction.h>
+#include <irdm_common/error.h>
+
+#include <algorithm>
+
+namespace irdm
+{
+  PointInteraction::PointInteraction(const ImpulseResponseModel &model, const unsigned taps)
+    : model_(model)
+    , taps_(taps == 0 ? model.length : std::min(taps, model.length))
+  {
+    if (model.n_inputs == 0 || model.n_outputs == 0)
+      throw InputError("model has no inputs or outputs");
+    history_.assign(static_cast<size_t>(model.n_inputs) * taps_, 0.0);
+    last_nonzero_.assign(model.n_inputs, -1);
+    is_active_input_.assign(model.n_inputs, 0);
+    active_inputs_.reserve(model.n_inputs);
+  }
+
+  void
+  PointInteraction::reset()
+  {
+    n_ = 0;
+    std::fill(history_.begin(), history_.end(), 0.0);
+    std::fill(last_nonzero_.begin(), last_nonzero_.end(), -1);
+    std::fill(is_active_input_.begin(), is_active_input_.end(), 0);
+    active_inputs_.clear();
+  }
+
+  bool
+  PointInteraction::can_touch(const int t) const
+  {
+    if (t < 0 || t >= static_cast<int>(model_.triangles.size()))
+      return false;
+    for (const unsigned v : model_.triangles[t])
+      if (model_.output_input_index[v] < 0)
+        return false;
+    return true;
+  }
+
+  // sum over active inputs k and s = 1 .. taps-1 of H[k][s][j] f_k[n - s], at the current
+  // step n_ (before its force is known).
+  template <typename Scalar>
+  double
+  PointInteraction::history_at(const Scalar *H, const unsigned j) const
+  {
+    double         sum  = 0;
+    const unsigned T    = model_.length;
+    const size_t   nout = model_.n_outputs;
+    const long long smax = std::min<long long>(taps_ - 1, n_);
+    for (const unsigned k : active_inputs_)
+      {
+        const double *f   = &history_[static_cast<size_t>(k) * taps_];
+        const Scalar *hk  = H + static_cast<size_t>(k) * T * nout + j;
+        for (long long s = 1; s <= smax; ++s)
+          sum += static_cast<double>(hk[s * nout]) * f[(n_ - s) % taps_];
+      }
+    return sum;
+  }
+
+  bool
+  PointInteraction::step(const ProbeTarget *probes, const int P)
+  {
+    for (int p = 0; p < P; ++p)
+      if (!can_touch(probes[p].triangle))
+        return false;
+    // Retire inputs whose last force has left the window (no allocation: erase in place).
+    active_inputs_.erase(std::remove_if(active_inputs_.begin(), active_inputs_.end(),
+                                        [&](const unsigned k) {
+                                          const bool gone = n_ - last_nonzero_[k] >= taps_;
+                                          if (gone)
+                                            {
+                                              is_active_input_[k] = 0;
+                                              std::fill_n(&history_[static_cast<size_t>(k) * taps_],
+                                                          taps_, 0.0);
+                                            }
+                                          return gone;
+                                        }),
+                         active_inputs_.end());
+    // Clear this step's slot (it held the force of step n - taps).
+    for (const unsigned k : active_inputs_)
+      history_[static_cast<size_t>(k) * taps_ + n_ % taps_] = 0.0;
+
+    const auto in_dof = [&](int p, int i, int d) {
+      return 3u * model_.output_input_index[model_.triangles[probes[p].triangle][i]] + d;
+    };
+    const auto out_dof = [&](int p, int i, int d) {
+      return 3u * model_.triangles[probes[p].triangle][i] + d;
+    };
+    contact::Matrix S(3 * P, 3 * P);
+    contact::Vector gap(3 * P), lambda(3 * P), h_probe(3 * P);
+    std::array<contact::ProbeRule, contact::max_probes> rules;
+    for (int p = 0; p < P; ++p)
+      {
+        rules[p] = {probes[p].direction, probes[p].unilateral};
+        for (int d = 0; d < 3; ++d)
+          {
+            double h = 0;
+            for (int i = 0; i < 3; ++i)
+              h += probes[p].weights[i] *
+                   (model_.double_storage ? history_at(model_.h_double.data(), out_dof(p, i, d))
+                                          : history_at(model_.h_float.data(), out_dof(p, i, d)));
+            h_probe[3 * p + d] = h;
+            gap[3 * p + d]     = probes[p].displacement[d] - h;
+          }
+      }
+    for (int p = 0; p < P; ++p)
+      for (int d = 0; d < 3; ++d)
+        for (int q = 0; q < P; ++q)
+          for (int e = 0; e < 3; ++e)
+            {
+              double s = 0;
+              for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                  s += probes[p].weights[i] * probes[q].weights[j] *
+                       model_.h(in_dof(q, j, e), 0, out_dof(p, i, d));
+              S(3 * p + d, 3 * q + e) = s;
+            }
+    bool active[contact::max_probes];
+    contact::solve_active_set(S, gap, rules.data(), P, lambda, active);
+
+    const contact::Vector u_probe = h_probe + S * lambda;
+    for (int q = 0; q < P; ++q)
+      {
+        active_[q] = active[q];
+        for (int e = 0; e < 3; ++e)
+          {
+            force_[q][e]   = lambda[3 * q + e];
+            probe_u_[q][e] = u_probe[3 * q + e];
+            if (lambda[3 * q + e] == 0)
+              continue;
+            for (int j = 0; j < 3; ++j)
+              {
+                const unsigned k = in_dof(q, j, e);
+                history_[static_cast<size_t>(k) * taps_ + n_ % taps_] +=
+                  probes[q].weights[j] * lambda[3 * q + e];
+                last_nonzero_[k] = n_;
+                if (!is_active_input_[k])
+                  {
+                    is_active_input_[k] = 1;
+                    active_inputs_.push_back(k); // capacity reserved: never reallocates
+                  }
+              }
+          }
+      }
+    ++n_;
+    return true;
+  }
+
+  template <typename Scalar>
+  void
+  PointInteraction::surface_kernel(const Scalar *H, double *u) const
+  {
+    const size_t    nout = model_.n_outputs;
+    const long long now  = n_ - 1; // the last step taken
+    std::fill(u, u + nout, 0.0);
+    if (now < 0)
+      return;
+    const long long smax = std::min<long long>(taps_ - 1, now);
+    for (const unsigned k : active_inputs_)
+      {
+        const double *f  = &history_[static_cast<size_t>(k) * taps_];
+        const Scalar *hk = H + static_cast<size_t>(k) * model_.length * nout;
+        for (long long s = 0; s <= smax; ++s)
+          {
+            const double c = f[(now - s) % taps_];
+            if (c == 0)
+              continue;
+            const Scalar *row = hk + s * nout;
+            for (size_t j = 0; j < nout; ++j)
+              u[j] += c * static_cast<double>(row[j]);
+          }
+      }
+  }
+
+  void
+  PointInteraction::surface_displacement(double *u) const
+  {
+    if (model_.double_storage)
+      surface_kernel(model_.h_double.data(), u);
+    else
+      surface_kernel(model_.h_float.data(), u);
+  }
+} // namespace irdm

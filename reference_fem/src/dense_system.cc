@@ -1,0 +1,67 @@
+// ElasticDynamics: the dense free system and the boundary, for the impulse-response precompute.
+#include "elastodynamics_impl.h"
+
+#include <set>
+
+namespace irdm::fem
+{
+  DenseSystem
+  ElasticDynamics::dense_free_system() const
+  {
+    const Impl    &m = *impl_;
+    const unsigned n = m.dof_handler.n_dofs();
+    std::vector<int> free_of_dof(n, -1);
+    DenseSystem      out;
+    for (unsigned i = 0; i < n; ++i)
+      if (!m.constraints.is_constrained(i))
+        free_of_dof[i] = static_cast<int>(out.n_free++);
+    const size_t nf = out.n_free;
+    out.stiffness.assign(nf * nf, 0.0);
+    out.mass.assign(nf * nf, 0.0);
+    for (unsigned row = 0; row < n; ++row)
+      {
+        if (free_of_dof[row] < 0)
+          continue;
+        const size_t r = free_of_dof[row];
+        for (auto it = m.stiffness.begin(row); it != m.stiffness.end(row); ++it)
+          if (free_of_dof[it->column()] >= 0)
+            out.stiffness[r * nf + free_of_dof[it->column()]] = it->value();
+        for (auto it = m.mass.begin(row); it != m.mass.end(row); ++it)
+          if (free_of_dof[it->column()] >= 0)
+            out.mass[r * nf + free_of_dof[it->column()]] = it->value();
+      }
+    out.vertex_dof_to_free.assign(3 * m.mesh.vertices.size(), -1);
+    for (unsigned v = 0; v < m.dofs_of_vertex.size(); ++v)
+      for (unsigned d = 0; d < 3; ++d)
+        out.vertex_dof_to_free[3 * v + d] = free_of_dof[m.dofs_of_vertex[v][d]];
+    return out;
+  }
+
+  SurfaceMesh
+  ElasticDynamics::boundary() const
+  {
+    const Impl &m = *impl_;
+    SurfaceMesh out;
+    std::map<int, std::string> name_of_tag;
+    for (const auto &[name, tag] : m.mesh.surface_names)
+      name_of_tag[tag] = name;
+    std::vector<int> local(m.mesh.vertices.size(), -1);
+    for (const unsigned v : m.surface_vertices)
+      {
+        local[v] = static_cast<int>(out.mesh_vertex.size());
+        out.mesh_vertex.push_back(v);
+        out.node_tags.push_back(m.mesh.node_tags[v]);
+        out.coordinates.push_back(m.mesh.vertices[v]);
+      }
+    for (unsigned t = 0; t < m.surface_triangles.size(); ++t)
+      {
+        const auto &tri = m.surface_triangles[t];
+        out.triangles.push_back({static_cast<unsigned>(local[tri[0]]),
+                                 static_cast<unsigned>(local[tri[1]]),
+                                 static_cast<unsigned>(local[tri[2]])});
+        const auto it = name_of_tag.find(m.surface_triangle_tag[t]);
+        out.triangle_surface.push_back(it == name_of_tag.end() ? std::string() : it->second);
+      }
+    return out;
+  }
+} // namespace irdm::fem

@@ -1,0 +1,590 @@
+// Impulse-response precompute by exact modal decoupling of the FEM's time integrator.
+// Plain C++ with LAPACK/BLAS, HDF5 and MPI; the FEM is used through its public interface.
+#include <irdm_common/error.h>
+#include <irdm_common/h5.h>
+#include <reference_fem/elastodynamics.h>
+#include <reference_fem/impulse_response.h>
+#include <reference_fem/mesh.h>
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <memory>
+#include <sstream>
+#include <thread>
+#include <type_traits>
+
+extern "C"
+{
+  // OpenBLAS's thread control, if the BLAS in use is OpenBLAS (weak: absent elsewhere).
+  void
+  openblas_set_num_threads(int) __attribute__((weak));
+  int
+  openblas_get_num_threads() __attribute__((weak));
+  void
+  dsygvd_(const int *itype, const char *jobz, const char *uplo, const int *n, double *a,
+          const int *lda, double *b, const int *ldb, double *w, double *work, const int *lwork,
+          int *iwork, const int *liwork, int *info);
+  void
+  sgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k,
+         const float *alpha, const float *a, const int *lda, const float *b, const int *ldb,
+         const float *beta, float *c, const int *ldc);
+  void
+  dgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k,
+         const double *alpha, const double *a, const int *lda, const double *b, const int *ldb,
+         const double *beta, double *c, const int *ldc);
+}
+
+namespace irdm::fem
+{
+  namespace
+  {
+    using Clock = std::chrono::steady_clock;
+    double
+    since(const Clock::time_point t0)
+    {
+      return std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+
+    // Row-major C (m x n) = A (m x k) * B^T, B (n x k) row-major: column-major C^T = B A^T.
+    void
+    gemm_abt(int m, int n, int k, const float *A, const float *B, float *C)
+    {
+      const float one = 1, zero = 0;
+      sgemm_("T", "N", &n, &m, &k, &one, B, &k, A, &k, &zero, C, &n);
+    }
+    void
+    gemm_abt(int m, int n, int k, const double *A, const double *B, double *C)
+    {
+      const double one = 1, zero = 0;
+      dgemm_("T", "N", &n, &m, &k, &one, B, &k, A, &k, &zero, C, &n);
+    }
+
+    // The free surface vertices in a region, in boundary order.
+    std::vector<unsigned>
+    select_vertices(const std::optional<VertexRegion> &region, const SurfaceMesh &b,
+                    const DenseSystem &sys, const std::string &what)
+    {
+      std::vector<char> in_surface(b.mesh_vertex.size(), 0);
+      if (!region || region->surfaces.empty())
+        std::fill(in_surface.begin(), in_surface.end(), 1);
+      else
+        for (const auto &name : region->surfaces)
+          {
+            bool found = false;
+            for (unsigned t = 0; t < b.triangles.size(); ++t)
+              if (b.triangle_surface[t] == name)
+                {
+                  found = true;
+                  for (const unsigned v : b.triangles[t])
+                    in_surface[v] = 1;
+                }
+            if (!found)
+              throw InputError("model " + what + ": the mesh has no surface '" + name + "'");
+          }
+      std::vector<unsigned> out;
+      for (unsigned i = 0; i < b.mesh_vertex.size(); ++i)
+        {
+          if (!in_surface[i] || sys.vertex_dof_to_free[3 * b.mesh_vertex[i]] < 0)
+            continue;
+          if (region && !region->balls.empty())
+            {
+              bool inside = false;
+              for (const auto &[center, radius] : region->balls)
+                {
+                  double d2 = 0;
+                  for (int d = 0; d < 3; ++d)
+                    d2 += std::pow(b.coordinates[i][d] - center[d], 2);
+                  inside = inside || d2 <= radius * radius;
+                }
+              if (!inside)
+                continue;
+            }
+          out.push_back(i);
+        }
+      if (out.empty())
+        throw InputError("model " + what + ": the region holds no free surface vertex");
+      return out;
+    }
+
+    struct Coefficients
+    {
+      double alpha_m = 0, alpha_f = 0, gamma = 0.5, beta = 0.25;
+    };
+    Coefficients
+    coefficients(const Scene &s)
+    {
+      Coefficients c;
+      if (s.integrator == Integrator::generalized_alpha)
+        {
+          // Chung-Hulbert, as the FEM (reference_fem/src/elastodynamics_setup.cc).
+          const double r = s.rho_inf;
+          c.alpha_m      = (2 * r - 1) / (r + 1);
+          c.alpha_f      = r / (r + 1);
+          c.gamma        = 0.5 - c.alpha_m + c.alpha_f;
+          c.beta         = 0.25 * std::pow(1 - c.alpha_m + c.alpha_f, 2);
+        }
+      return c;
+    }
+
+    // Response of one mode (unit mass, stiffness w2, damping alpha + beta w2) of the FEM's
+    // recursion to a unit modal force held during step 0. The algebra is term by term that of
+    // ElasticDynamics::Impl::run(). Writes q[s] for s < T, and the energy after step 1 (when
+    // the impulse is fully delivered) and after step T.
+    void
+    modal_response(const Scene &sc, const Coefficients &c, const double w2, double *q,
+                   const unsigned T, double &energy0, double &energyT)
+    {
+      const double dt = sc.time_step;
+      const double c_m = (1 - c.alpha_m) / (c.beta * dt * dt);
+      const double c_c = (1 - c.alpha_f) * c.gamma / (c.beta * dt);
+      const double m_v = (1 - c.alpha_m) / (c.beta * dt);
+      const double m_a = (1 - c.alpha_m) / (2 * c.beta) - 1;
+      const double c_v = (1 - c.alpha_f) * c.gamma / c.beta - 1;
+      const double c_a = (1 - c.alpha_f) * dt * (c.gamma / (2 * c.beta) - 1);
+      const double k_eff = (1 - c.alpha_f + sc.rayleigh_beta * c_c) * w2 +
+                           (c_m + sc.rayleigh_alpha * c_c);
+      double u = 0, v = 0, a = 0, f = 0;
+      for (unsigned s = 0; s <= T; ++s)
+        {
+          const double f_new  = s == 0 ? 1.0 : 0.0;
+          const double m_part = c_m * u + m_v * v + m_a * a;
+          const double c_part = c_c * u + c_v * v + c_a * a;
+          const double rhs    = (1 - c.alpha_f) * f_new + c.alpha_f * f +
+                             (m_part + sc.rayleigh_alpha * c_part) +
+                             w2 * (sc.rayleigh_beta * c_part - c.alpha_f * u);
+          const double u_new = rhs / k_eff;
+          double a_new = (u_new - u - dt * v) / (c.beta * dt * dt) - (1 / (2 * c.beta) - 1) * a;
+          v += dt * (1 - c.gamma) * a + dt * c.gamma * a_new;
+          u = u_new;
+          a = a_new;
+          f = f_new;
+          if (s < T)
+            q[s] = u;
+          const double e = 0.5 * (v * v + w2 * u * u);
+          if (s == 1) // the impulse is fully delivered (generalized-alpha spreads it over 2 steps)
+            energy0 = e;
+          if (s == T)
+            energyT = e;
+        }
+    }
+
+    std::string
+    join(const std::vector<std::string> &v)
+    {
+      std::string s;
+      for (const auto &x : v)
+        s += (s.empty() ? "" : ",") + x;
+      return s;
+    }
+  } // namespace
+
+  PrecomputeReport
+  precompute_impulse_responses(const Scene &scene, const PrecomputeOptions &options)
+  {
+    const auto t_start = Clock::now();
+    int        rank = 0, size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    const auto log = [&](const std::string &s) {
+      if (rank == 0 && options.log)
+        options.log(s);
+    };
+    if (options.output.empty())
+      throw InputError("precompute: no output file given");
+    if (scene.fixed_surfaces.empty())
+      throw InputError("precompute: the scene fixes no surface; a free body has rigid modes "
+                       "(non-grounded objects are not supported yet)");
+    if (scene.gravity_enabled)
+      log("note: gravity is a constant load and is not part of the impulse responses");
+
+    PrecomputeReport rep;
+    rep.ranks          = size;
+    rep.length         = options.length.value_or(scene.model.length);
+    rep.double_storage = options.double_storage.value_or(scene.model.double_storage);
+    const unsigned T   = rep.length;
+
+    // 1. FEM matrices on the free DoFs, and the vertex sets.
+    auto                  t0 = Clock::now();
+    ElasticDynamics       fem(scene);
+    const DenseSystem     sys = fem.dense_free_system();
+    const SurfaceMesh     b   = fem.boundary();
+    const auto            out_v = select_vertices(scene.model.outputs, b, sys, "outputs");
+    const auto            in_v  = select_vertices(scene.model.inputs, b, sys, "inputs");
+    {
+      const std::set<unsigned> outs(out_v.begin(), out_v.end());
+      for (const unsigned v : in_v)
+        if (!outs.count(v))
+          throw InputError("model: every input vertex must also be an output (the contact "
+                           "solve needs H_CC[0]); node " + std::to_string(b.node_tags[v]) +
+                           " is not");
+    }
+    const unsigned n   = sys.n_free;
+    const unsigned nin = 3 * in_v.size(), nout = 3 * out_v.size();
+    rep.n_free    = n;
+    rep.n_inputs  = nin;
+    rep.n_outputs = nout;
+    rep.seconds_fem = since(t0);
+    if (n > 12000)
+      throw InputError("precompute: " + std::to_string(n) +
+                       " free DoFs is beyond the dense modal route (12000); use fe_degree 1 "
+                       "or a coarser mesh");
+    log("FEM: " + std::to_string(n) + " free DoFs; model " + std::to_string(nout) +
+        " outputs x " + std::to_string(nin) + " inputs x " + std::to_string(T) + " samples (" +
+        (rep.double_storage ? "double" : "float") + ")");
+
+    // 2. All modes: K phi = w^2 M phi, M-orthonormal (LAPACK dsygvd on rank 0, broadcast so
+    //    that every rank uses the same bits).
+    t0 = Clock::now();
+    std::vector<double> w2(n), phi(sys.stiffness); // phi: column-major eigenvectors
+    if (rank == 0)
+      {
+        // One BLAS thread: the eigenvectors' bits depend on the thread count, and a run under
+        // mpirun (one core per rank) must give the serial run's file exactly.
+        const int threads = openblas_get_num_threads ? openblas_get_num_threads() : 1;
+        if (openblas_set_num_threads)
+          openblas_set_num_threads(1);
+        std::vector<double> m = sys.mass;
+        const int itype = 1, N = static_cast<int>(n);
+        int       info  = 0, lwork = -1, liwork = -1, iwq = 0;
+        double    wq    = 0;
+        dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), &wq, &lwork,
+                &iwq, &liwork, &info);
+        lwork  = static_cast<int>(wq);
+        liwork = iwq;
+        std::vector<double> work(lwork);
+        std::vector<int>    iwork(liwork);
+        dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), work.data(),
+                &lwork, iwork.data(), &liwork, &info);
+        if (openblas_set_num_threads)
+          openblas_set_num_threads(threads);
+        if (info != 0)
+          throw std::runtime_error("dsygvd failed (info " + std::to_string(info) + ")");
+      }
+    MPI_Bcast(w2.data(), n, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(phi.data(), static_cast<int>(phi.size()), MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    rep.seconds_eigen = since(t0);
+    if (w2[0] <= 0)
+      throw std::runtime_error("the fixed system has a non-positive eigenvalue");
+    rep.lowest_frequency_hz  = std::sqrt(w2[0]) / (2 * M_PI);
+    rep.highest_frequency_hz = std::sqrt(w2[n - 1]) / (2 * M_PI);
+    rep.lowest_damping_ratio = 1e300;
+    for (unsigned i = 0; i < n; ++i)
+      {
+        const double w = std::sqrt(w2[i]);
+        rep.lowest_damping_ratio =
+          std::min(rep.lowest_damping_ratio, (scene.rayleigh_alpha + scene.rayleigh_beta * w2[i]) / (2 * w));
+      }
+    log("modes: " + std::to_string(rep.seconds_eigen) + " s; f = " +
+        std::to_string(rep.lowest_frequency_hz) + " .. " +
+        std::to_string(rep.highest_frequency_hz) + " Hz");
+
+    // 3. Modal responses h[s][i] and the energy left at T.
+    const Coefficients  coef = coefficients(scene);
+    std::vector<double> h(static_cast<size_t>(T) * n), q(T), e0(n), eT(n);
+    for (unsigned i = 0; i < n; ++i)
+      {
+        modal_response(scene, coef, w2[i], q.data(), T, e0[i], eT[i]);
+        for (unsigned s = 0; s < T; ++s)
+          h[static_cast<size_t>(s) * n + i] = q[s];
+      }
+    // Row-major Phi restricted to the input and output DoFs (DoF order: 3 * vertex + axis).
+    const auto restrict_rows = [&](const std::vector<unsigned> &verts) {
+      std::vector<double> r(3 * verts.size() * static_cast<size_t>(n));
+      for (size_t k = 0; k < verts.size(); ++k)
+        for (unsigned d = 0; d < 3; ++d)
+          {
+            const int f = sys.vertex_dof_to_free[3 * b.mesh_vertex[verts[k]] + d];
+            for (unsigned i = 0; i < n; ++i)
+              r[(3 * k + d) * n + i] = phi[static_cast<size_t>(i) * n + f];
+          }
+      return r;
+    };
+    const std::vector<double> phi_in = restrict_rows(in_v), phi_out = restrict_rows(out_v);
+    phi.clear();
+    phi.shrink_to_fit();
+    {
+      double sum = 0;
+      for (unsigned k = 0; k < nin; ++k)
+        {
+          double a = 0, z = 0;
+          for (unsigned i = 0; i < n; ++i)
+            {
+              const double p2 = phi_in[static_cast<size_t>(k) * n + i] * phi_in[static_cast<size_t>(k) * n + i];
+              a += p2 * eT[i];
+              z += p2 * e0[i];
+            }
+          rep.energy_left_max = std::max(rep.energy_left_max, a / z);
+          sum += a / z;
+        }
+      rep.energy_left_mean = sum / nin;
+    }
+    log("energy left after T = " + std::to_string(T) + " steps: mean " +
+        std::to_string(rep.energy_left_mean) + ", max " + std::to_string(rep.energy_left_max));
+
+    // 4. The file: metadata first, then H in chunks of inputs, each marked done when written.
+    const size_t   per_input = static_cast<size_t>(T) * nout;
+    const size_t   scalar    = rep.double_storage ? 8 : 4;
+    const unsigned chunk =
+      options.inputs_per_chunk > 0
+        ? options.inputs_per_chunk
+        : static_cast<unsigned>(std::clamp<size_t>(64000000 / (per_input * scalar), 1, 256));
+    const unsigned n_chunks = (nin + chunk - 1) / chunk;
+    rep.n_chunks = n_chunks;
+    rep.bytes    = static_cast<double>(per_input) * nin * scalar;
+
+    std::ostringstream spec;
+    spec.precision(17);
+    spec << "mesh " << file_hash(scene.mesh_file) << " p " << scene.fe_degree << " E "
+         << scene.youngs_modulus << " nu " << scene.poisson_ratio << " rho " << scene.density
+         << " a " << scene.rayleigh_alpha << " b " << scene.rayleigh_beta << " int "
+         << static_cast<int>(scene.integrator) << " rho_inf " << scene.rho_inf << " dt "
+         << scene.time_step << " T " << T << " dbl " << rep.double_storage << " chunk " << chunk
+         << " fixed " << join(scene.fixed_surfaces) << " in";
+    for (const unsigned v : in_v)
+      spec << ' ' << b.node_tags[v];
+    spec << " out";
+    for (const unsigned v : out_v)
+      spec << ' ' << b.node_tags[v];
+    const std::string spec_text = spec.str();
+    const std::string spec_id   = std::to_string(std::hash<std::string>{}(spec_text));
+
+    std::vector<long long>     done(n_chunks, 0);
+    std::unique_ptr<h5::Writer> w;
+    t0 = Clock::now();
+    double write_seconds = 0;
+    if (rank == 0)
+      {
+        w = std::make_unique<h5::Writer>(options.output, options.restart ? h5::Writer::Mode::create
+                                                                         : h5::Writer::Mode::resume);
+        w->keep_partial(true);
+        if (w->resumed() && w->string_attribute("/", "spec_id") == spec_id &&
+            w->exists("/progress/chunk_done"))
+          {
+            done = w->read_int("/progress/chunk_done");
+            for (const auto x : done)
+              rep.chunks_resumed += x != 0;
+            log("resuming " + options.output + ".part: " + std::to_string(rep.chunks_resumed) +
+                " of " + std::to_string(n_chunks) + " chunks already done");
+          }
+        else
+          {
+            if (w->resumed())
+              {
+                log("the partial file " + options.output + ".part is from another spec: starting over");
+                w.reset();
+                w = std::make_unique<h5::Writer>(options.output, h5::Writer::Mode::create);
+                w->keep_partial(true);
+              }
+            {
+              auto &f = *w;
+              f.attribute("/", "format", std::string("irdm-impulse-response"));
+              f.attribute("/", "format_version", 1LL);
+              f.attribute("/", "irdm_version", std::string(IRDM_VERSION));
+              f.attribute("/", "spec_id", spec_id);
+              f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; H in m/N"));
+              f.attribute("/", "convention",
+                          std::string("u[n] = sum_s H[s] f[n-s]; f[n] is the force held during "
+                                      "step n (impulse = f * time_step); H[s] is the FEM "
+                                      "displacement s steps after a unit force sample at step "
+                                      "0 from rest; H[0] is the direct feed-through; IRDM "
+                                      "step n is FEM time (n+1)*time_step"));
+              f.attribute("/", "time_step_s", scene.time_step);
+              f.attribute("/", "length", static_cast<long long>(T));
+              f.attribute("/", "storage", std::string(rep.double_storage ? "double" : "float"));
+              f.attribute("/", "route", std::string("modal (all modes, exact)"));
+              f.attribute("/", "integrator",
+                          std::string(scene.integrator == Integrator::newmark ? "newmark"
+                                                                              : "generalized_alpha"));
+              f.attribute("/", "rho_inf", scene.rho_inf);
+              f.attribute("/", "alpha_m", coef.alpha_m);
+              f.attribute("/", "alpha_f", coef.alpha_f);
+              f.attribute("/", "gamma", coef.gamma);
+              f.attribute("/", "beta", coef.beta);
+              f.attribute("/", "youngs_modulus_Pa", scene.youngs_modulus);
+              f.attribute("/", "poisson_ratio", scene.poisson_ratio);
+              f.attribute("/", "density_kg_m3", scene.density);
+              f.attribute("/", "rayleigh_alpha_1_s", scene.rayleigh_alpha);
+              f.attribute("/", "rayleigh_beta_s", scene.rayleigh_beta);
+              f.attribute("/", "fe_degree", static_cast<long long>(scene.fe_degree));
+              f.attribute("/", "mesh_file", scene.mesh_file);
+              f.attribute("/", "mesh_hash", file_hash(scene.mesh_file));
+              f.attribute("/", "fixed_surfaces", join(scene.fixed_surfaces));
+              f.attribute("/", "scene", scene.json_text);
+              f.attribute("/", "free_dofs", static_cast<long long>(n));
+
+              const auto write_vertices = [&](const std::string &g, const std::vector<unsigned> &vs) {
+                f.create_group(g);
+                std::vector<long long> tags;
+                std::vector<double>    xyz;
+                for (const unsigned v : vs)
+                  {
+                    tags.push_back(b.node_tags[v]);
+                    xyz.insert(xyz.end(), b.coordinates[v].begin(), b.coordinates[v].end());
+                  }
+                f.write(g + "/node_tags", {vs.size()}, tags.data());
+                f.write(g + "/coordinates", {vs.size(), 3}, xyz.data());
+              };
+              write_vertices("/outputs", out_v);
+              write_vertices("/inputs", in_v);
+              // Inputs as rows of the outputs (so the contact solve can read H_CC).
+              std::vector<long long> in_as_out;
+              for (const unsigned v : in_v)
+                in_as_out.push_back(std::find(out_v.begin(), out_v.end(), v) - out_v.begin());
+              f.write("/inputs/output_index", {in_as_out.size()}, in_as_out.data());
+
+              // Surface triangles among the outputs, for display and for probes.
+              std::vector<long long> local(b.mesh_vertex.size(), -1), tris, tri_surface;
+              for (size_t i = 0; i < out_v.size(); ++i)
+                local[out_v[i]] = static_cast<long long>(i);
+              std::vector<std::string> names;
+              for (unsigned t = 0; t < b.triangles.size(); ++t)
+                {
+                  const auto &tri = b.triangles[t];
+                  if (local[tri[0]] < 0 || local[tri[1]] < 0 || local[tri[2]] < 0)
+                    continue;
+                  for (const unsigned v : tri)
+                    tris.push_back(local[v]);
+                  auto it = std::find(names.begin(), names.end(), b.triangle_surface[t]);
+                  if (it == names.end())
+                    it = names.insert(names.end(), b.triangle_surface[t]);
+                  tri_surface.push_back(it - names.begin());
+                }
+              f.create_group("/surface");
+              f.write("/surface/triangles", {tri_surface.size(), 3}, tris.data());
+              f.write("/surface/triangle_surface", {tri_surface.size()}, tri_surface.data());
+              f.attribute("/surface", "surface_names", join(names));
+
+              f.create_group("/modes");
+              std::vector<double> hz(n), zeta(n);
+              for (unsigned i = 0; i < n; ++i)
+                {
+                  const double wi = std::sqrt(w2[i]);
+                  hz[i]   = wi / (2 * M_PI);
+                  zeta[i] = (scene.rayleigh_alpha + scene.rayleigh_beta * w2[i]) / (2 * wi);
+                }
+              f.write("/modes/frequency_Hz", {n}, hz.data());
+              f.write("/modes/damping_ratio", {n}, zeta.data());
+
+              f.create_group("/impulse_response");
+              f.create_dataset("/impulse_response/H", {nin, T, nout}, rep.double_storage, 1);
+              f.attribute("/impulse_response/H", "layout",
+                          std::string("[input DoF][step s][output DoF]; DoF = 3 * vertex + axis"));
+              f.create_group("/progress");
+              f.write("/progress/chunk_done", {n_chunks}, done.data());
+              f.flush();
+            }
+          }
+      }
+    MPI_Bcast(done.data(), n_chunks, MPI_LONG_LONG, 0, MPI_COMM_WORLD);
+    write_seconds += since(t0);
+
+    // 5. Chunks: A[(k, s), i] = h[s][i] phi_in[k][i], then H_chunk = A Phi_out^T (one GEMM).
+    //    Chunk c belongs to rank c % size; rank 0 receives and writes in order.
+    const auto compute_chunk = [&](const unsigned c, auto *result) {
+      using Scalar     = std::remove_pointer_t<decltype(result)>;
+      const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
+      std::vector<Scalar> A(static_cast<size_t>(nk) * T * n), B(phi_out.begin(), phi_out.end());
+      for (unsigned k = 0; k < nk; ++k)
+        for (unsigned s = 0; s < T; ++s)
+          {
+            Scalar       *row = &A[(static_cast<size_t>(k) * T + s) * n];
+            const double *hs  = &h[static_cast<size_t>(s) * n];
+            const double *pk  = &phi_in[static_cast<size_t>(k0 + k) * n];
+            for (unsigned i = 0; i < n; ++i)
+              row[i] = static_cast<Scalar>(hs[i] * pk[i]);
+          }
+      gemm_abt(static_cast<int>(nk * T), static_cast<int>(nout), static_cast<int>(n), A.data(),
+               B.data(), result);
+    };
+    // Each GEMM runs on one BLAS thread so that a chunk's bits do not depend on how the work
+    // is split; a serial run computes several chunks at once on threads of its own instead.
+    const int blas_threads = openblas_get_num_threads ? openblas_get_num_threads() : 1;
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(1);
+    const unsigned workers =
+      size == 1 ? std::max(1u, std::min(4u, std::thread::hardware_concurrency())) : 1u;
+    const auto run_chunks = [&](auto zero) {
+      using Scalar = decltype(zero);
+      const MPI_Datatype type = sizeof(Scalar) == 8 ? MPI_DOUBLE : MPI_FLOAT;
+      std::vector<std::vector<Scalar>> buffers(workers,
+                                               std::vector<Scalar>(static_cast<size_t>(chunk) * per_input));
+      double   compute_seconds = 0;
+      unsigned finished        = rep.chunks_resumed;
+      const auto store = [&](const unsigned c, const Scalar *data) {
+        const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
+        const auto     tw = Clock::now();
+        w->write_rows("/impulse_response/H", k0, nk, data);
+        const long long one = 1;
+        w->write_rows("/progress/chunk_done", c, 1, &one);
+        w->flush();
+        write_seconds += since(tw);
+        ++finished;
+        log("chunk " + std::to_string(finished) + "/" + std::to_string(n_chunks) + " (inputs " +
+            std::to_string(k0) + ".." + std::to_string(k0 + nk - 1) + "), " +
+            std::to_string(static_cast<int>(since(t_start))) + " s elapsed");
+      };
+      std::vector<unsigned> todo;
+      for (unsigned c = 0; c < n_chunks; ++c)
+        if (!done[c])
+          todo.push_back(c);
+      if (size == 1)
+        for (size_t first = 0; first < todo.size(); first += workers)
+          {
+            const size_t n_batch = std::min<size_t>(workers, todo.size() - first);
+            const auto   tc      = Clock::now();
+            std::vector<std::thread> pool;
+            for (size_t b = 1; b < n_batch; ++b)
+              pool.emplace_back([&, b] { compute_chunk(todo[first + b], buffers[b].data()); });
+            compute_chunk(todo[first], buffers[0].data());
+            for (auto &t : pool)
+              t.join();
+            compute_seconds += since(tc);
+            for (size_t b = 0; b < n_batch; ++b)
+              store(todo[first + b], buffers[b].data());
+          }
+      else
+        for (const unsigned c : todo)
+          {
+            const int      owner = static_cast<int>(c % size);
+            const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
+            const size_t   count = static_cast<size_t>(nk) * per_input;
+            if (owner == rank)
+              {
+                const auto tc = Clock::now();
+                compute_chunk(c, buffers[0].data());
+                compute_seconds += since(tc);
+                if (rank != 0)
+                  MPI_Send(buffers[0].data(), static_cast<int>(count), type, 0,
+                           static_cast<int>(c), MPI_COMM_WORLD);
+              }
+            else if (rank == 0)
+              MPI_Recv(buffers[0].data(), static_cast<int>(count), type, owner,
+                       static_cast<int>(c), MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            if (rank == 0)
+              store(c, buffers[0].data());
+          }
+      return compute_seconds;
+    };
+    double compute_seconds = rep.double_storage ? run_chunks(0.0) : run_chunks(0.0f);
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(blas_threads);
+    MPI_Allreduce(MPI_IN_PLACE, &compute_seconds, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    rep.seconds_responses = compute_seconds;
+    if (rank == 0)
+      {
+        const auto tw = Clock::now();
+        w->attribute("/", "precompute_ranks", static_cast<long long>(size));
+        w->commit();
+        write_seconds += since(tw);
+      }
+    rep.seconds_write = write_seconds;
+    rep.seconds_total = since(t_start);
+    log("wrote " + options.output + " (" + std::to_string(rep.bytes / 1e6) + " MB of H) in " +
+        std::to_string(rep.seconds_total) + " s");
+    return rep;
+  }
+} // namespace irdm::fem

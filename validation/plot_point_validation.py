@@ -1,0 +1,39 @@
+"""Charts for one point-validation scene: reads series.csv and truncation.csv in the folder
+given, writes force.png, error.png, truncation.png. Run with Debian's /usr/bin/python3."""
+import sys, os
+import numpy as np
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+d = sys.argv[1]
+s = np.genfromtxt(os.path.join(d, "series.csv"), delimiter=",", names=True)
+names = s.dtype.names
+t = s["time_s"]
+probes = sorted({n.split("_fem_F")[0] for n in names if "_fem_F" in n})
+
+fig, ax = plt.subplots(figsize=(7, 3.6))
+for p in probes:
+    f = np.sqrt(sum(s[f"{p}_fem_F{c}_N"] ** 2 for c in "xyz"))
+    g = np.sqrt(sum(s[f"{p}_irdm_F{c}_N"] ** 2 for c in "xyz"))
+    ax.plot(t, f, "-", lw=2.5, alpha=0.5, label=f"{p}: FEM")
+    ax.plot(t, g, "k--", lw=1, label=f"{p}: IRDM")
+ax.set_xlabel("time (s)"); ax.set_ylabel("|contact force| (N)"); ax.legend(fontsize=8)
+ax.grid(alpha=0.3); fig.tight_layout(); fig.savefig(os.path.join(d, "force.png"), dpi=80)
+
+fig, ax = plt.subplots(figsize=(7, 3.6))
+eps = 1e-18
+ax.semilogy(t, s["force_error_rel"] + eps, label="force, double, untruncated")
+ax.semilogy(t, s["disp_rms_error_rel"] + eps, label="surface RMS, double, untruncated")
+ax.semilogy(t, s["disp_rms_error_rel_float"] + eps, label="surface RMS, float")
+ax.semilogy(t, s["force_error_rel_T500"] + eps, label="force, T = 500")
+ax.set_xlabel("time (s)"); ax.set_ylabel("error / peak"); ax.legend(fontsize=8)
+ax.grid(alpha=0.3); fig.tight_layout(); fig.savefig(os.path.join(d, "error.png"), dpi=80)
+
+tr = np.genfromtxt(os.path.join(d, "truncation.csv"), delimiter=",", names=True)
+fig, ax = plt.subplots(figsize=(5, 3.6))
+ax.loglog(tr["T_steps"], tr["force_rel_l2"] + eps, "o-", label="force rel. L2")
+ax.loglog(tr["T_steps"], tr["disp_rms_rel"] + eps, "s-", label="surface RMS / peak")
+ax.loglog(tr["T_steps"], tr["disp_max_rel"] + eps, "^-", label="surface max / peak")
+ax.set_xlabel("T (steps of 2 ms)"); ax.set_ylabel("error"); ax.legend(fontsize=8)
+ax.grid(alpha=0.3, which="both"); fig.tight_layout(); fig.savefig(os.path.join(d, "truncation.png"), dpi=80)
