@@ -232,11 +232,12 @@ and the next run with the same spec resumes it.
     if (rank == 0)
       std::printf("model %s: %u outputs x %u inputs x %u samples, %.1f MB (%s), %d rank(s)\n"
                   "time: total %.2f s = FEM %.2f + modes %.2f + responses %.2f + write %.2f "
-                  "(+ other)\nenergy left after T: mean %.3g, max %.3g\n",
+                  "(+ other)\nenergy left after T: mean %.3g, max %.3g; static compliance beyond T: "
+                  "mean %.3g, max %.3g\n",
                   o.output.c_str(), r.n_outputs, r.n_inputs, r.length, r.bytes / 1e6,
                   r.double_storage ? "double" : "float", r.ranks, r.seconds_total,
                   r.seconds_fem, r.seconds_eigen, r.seconds_responses, r.seconds_write,
-                  r.energy_left_mean, r.energy_left_max);
+                  r.energy_left_mean, r.energy_left_max, r.static_left_mean, r.static_left_max);
     return 0;
   }
 

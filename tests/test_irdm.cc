@@ -20,6 +20,29 @@
 namespace fs = std::filesystem;
 using namespace irdm;
 
+// Counts heap allocations while armed: the haptic step must make none.
+static bool g_count_allocations = false;
+static long g_allocations       = 0;
+void *
+operator new(std::size_t n)
+{
+  if (g_count_allocations)
+    ++g_allocations;
+  if (void *p = std::malloc(n ? n : 1))
+    return p;
+  throw std::bad_alloc();
+}
+void
+operator delete(void *p) noexcept
+{
+  std::free(p);
+}
+void
+operator delete(void *p, std::size_t) noexcept
+{
+  std::free(p);
+}
+
 namespace
 {
   // A 0.25 m cantilever (beam_2), soft, damped, generalized-alpha; a probe pushes the top face
@@ -133,8 +156,11 @@ TEST(Runtime, UntruncatedIrdmReproducesTheFem)
         target.displacement[d] = p.depth.at(t) * p.direction[d];
       target.direction  = p.direction;
       target.unilateral = true;
-      ASSERT_TRUE(irdm.step(&target, 1));
+      g_count_allocations = true;
+      const bool stepped  = irdm.step(&target, 1);
       irdm.surface_displacement(u.data());
+      g_count_allocations = false;
+      ASSERT_TRUE(stepped);
       for (int d = 0; d < 3; ++d)
         {
           fmax = std::max(fmax, std::abs(r.probe_force.at("finger")[n + 1][d]));
@@ -149,6 +175,7 @@ TEST(Runtime, UntruncatedIrdmReproducesTheFem)
           uerr = std::max(uerr, std::abs(u[j] - fem_u));
         }
     }
+  EXPECT_EQ(g_allocations, 0) << "heap allocations inside step() / surface_displacement()";
   EXPECT_GT(fmax, 1e-4); // the probe did push
   EXPECT_GE(switches, 2); // it touched and let go
   EXPECT_LT(ferr / fmax, 1e-9);
@@ -252,4 +279,36 @@ TEST(Precompute, TwoMpiRanksGiveTheSerialResult)
   EXPECT_EQ(differ, 0u) << "entries of H that differ between 1 and 2 ranks";
   h5::Reader r(parallel);
   EXPECT_EQ(r.double_attribute("/", "precompute_ranks"), 2);
+}
+
+TEST(Precompute, ResumesAnInterruptedRunWithoutRedoingChunks)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  fem::PrecomputeOptions o;
+  o.output           = tmp("resume.h5");
+  o.inputs_per_chunk = 10;
+  o.restart          = true;
+  const auto clean   = fem::precompute_impulse_responses(scene, o);
+  const auto reference = load_model(o.output);
+  fs::remove(o.output);
+
+  // Interrupt after the third chunk is on disk (the progress callback throws).
+  int chunks = 0;
+  o.log      = [&](const std::string &line) {
+    if (line.rfind("chunk", 0) == 0 && ++chunks == 3)
+      throw std::runtime_error("interrupted");
+  };
+  EXPECT_THROW(fem::precompute_impulse_responses(scene, o), std::runtime_error);
+  EXPECT_FALSE(fs::exists(o.output)) << "no file under the final name before it is complete";
+  EXPECT_TRUE(fs::exists(o.output + ".part"));
+
+  o.log     = {};
+  o.restart = false;
+  const auto resumed = fem::precompute_impulse_responses(scene, o);
+  EXPECT_EQ(resumed.chunks_resumed, 3u);
+  EXPECT_EQ(resumed.n_chunks, clean.n_chunks);
+  EXPECT_FALSE(fs::exists(o.output + ".part"));
+  const auto m = load_model(o.output);
+  ASSERT_EQ(m.h_double.size(), reference.h_double.size());
+  EXPECT_TRUE(m.h_double == reference.h_double) << "the resumed file differs from a clean run";
 }

@@ -37,3 +37,12 @@ ax.loglog(tr["T_steps"], tr["disp_rms_rel"] + eps, "s-", label="surface RMS / pe
 ax.loglog(tr["T_steps"], tr["disp_max_rel"] + eps, "^-", label="surface max / peak")
 ax.set_xlabel("T (steps of 2 ms)"); ax.set_ylabel("error"); ax.legend(fontsize=8)
 ax.grid(alpha=0.3, which="both"); fig.tight_layout(); fig.savefig(os.path.join(d, "truncation.png"), dpi=80)
+
+ts = np.genfromtxt(os.path.join(d, "timestep.csv"), delimiter=",", names=True)
+fig, ax = plt.subplots(figsize=(7, 3.6))
+for p in probes:
+    ax.plot(ts["time_s"], ts[f"{p}_fem_fine_force_N"], "-", lw=2.5, alpha=0.5, label=f"{p}: FEM, tau/10")
+    ax.plot(ts["time_s"], ts[f"{p}_irdm_force_N"], "k--", lw=1, label=f"{p}: IRDM, tau")
+ax.set_xlabel("time (s)"); ax.set_ylabel("|contact force| (N)"); ax.legend(fontsize=8)
+ax.set_title("contact phase, bilateral probes"); ax.grid(alpha=0.3); fig.tight_layout()
+fig.savefig(os.path.join(d, "timestep.png"), dpi=80)

@@ -15,6 +15,41 @@ namespace irdm
     last_nonzero_.assign(model.n_inputs, -1);
     is_active_input_.assign(model.n_inputs, 0);
     active_inputs_.reserve(model.n_inputs);
+    const size_t n = model.n_inputs;
+    if (n * n * taps_ * sizeof(double) <= (size_t(256) << 20))
+      {
+        h_cc_.resize(n * n * taps_);
+        for (size_t k = 0; k < n; ++k)
+          for (size_t i = 0; i < n; ++i)
+            {
+              const unsigned j = 3 * model.input_output_index[i / 3] + i % 3;
+              for (size_t s = 0; s < taps_; ++s)
+                h_cc_[(k * n + i) * taps_ + s] = model.h(k, s, j);
+            }
+      }
+  }
+
+  // As history_at, from the contiguous H_CC block.
+  double
+  PointInteraction::history_at_contact(const unsigned i) const
+  {
+    const size_t    n    = model_.n_inputs;
+    const long long smax = std::min<long long>(taps_ - 1, n_);
+    double          sum  = 0;
+    for (const unsigned k : active_inputs_)
+      {
+        const double *f = &history_[static_cast<size_t>(k) * taps_];
+        const double *h = &h_cc_[(k * n + i) * taps_];
+        // s = 1 .. smax reads slots (n_ - s) mod taps: two contiguous runs, walked backwards.
+        const long long first = (n_ - 1) % taps_; // slot of s = 1
+        const long long run1  = std::min<long long>(smax, first + 1);
+        for (long long s = 1; s <= run1; ++s)
+          sum += h[s] * f[first - (s - 1)];
+        const long long top = taps_ - 1;
+        for (long long s = run1 + 1; s <= smax; ++s)
+          sum += h[s] * f[top - (s - run1 - 1)];
+      }
+    return sum;
   }
 
   void
@@ -98,8 +133,9 @@ namespace irdm
             double h = 0;
             for (int i = 0; i < 3; ++i)
               h += probes[p].weights[i] *
-                   (model_.double_storage ? history_at(model_.h_double.data(), out_dof(p, i, d))
-                                          : history_at(model_.h_float.data(), out_dof(p, i, d)));
+                   (!h_cc_.empty() ? history_at_contact(in_dof(p, i, d))
+                    : model_.double_storage ? history_at(model_.h_double.data(), out_dof(p, i, d))
+                                            : history_at(model_.h_float.data(), out_dof(p, i, d)));
             h_probe[3 * p + d] = h;
             gap[3 * p + d]     = probes[p].displacement[d] - h;
           }

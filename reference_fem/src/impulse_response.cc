@@ -284,12 +284,15 @@ namespace irdm::fem
 
     // 3. Modal responses h[s][i] and the energy left at T.
     const Coefficients  coef = coefficients(scene);
-    std::vector<double> h(static_cast<size_t>(T) * n), q(T), e0(n), eT(n);
+    std::vector<double> h(static_cast<size_t>(T) * n), q(T), e0(n), eT(n), gain(n);
     for (unsigned i = 0; i < n; ++i)
       {
         modal_response(scene, coef, w2[i], q.data(), T, e0[i], eT[i]);
         for (unsigned s = 0; s < T; ++s)
-          h[static_cast<size_t>(s) * n + i] = q[s];
+          {
+            h[static_cast<size_t>(s) * n + i] = q[s];
+            gain[i] += q[s]; // sum_{s<T} h_i[s]; the untruncated sum is the static gain 1/w^2
+          }
       }
     // Row-major Phi restricted to the input and output DoFs (DoF order: 3 * vertex + axis).
     const auto restrict_rows = [&](const std::vector<unsigned> &verts) {
@@ -307,23 +310,30 @@ namespace irdm::fem
     phi.clear();
     phi.shrink_to_fit();
     {
-      double sum = 0;
+      double sum = 0, sum_static = 0;
       for (unsigned k = 0; k < nin; ++k)
         {
-          double a = 0, z = 0;
+          double a = 0, z = 0, g = 0, g_all = 0;
           for (unsigned i = 0; i < n; ++i)
             {
               const double p2 = phi_in[static_cast<size_t>(k) * n + i] * phi_in[static_cast<size_t>(k) * n + i];
               a += p2 * eT[i];
               z += p2 * e0[i];
+              g += p2 * gain[i];
+              g_all += p2 / w2[i];
             }
           rep.energy_left_max = std::max(rep.energy_left_max, a / z);
           sum += a / z;
+          rep.static_left_max = std::max(rep.static_left_max, std::abs(1 - g / g_all));
+          sum_static += std::abs(1 - g / g_all);
         }
       rep.energy_left_mean = sum / nin;
+      rep.static_left_mean = sum_static / nin;
     }
     log("energy left after T = " + std::to_string(T) + " steps: mean " +
-        std::to_string(rep.energy_left_mean) + ", max " + std::to_string(rep.energy_left_max));
+        std::to_string(rep.energy_left_mean) + ", max " + std::to_string(rep.energy_left_max) +
+        "; static compliance missing: mean " + std::to_string(rep.static_left_mean) + ", max " +
+        std::to_string(rep.static_left_max));
 
     // 4. The file: metadata first, then H in chunks of inputs, each marked done when written.
     const size_t   per_input = static_cast<size_t>(T) * nout;

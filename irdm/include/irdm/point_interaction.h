@@ -83,7 +83,14 @@ namespace irdm
     double
     history_at(const Scalar *H, unsigned output_dof) const;
 
+    double
+    history_at_contact(unsigned input_row) const;
+
     const ImpulseResponseModel &model_;
+    // H_CC: the responses of the inputs at the inputs, [k][i][s] contiguous in s, so that the
+    // force loop reads the contact rows' history as dot products (empty if too large: then
+    // the force loop reads the strided model directly).
+    std::vector<double>         h_cc_;
     unsigned                    taps_;
     long long                   n_ = 0; // steps taken
     std::vector<double>         history_;      // [input DoF][slot], slot = step % taps

@@ -42,6 +42,10 @@ namespace irdm::fem
     // Energy (kinetic + strain) left at step T after a unit impulse, relative to the energy
     // at step 1, once the impulse is delivered: largest and mean over the inputs. Tells whether T truncates.
     double energy_left_max = 0, energy_left_mean = 0;
+    // Driving-point static compliance not captured by the first T samples, |1 - sum_{s<T}
+    // H_kk[s] / (K^-1)_kk|: largest and mean over the inputs. Tells whether T truncates a held
+    // load (slow modes matter here far more than in the energy).
+    double static_left_max = 0, static_left_mean = 0;
     double lowest_frequency_hz = 0, highest_frequency_hz = 0;
     double lowest_damping_ratio = 0;
   };
