@@ -110,6 +110,8 @@ namespace irdm::fem
   RunResult
   ElasticDynamics::Impl::run(const std::function<void(double)> &progress)
   {
+    if (!(scene.duration > 0))
+      throw InputError("scene '" + scene.name + "' gives no time.duration_s: nothing to run");
     RunResult out;
     init_result(out);
     out.setup_seconds         = setup_seconds;

@@ -447,17 +447,25 @@ namespace irdm::fem
           fail(in.where + ".type", "unknown integrator '" + t +
                                      "' (newmark or generalized_alpha)");
       }
-    {
-      const Node t = top.at("time");
-      t.allow_only({"step_s", "duration_s"});
-      s.time_step = t.at("step_s").positive();
-      s.duration  = t.at("duration_s").positive();
-      const double n = s.duration / s.time_step;
-      if (std::abs(n - std::round(n)) > 1e-6 * n || std::round(n) < 1)
-        fail(t.where, "duration_s must be a whole number (>= 1) of steps");
-      if (n > 1e8)
-        fail(t.where, "more than 1e8 steps");
-    }
+    // The step defaults to the seed's tau = 2 ms; a duration is needed only to run the scene
+    // (a model spec for 'irdm precompute' does not need one).
+    s.time_step = 0.002;
+    if (top.has("time"))
+      {
+        const Node t = top.at("time");
+        t.allow_only({"step_s", "duration_s"});
+        if (t.has("step_s"))
+          s.time_step = t.at("step_s").positive();
+        if (t.has("duration_s"))
+          {
+            s.duration     = t.at("duration_s").positive();
+            const double n = s.duration / s.time_step;
+            if (std::abs(n - std::round(n)) > 1e-6 * n || std::round(n) < 1)
+              fail(t.where, "duration_s must be a whole number (>= 1) of steps");
+            if (n > 1e8)
+              fail(t.where, "more than 1e8 steps");
+          }
+      }
     if (top.has("initial_state"))
       {
         const std::string i = top.at("initial_state").string();

@@ -290,6 +290,8 @@ namespace irdm::validation
           continue;
         if (scene.probes.empty())
           throw InputError("scene '" + file + "' has no probes: nothing to validate");
+        if (!(scene.duration > 0))
+          throw InputError("scene '" + file + "' gives no time.duration_s");
         ++ran;
         const unsigned N = scene.n_steps();
         log << "== " << scene.name << ": " << N << " steps of " << scene.time_step << " s\n";
