@@ -127,7 +127,7 @@ namespace irdm
     std::array<contact::ProbeRule, contact::max_probes> rules;
     for (int p = 0; p < P; ++p)
       {
-        rules[p] = {probes[p].direction, probes[p].unilateral};
+        rules[p] = {probes[p].direction, probes[p].unilateral, probes[p].present};
         for (int d = 0; d < 3; ++d)
           {
             double h = 0;

@@ -50,7 +50,8 @@ namespace irdm::fem
     for (int p = 0; p < P; ++p)
       {
         const double depth = scene.probes[p].depth.at(t);
-        rules[p]           = {scene.probes[p].direction, scene.probes[p].unilateral};
+        rules[p]           = {scene.probes[p].direction, scene.probes[p].unilateral,
+                              t <= scene.probes[p].until};
         for (int d = 0; d < 3; ++d)
           {
             double u_probe = 0;

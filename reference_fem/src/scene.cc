@@ -533,7 +533,7 @@ namespace irdm::fem
     if (top.has("probes"))
       for (const auto &n : top.at("probes").array())
         {
-          n.allow_only({"name", "surface", "direction", "unilateral", "path", "depth"});
+          n.allow_only({"name", "surface", "direction", "unilateral", "path", "depth", "until_s"});
           Probe p;
           p.name    = unique(n, parse_name(n, "probe" + std::to_string(names.size())));
           p.surface = n.at("surface").string();
@@ -544,6 +544,8 @@ namespace irdm::fem
           p.direction = {d[0] / norm, d[1] / norm, d[2] / norm};
           if (n.has("unilateral"))
             p.unilateral = n.at("unilateral").boolean();
+          if (n.has("until_s"))
+            p.until = n.at("until_s").positive();
           std::vector<Node> samples;
           parse_samples(n.at("path"), "points_m", p.path.times, samples);
           for (const auto &x : samples)

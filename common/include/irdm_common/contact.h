@@ -23,6 +23,7 @@ namespace irdm::contact
   {
     std::array<double, 3> direction  = {0, 0, -1};
     bool                  unilateral = false;
+    bool                  present    = true; // false: the probe has let go for good
   };
 
   /// Solves for lambda (3P; zero on inactive probes) and sets active[p]. Returns the number
@@ -36,7 +37,7 @@ namespace irdm::contact
              rules[p].direction[2] * x[3 * p + 2];
     };
     for (int p = 0; p < P; ++p)
-      active[p] = !rules[p].unilateral || along(gap, p) > 0;
+      active[p] = rules[p].present && (!rules[p].unilateral || along(gap, p) > 0);
     lambda.setZero(3 * P);
     for (int iteration = 0; iteration <= P; ++iteration)
       {

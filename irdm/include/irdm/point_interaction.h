@@ -27,6 +27,7 @@ namespace irdm
     std::array<double, 3> displacement = {0, 0, 0}; // m, prescribed for that surface point
     std::array<double, 3> direction    = {0, 0, -1}; // unit push direction (unilateral)
     bool                  unilateral   = false;
+    bool                  present      = true; // false: no contact this step (probe lifted)
   };
 
   class PointInteraction

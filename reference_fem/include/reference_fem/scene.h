@@ -80,6 +80,7 @@ namespace irdm::fem
     bool          unilateral = true;
     History       path;  // m, points near the undeformed surface
     ScalarHistory depth; // m, along direction
+    double        until = 1e300; // s: the probe lets go for good after this time
   };
 
   /// A set of surface vertices: those of the named surfaces (all surfaces if none named),
