@@ -32,6 +32,28 @@ namespace irdm::h5
     {
       return H5Oopen(file, object.c_str(), H5P_DEFAULT);
     }
+
+    // A fixed-length string attribute that exists on obj ("" if it is not a string).
+    std::string
+    read_string_attribute(hid_t obj, const std::string &name)
+    {
+      const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
+      const hid_t ftype = H5Aget_type(attr);
+      std::string value;
+      if (H5Tget_class(ftype) == H5T_STRING && !H5Tis_variable_str(ftype))
+        {
+          value.resize(H5Tget_size(ftype));
+          const hid_t mtype = H5Tcopy(H5T_C_S1);
+          H5Tset_size(mtype, value.size());
+          H5Tset_strpad(mtype, H5T_STR_NULLPAD); // else the last character makes room for a NUL
+          H5Aread(attr, mtype, value.data());
+          H5Tclose(mtype);
+          value.resize(value.find('\0') == std::string::npos ? value.size() : value.find('\0'));
+        }
+      H5Tclose(ftype);
+      H5Aclose(attr);
+      return value;
+    }
   } // namespace
 
   Writer::Writer(const std::string &path, const Mode mode)
@@ -164,25 +186,8 @@ namespace irdm::h5
     const hid_t obj = open_object(file_, object);
     if (obj < 0)
       return "";
-    std::string value;
-    if (H5Aexists(obj, name.c_str()) > 0)
-      {
-        const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
-        const hid_t ftype = H5Aget_type(attr);
-        if (H5Tget_class(ftype) == H5T_STRING && !H5Tis_variable_str(ftype))
-          {
-            value.resize(H5Tget_size(ftype));
-            const hid_t mtype = H5Tcopy(H5T_C_S1);
-            H5Tset_size(mtype, value.size());
-            H5Tset_strpad(mtype, H5T_STR_NULLPAD);
-            H5Aread(attr, mtype, value.data());
-            H5Tclose(mtype);
-            value.resize(value.find('\0') == std::string::npos ? value.size()
-                                                                : value.find('\0'));
-          }
-        H5Tclose(ftype);
-        H5Aclose(attr);
-      }
+    const std::string value =
+      H5Aexists(obj, name.c_str()) > 0 ? read_string_attribute(obj, name) : std::string();
     H5Oclose(obj);
     return value;
   }
@@ -479,22 +484,7 @@ namespace irdm::h5
         throw InputError("'" + path_ + "' has no attribute '" + name +
                          "' on '" + object + "'");
       }
-    const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
-    const hid_t ftype = H5Aget_type(attr);
-    std::string value;
-    if (H5Tget_class(ftype) == H5T_STRING && !H5Tis_variable_str(ftype))
-      {
-        value.resize(H5Tget_size(ftype));
-        const hid_t mtype = H5Tcopy(H5T_C_S1);
-        H5Tset_size(mtype, value.size());
-        H5Tset_strpad(mtype, H5T_STR_NULLPAD); // else the last character makes room for a NUL
-        H5Aread(attr, mtype, value.data());
-        H5Tclose(mtype);
-        value.resize(value.find('\0') == std::string::npos ? value.size()
-                                                            : value.find('\0'));
-      }
-    H5Tclose(ftype);
-    H5Aclose(attr);
+    const std::string value = read_string_attribute(obj, name);
     H5Oclose(obj);
     return value;
   }

@@ -19,19 +19,13 @@
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/mesh.h>
 
+#include "integrator.h"
+
 #include <map>
 
 namespace irdm::fem
 {
   using namespace dealii;
-
-  /// Time-integration coefficients; Newmark average acceleration is alpha_m = alpha_f = 0.
-  struct IntegratorCoefficients
-  {
-    double alpha_m = 0, alpha_f = 0, gamma = 0.5, beta = 0.25;
-    static IntegratorCoefficients
-    from_scene(const Scene &s);
-  };
 
   /// A sparse symmetric positive definite matrix factorized once (MUMPS Cholesky through
   /// PETSc, serial); every solve reuses the factors. About 9x faster per solve than UMFPACK

@@ -162,12 +162,8 @@ namespace irdm::fem
     if (scene.outputs.vtu_every > 0 && !scene.outputs.directory.empty())
       write_vtu(u, 0, 0.0, vtu_records);
 
-    const double c_m = (1 - c.alpha_m) / (c.beta * dt * dt);
-    const double c_c = (1 - c.alpha_f) * c.gamma / (c.beta * dt);
-    const double m_v = (1 - c.alpha_m) / (c.beta * dt);
-    const double m_a = (1 - c.alpha_m) / (2 * c.beta) - 1;
-    const double c_v = (1 - c.alpha_f) * c.gamma / c.beta - 1;
-    const double c_a = (1 - c.alpha_f) * dt * (c.gamma / (2 * c.beta) - 1);
+    const StepCoefficients k(c, dt);
+    const double c_m = k.c_m, c_c = k.c_c, m_v = k.m_v, m_a = k.m_a, c_v = k.c_v, c_a = k.c_a;
 
     Vector<double> f_new(n_dofs), rhs(n_dofs), m_part(n_dofs), c_part(n_dofs), tmp(n_dofs);
     Vector<double> u_new(n_dofs), a_new(n_dofs);

@@ -428,10 +428,8 @@ namespace irdm::fem
   {
     const auto   t0 = std::chrono::steady_clock::now();
     const double dt = scene.time_step;
-    const auto  &c  = coeffs;
-    const double c_m = (1 - c.alpha_m) / (c.beta * dt * dt);
-    const double c_c = (1 - c.alpha_f) * c.gamma / (c.beta * dt);
-    const double c_k = 1 - c.alpha_f;
+    const StepCoefficients k(coeffs, dt);
+    const double c_m = k.c_m, c_c = k.c_c, c_k = 1 - coeffs.alpha_f;
     // K_eff = c_m M + c_c C + c_k K with C = alpha M + beta K (Rayleigh).
     SparseMatrix<double> k_eff(sparsity);
     k_eff.copy_from(stiffness);

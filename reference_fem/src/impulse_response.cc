@@ -6,6 +6,8 @@
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/mesh.h>
 
+#include "integrator.h"
+
 #include <mpi.h>
 
 #include <algorithm>
@@ -110,41 +112,17 @@ namespace irdm::fem
       return out;
     }
 
-    struct Coefficients
-    {
-      double alpha_m = 0, alpha_f = 0, gamma = 0.5, beta = 0.25;
-    };
-    Coefficients
-    coefficients(const Scene &s)
-    {
-      Coefficients c;
-      if (s.integrator == Integrator::generalized_alpha)
-        {
-          // Chung-Hulbert, as the FEM (reference_fem/src/elastodynamics_setup.cc).
-          const double r = s.rho_inf;
-          c.alpha_m      = (2 * r - 1) / (r + 1);
-          c.alpha_f      = r / (r + 1);
-          c.gamma        = 0.5 - c.alpha_m + c.alpha_f;
-          c.beta         = 0.25 * std::pow(1 - c.alpha_m + c.alpha_f, 2);
-        }
-      return c;
-    }
-
     // Response of one mode (unit mass, stiffness w2, damping alpha + beta w2) of the FEM's
     // recursion to a unit modal force held during step 0. The algebra is term by term that of
     // ElasticDynamics::Impl::run(). Writes q[s] for s < T, and the energy after step 1 (when
     // the impulse is fully delivered) and after step T.
     void
-    modal_response(const Scene &sc, const Coefficients &c, const double w2, double *q,
+    modal_response(const Scene &sc, const IntegratorCoefficients &c, const double w2, double *q,
                    const unsigned T, double &energy0, double &energyT)
     {
-      const double dt = sc.time_step;
-      const double c_m = (1 - c.alpha_m) / (c.beta * dt * dt);
-      const double c_c = (1 - c.alpha_f) * c.gamma / (c.beta * dt);
-      const double m_v = (1 - c.alpha_m) / (c.beta * dt);
-      const double m_a = (1 - c.alpha_m) / (2 * c.beta) - 1;
-      const double c_v = (1 - c.alpha_f) * c.gamma / c.beta - 1;
-      const double c_a = (1 - c.alpha_f) * dt * (c.gamma / (2 * c.beta) - 1);
+      const double           dt = sc.time_step;
+      const StepCoefficients k(c, dt);
+      const double c_m = k.c_m, c_c = k.c_c, m_v = k.m_v, m_a = k.m_a, c_v = k.c_v, c_a = k.c_a;
       const double k_eff = (1 - c.alpha_f + sc.rayleigh_beta * c_c) * w2 +
                            (c_m + sc.rayleigh_alpha * c_c);
       double u = 0, v = 0, a = 0, f = 0;
@@ -283,7 +261,7 @@ namespace irdm::fem
         std::to_string(rep.highest_frequency_hz) + " Hz");
 
     // 3. Modal responses h[s][i] and the energy left at T.
-    const Coefficients  coef = coefficients(scene);
+    const auto          coef = IntegratorCoefficients::from_scene(scene);
     std::vector<double> h(static_cast<size_t>(T) * n), q(T), e0(n), eT(n), gain(n);
     for (unsigned i = 0; i < n; ++i)
       {

@@ -17,21 +17,32 @@ namespace irdm::fem
   using json = nlohmann::json;
   namespace fs = std::filesystem;
 
+  namespace
+  {
+    // Piecewise-linear lookup: t lies at fraction w from times[k] to times[k + 1]; held
+    // constant outside the samples (w = 0 at the first or last sample).
+    std::pair<size_t, double>
+    segment(const std::vector<double> &times, const double t)
+    {
+      if (t <= times.front())
+        return {0, 0.0};
+      if (t >= times.back())
+        return {times.size() - 1, 0.0};
+      const size_t k =
+        static_cast<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
+      return {k, (t - times[k]) / (times[k + 1] - times[k])};
+    }
+  } // namespace
+
   Vec3
   History::at(const double t) const
   {
     if (times.empty())
       return {0, 0, 0};
-    if (t <= times.front())
-      return values.front();
-    if (t >= times.back())
-      return values.back();
-    const auto   it = std::upper_bound(times.begin(), times.end(), t);
-    const size_t k  = static_cast<size_t>(it - times.begin()); // times[k-1] <= t < times[k]
-    const double w  = (t - times[k - 1]) / (times[k] - times[k - 1]);
-    Vec3         v;
+    const auto [k, w] = segment(times, t);
+    Vec3 v;
     for (int d = 0; d < 3; ++d)
-      v[d] = (1 - w) * values[k - 1][d] + w * values[k][d];
+      v[d] = (1 - w) * values[k][d] + w * values[k + 1 < values.size() ? k + 1 : k][d];
     return v;
   }
 
@@ -40,14 +51,8 @@ namespace irdm::fem
   {
     if (times.empty())
       return 0;
-    if (t <= times.front())
-      return values.front();
-    if (t >= times.back())
-      return values.back();
-    const auto   it = std::upper_bound(times.begin(), times.end(), t);
-    const size_t k  = static_cast<size_t>(it - times.begin());
-    const double w  = (t - times[k - 1]) / (times[k] - times[k - 1]);
-    return (1 - w) * values[k - 1] + w * values[k];
+    const auto [k, w] = segment(times, t);
+    return (1 - w) * values[k] + w * values[k + 1 < values.size() ? k + 1 : k];
   }
 
   History
