@@ -324,9 +324,10 @@ namespace irdm::fem
     rep.n_chunks = n_chunks;
     rep.bytes    = static_cast<double>(per_input) * nin * scalar;
 
+    const std::string  mesh_hash = file_hash(scene.mesh_file);
     std::ostringstream spec;
     spec.precision(17);
-    spec << "mesh " << file_hash(scene.mesh_file) << " p " << scene.fe_degree << " E "
+    spec << "mesh " << mesh_hash << " p " << scene.fe_degree << " E "
          << scene.youngs_modulus << " nu " << scene.poisson_ratio << " rho " << scene.density
          << " a " << scene.rayleigh_alpha << " b " << scene.rayleigh_beta << " int "
          << static_cast<int>(scene.integrator) << " rho_inf " << scene.rho_inf << " dt "
@@ -399,7 +400,7 @@ namespace irdm::fem
               f.attribute("/", "rayleigh_beta_s", scene.rayleigh_beta);
               f.attribute("/", "fe_degree", static_cast<long long>(scene.fe_degree));
               f.attribute("/", "mesh_file", scene.mesh_file);
-              f.attribute("/", "mesh_hash", file_hash(scene.mesh_file));
+              f.attribute("/", "mesh_hash", mesh_hash);
               f.attribute("/", "fixed_surfaces", join(scene.fixed_surfaces));
               f.attribute("/", "scene", scene.json_text);
               f.attribute("/", "free_dofs", static_cast<long long>(n));
@@ -472,10 +473,11 @@ namespace irdm::fem
 
     // 5. Chunks: A[(k, s), i] = h[s][i] phi_in[k][i], then H_chunk = A Phi_out^T (one GEMM).
     //    Chunk c belongs to rank c % size; rank 0 receives and writes in order.
-    const auto compute_chunk = [&](const unsigned c, auto *result) {
+    //    phi_out_s: Phi_out in the storage precision, converted once per run.
+    const auto compute_chunk = [&](const unsigned c, const auto &phi_out_s, auto *result) {
       using Scalar     = std::remove_pointer_t<decltype(result)>;
       const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
-      std::vector<Scalar> A(static_cast<size_t>(nk) * T * n), B(phi_out.begin(), phi_out.end());
+      std::vector<Scalar> A(static_cast<size_t>(nk) * T * n);
       for (unsigned k = 0; k < nk; ++k)
         for (unsigned s = 0; s < T; ++s)
           {
@@ -486,7 +488,7 @@ namespace irdm::fem
               row[i] = static_cast<Scalar>(hs[i] * pk[i]);
           }
       gemm_abt(static_cast<int>(nk * T), static_cast<int>(nout), static_cast<int>(n), A.data(),
-               B.data(), result);
+               phi_out_s.data(), result);
     };
     // Each GEMM runs on one BLAS thread so that a chunk's bits do not depend on how the work
     // is split; a serial run computes several chunks at once on threads of its own instead.
@@ -497,7 +499,8 @@ namespace irdm::fem
       size == 1 ? std::max(1u, std::min(4u, std::thread::hardware_concurrency())) : 1u;
     const auto run_chunks = [&](auto zero) {
       using Scalar = decltype(zero);
-      const MPI_Datatype type = sizeof(Scalar) == 8 ? MPI_DOUBLE : MPI_FLOAT;
+      const MPI_Datatype        type = sizeof(Scalar) == 8 ? MPI_DOUBLE : MPI_FLOAT;
+      const std::vector<Scalar> phi_out_s(phi_out.begin(), phi_out.end());
       std::vector<std::vector<Scalar>> buffers(workers,
                                                std::vector<Scalar>(static_cast<size_t>(chunk) * per_input));
       double   compute_seconds = 0;
@@ -526,8 +529,9 @@ namespace irdm::fem
             const auto   tc      = Clock::now();
             std::vector<std::thread> pool;
             for (size_t b = 1; b < n_batch; ++b)
-              pool.emplace_back([&, b] { compute_chunk(todo[first + b], buffers[b].data()); });
-            compute_chunk(todo[first], buffers[0].data());
+              pool.emplace_back(
+                [&, b] { compute_chunk(todo[first + b], phi_out_s, buffers[b].data()); });
+            compute_chunk(todo[first], phi_out_s, buffers[0].data());
             for (auto &t : pool)
               t.join();
             compute_seconds += since(tc);
@@ -543,7 +547,7 @@ namespace irdm::fem
             if (owner == rank)
               {
                 const auto tc = Clock::now();
-                compute_chunk(c, buffers[0].data());
+                compute_chunk(c, phi_out_s, buffers[0].data());
                 compute_seconds += since(tc);
                 if (rank != 0)
                   MPI_Send(buffers[0].data(), static_cast<int>(count), type, 0,
