@@ -2,6 +2,8 @@
 #include <irdm_common/error.h>
 #include <irdm_common/h5.h>
 
+#include "frame.h"
+
 #include <cmath>
 #include <sstream>
 
@@ -21,20 +23,13 @@ namespace irdm
     return m;
   }
 
-  ImpulseResponseModel
-  load_model(const std::string &path, const std::optional<double> expected_time_step)
+  void
+  read_frame(const h5::Reader &r, const std::string &path, ModelFrame &m,
+             const std::optional<double> expected_time_step)
   {
-    h5::Reader r(path);
-    const auto fail = [&](const std::string &what) -> void {
+    const auto        fail = [&](const std::string &what) -> void {
       throw InputError("model '" + path + "': " + what);
     };
-    if (!r.has_attribute("/", "format") ||
-        r.string_attribute("/", "format") != "irdm-impulse-response")
-      fail("not an IRDM impulse-response model (attribute 'format' is missing or different)");
-    const double version = r.double_attribute("/", "format_version");
-    if (version != 1)
-      fail("format version " + std::to_string(version) + " is not supported (this build reads 1)");
-    ImpulseResponseModel m;
     m.time_step = r.double_attribute("/", "time_step_s");
     m.length    = static_cast<unsigned>(r.double_attribute("/", "length"));
     if (!(m.time_step > 0) || m.length < 1)
@@ -50,7 +45,7 @@ namespace irdm
 
     for (const char *name : {"/outputs/node_tags", "/outputs/coordinates", "/inputs/node_tags",
                              "/inputs/output_index", "/surface/triangles",
-                             "/surface/triangle_surface", "/impulse_response/H"})
+                             "/surface/triangle_surface"})
       if (!r.exists(name))
         fail("missing dataset '" + std::string(name) + "'");
     const auto n_out_v = r.shape("/outputs/node_tags");
@@ -96,6 +91,25 @@ namespace irdm
       while (std::getline(names, s, ','))
         m.surface_names.push_back(s);
     }
+  }
+
+  ImpulseResponseModel
+  load_model(const std::string &path, const std::optional<double> expected_time_step)
+  {
+    h5::Reader r(path);
+    const auto fail = [&](const std::string &what) -> void {
+      throw InputError("model '" + path + "': " + what);
+    };
+    if (!r.has_attribute("/", "format") ||
+        r.string_attribute("/", "format") != "irdm-impulse-response")
+      fail("not an IRDM impulse-response model (attribute 'format' is missing or different)");
+    const double version = r.double_attribute("/", "format_version");
+    if (version != 1)
+      fail("format version " + std::to_string(version) + " is not supported (this build reads 1)");
+    ImpulseResponseModel m;
+    read_frame(r, path, m, expected_time_step);
+    if (!r.exists("/impulse_response/H"))
+      fail("missing dataset '/impulse_response/H'");
     const std::vector<hsize_t> hs = {m.n_inputs, m.length, m.n_outputs};
     if (r.shape("/impulse_response/H") != hs)
       fail("impulse_response/H has the wrong shape (expected inputs x length x outputs = " +

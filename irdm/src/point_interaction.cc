@@ -1,6 +1,8 @@
 #include <irdm/point_interaction.h>
 #include <irdm_common/error.h>
 
+#include "probe_step.h"
+
 #include <algorithm>
 
 namespace irdm
@@ -65,12 +67,7 @@ namespace irdm
   bool
   PointInteraction::can_touch(const int t) const
   {
-    if (t < 0 || t >= static_cast<int>(model_.triangles.size()))
-      return false;
-    for (const unsigned v : model_.triangles[t])
-      if (model_.output_input_index[v] < 0)
-        return false;
-    return true;
+    return detail::can_touch(model_, t);
   }
 
   // sum over active inputs k and s = 1 .. taps-1 of H[k][s][j] f_k[n - s], at the current
@@ -116,69 +113,28 @@ namespace irdm
     for (const unsigned k : active_inputs_)
       history_[static_cast<size_t>(k) * taps_ + n_ % taps_] = 0.0;
 
-    const auto in_dof = [&](int p, int i, int d) {
-      return 3u * model_.output_input_index[model_.triangles[probes[p].triangle][i]] + d;
-    };
-    const auto out_dof = [&](int p, int i, int d) {
-      return 3u * model_.triangles[probes[p].triangle][i] + d;
-    };
-    contact::Matrix S(3 * P, 3 * P);
-    contact::Vector gap(3 * P), lambda(3 * P), h_probe(3 * P);
-    std::array<contact::ProbeRule, contact::max_probes> rules;
-    for (int p = 0; p < P; ++p)
-      {
-        rules[p] = {probes[p].direction, probes[p].unilateral, probes[p].present};
-        for (int d = 0; d < 3; ++d)
+    detail::ProbeResults r;
+    detail::probe_step(
+      model_, probes, P,
+      [&](const unsigned i, const unsigned j) {
+        return !h_cc_.empty()           ? history_at_contact(i)
+               : model_.double_storage ? history_at(model_.h_double.data(), j)
+                                        : history_at(model_.h_float.data(), j);
+      },
+      [&](const unsigned k, const unsigned j) { return model_.h(k, 0, j); },
+      [&](const unsigned k, const double f) {
+        history_[static_cast<size_t>(k) * taps_ + n_ % taps_] += f;
+        last_nonzero_[k] = n_;
+        if (!is_active_input_[k])
           {
-            double h = 0;
-            for (int i = 0; i < 3; ++i)
-              h += probes[p].weights[i] *
-                   (!h_cc_.empty() ? history_at_contact(in_dof(p, i, d))
-                    : model_.double_storage ? history_at(model_.h_double.data(), out_dof(p, i, d))
-                                            : history_at(model_.h_float.data(), out_dof(p, i, d)));
-            h_probe[3 * p + d] = h;
-            gap[3 * p + d]     = probes[p].displacement[d] - h;
+            is_active_input_[k] = 1;
+            active_inputs_.push_back(k); // capacity reserved: never reallocates
           }
-      }
-    for (int p = 0; p < P; ++p)
-      for (int d = 0; d < 3; ++d)
-        for (int q = 0; q < P; ++q)
-          for (int e = 0; e < 3; ++e)
-            {
-              double s = 0;
-              for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j)
-                  s += probes[p].weights[i] * probes[q].weights[j] *
-                       model_.h(in_dof(q, j, e), 0, out_dof(p, i, d));
-              S(3 * p + d, 3 * q + e) = s;
-            }
-    bool active[contact::max_probes];
-    contact::solve_active_set(S, gap, rules.data(), P, lambda, active);
-
-    const contact::Vector u_probe = h_probe + S * lambda;
-    for (int q = 0; q < P; ++q)
-      {
-        active_[q] = active[q];
-        for (int e = 0; e < 3; ++e)
-          {
-            force_[q][e]   = lambda[3 * q + e];
-            probe_u_[q][e] = u_probe[3 * q + e];
-            if (lambda[3 * q + e] == 0)
-              continue;
-            for (int j = 0; j < 3; ++j)
-              {
-                const unsigned k = in_dof(q, j, e);
-                history_[static_cast<size_t>(k) * taps_ + n_ % taps_] +=
-                  probes[q].weights[j] * lambda[3 * q + e];
-                last_nonzero_[k] = n_;
-                if (!is_active_input_[k])
-                  {
-                    is_active_input_[k] = 1;
-                    active_inputs_.push_back(k); // capacity reserved: never reallocates
-                  }
-              }
-          }
-      }
+      },
+      r);
+    force_   = r.force;
+    probe_u_ = r.displacement;
+    active_  = r.active;
     ++n_;
     return true;
   }

@@ -9,7 +9,9 @@
 
 namespace irdm
 {
-  struct ImpulseResponseModel
+  /// What every model kind shares: time step, length, DoFs and the surface geometry (read from
+  /// the same HDF5 groups by every loader).
+  struct ModelFrame
   {
     double   time_step = 0; // s
     unsigned length    = 0; // T, samples per response
@@ -26,6 +28,11 @@ namespace irdm
     std::vector<std::string>             surface_names;
 
     std::string integrator, mesh_hash, storage_on_disk;
+  };
+
+  /// The uncompressed model: H in full.
+  struct ImpulseResponseModel : ModelFrame
+  {
     bool        double_storage = true; // which of h_double / h_float holds H
     std::vector<double> h_double;      // [input DoF][s][output DoF]
     std::vector<float>  h_float;
@@ -52,4 +59,5 @@ namespace irdm
   /// step different from expected_time_step (relative 1e-12) when one is given.
   ImpulseResponseModel
   load_model(const std::string &path, std::optional<double> expected_time_step = {});
+
 } // namespace irdm
