@@ -1,5 +1,6 @@
 // irdm: one command-line program with subcommands. Exit status: 0 ok, 2 bad input or usage,
 // 1 internal error.
+#include <irdm/representative_model.h>
 #include <irdm_common/error.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
@@ -30,6 +31,7 @@ Commands (reference FEM):
 
 Commands (IRDM):
   precompute <scene.json> impulse-response model of the scene's body (HDF5); mpirun-able
+  compress <model.h5>     compress a model by representative waveforms (seed 000 sec. 3)
   validate                IRDM against the FEM on validation/scenes; writes reports/
 
 Run 'irdm <command> --help' for the options of a command. Units are SI throughout.
@@ -241,6 +243,78 @@ and the next run with the same spec resumes it.
     return 0;
   }
 
+  double
+  real_in(const std::string &option, const std::string &value, const double lo, const double hi)
+  {
+    char        *end = nullptr;
+    const double v   = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || !(v >= lo && v <= hi))
+      throw irdm::InputError("option " + option + " needs a number in [" + std::to_string(lo) +
+                             ", " + std::to_string(hi) + "], got '" + value + "'");
+    return v;
+  }
+
+  int
+  cmd_compress(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm compress <model.h5> --out COMPRESSED.h5 [options]
+
+Compresses an impulse-response model (from 'irdm precompute') by representative waveforms
+(seed 000, section 3; docs/compression.md): every waveform H_kj is kept as a representative or
+replaced by representatives of the same input, delayed (d >= 0 steps) and scaled, when their
+correlation reaches theta. The output is a model the runtime runs directly (no decompression),
+with the source's metadata plus theta and the statistics (docs/model-format.md).
+  --out FILE         compressed model to write (required)
+  --theta X          correlation threshold in (0, 1] (default 0.9)
+  --blend B          representatives blended per waveform: 1 = plain substitution (the
+                     seed's), 2..4 = interpolation among nearby ones (default 1)
+  --max-delay D      largest delay searched, steps (default 64)
+  --candidates C     nearest representatives searched per waveform (default 8)
+  --threads N        worker threads (default: all cores)
+  --quiet            no progress on stderr
+)";
+    const Args a = parse(argc, argv, 2,
+                         {"--out", "--theta", "--blend", "--max-delay", "--candidates", "--threads"},
+                         {"--help", "--quiet"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (a.positional.size() != 1)
+      throw irdm::InputError("compress takes one model file (see --help)");
+    if (!a.options.count("--out"))
+      throw irdm::InputError("compress needs --out COMPRESSED.h5");
+    irdm::CompressionOptions o;
+    if (a.options.count("--theta"))
+      o.theta = real_in("--theta", a.options.at("--theta"), 1e-6, 1);
+    if (a.options.count("--blend"))
+      o.blend = positive_integer("--blend", a.options.at("--blend"));
+    if (a.options.count("--max-delay"))
+      o.max_delay = static_cast<unsigned>(real_in("--max-delay", a.options.at("--max-delay"), 0, 65535));
+    if (a.options.count("--candidates"))
+      o.candidates = positive_integer("--candidates", a.options.at("--candidates"));
+    if (a.options.count("--threads"))
+      o.threads = positive_integer("--threads", a.options.at("--threads"));
+    if (!a.options.count("--quiet"))
+      o.log = [](const std::string &s) { std::fprintf(stderr, "  %s\n", s.c_str()); };
+    const std::string in = a.positional[0];
+    const auto        model = irdm::load_model(in);
+    const auto        c     = irdm::compress(model, o);
+    irdm::save_representative_model(c, in, a.options.at("--out"));
+    const double waveforms = static_cast<double>(model.n_inputs) * model.n_outputs;
+    std::printf("compressed %s -> %s: theta %.3g, blend %u\n"
+                "waveforms %.0f: %llu representative (%.3g %%), %llu substituted; mean fit %.4f, "
+                "min fit %.4f, mean delay %.2f steps, largest delay %u\n"
+                "size: representatives %.2f MB + blend tables %.2f MB = %.2f MB, %.3g %% of %.1f MB "
+                "(float H); time %.2f s\n",
+                in.c_str(), a.options.at("--out").c_str(), c.theta, c.blend, waveforms,
+                static_cast<unsigned long long>(c.n_representative), 100 * c.n_representative / waveforms,
+                static_cast<unsigned long long>(c.n_substituted), c.mean_fit, c.min_fit,
+                c.mean_delay, c.delay_span, c.representative_bytes() / 1e6,
+                (c.bytes() - c.representative_bytes()) / 1e6, c.bytes() / 1e6,
+                100 * c.bytes() / (4 * waveforms * model.length), 4 * waveforms * model.length / 1e6,
+                c.compression_seconds);
+    return 0;
+  }
+
   int
   cmd_validate(const int argc, char **argv)
   {
@@ -345,6 +419,8 @@ main(int argc, char **argv)
         return cmd_precompute(argc, argv);
       if (cmd == "validate")
         return cmd_validate(argc, argv);
+      if (cmd == "compress")
+        return cmd_compress(argc, argv);
       std::fprintf(stderr, "irdm: unknown command '%s'\n\n%s", cmd.c_str(), top_help);
       return 2;
     }

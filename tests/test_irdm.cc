@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "irdm_test_util.h"
+
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -19,10 +21,11 @@
 
 namespace fs = std::filesystem;
 using namespace irdm;
+using namespace irdm_test;
 
-// Counts heap allocations while armed: the haptic step must make none.
-static bool g_count_allocations = false;
-static long g_allocations       = 0;
+// Counts heap allocations while armed (irdm_test_util.h): the haptic step must make none.
+bool g_count_allocations = false;
+long g_allocations       = 0;
 void *
 operator new(std::size_t n)
 {
@@ -42,42 +45,6 @@ operator delete(void *p, std::size_t) noexcept
 {
   std::free(p);
 }
-
-namespace
-{
-  // A 0.25 m cantilever (beam_2), soft, damped, generalized-alpha; a probe pushes the top face
-  // near the tip down 2 mm and lets go.
-  std::string
-  beam_scene(const std::string &extra)
-  {
-    return std::string(R"({"format": "irdm-scene/1", "name": "irdm_beam",
-      "mesh": {"file": ")") + IRDM_MESH_DIR + R"(/beam_2.msh"}, "fe_degree": 1,
-      "material": {"youngs_modulus_Pa": 2e5, "poisson_ratio": 0.4, "density_kg_m3": 1100},
-      "damping": {"ratios": [0.05, 0.05], "frequencies_Hz": [0.5, 20]},
-      "integrator": {"type": "generalized_alpha", "rho_inf": 0.8},
-      "time": {"step_s": 0.002, "duration_s": 0.2}, "fixed_surfaces": ["clamp"],
-      "model": {"length": 100, "storage": "double",
-                "inputs": {"within": {"center_m": [0.22, 0.0, 0.01], "radius_m": 0.03}}})" +
-           extra + "}";
-  }
-
-  std::string
-  tmp(const std::string &name)
-  {
-    fs::create_directories(IRDM_TEST_TMP);
-    return (fs::path(IRDM_TEST_TMP) / name).string();
-  }
-
-  ImpulseResponseModel
-  make_model(const fem::Scene &s, const std::string &file)
-  {
-    fem::PrecomputeOptions o;
-    o.output  = tmp(file);
-    o.restart = true;
-    fem::precompute_impulse_responses(s, o);
-    return load_model(o.output, s.time_step);
-  }
-} // namespace
 
 TEST(Precompute, ModalRouteEqualsSteppingTheFem)
 {

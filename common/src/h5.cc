@@ -266,6 +266,72 @@ namespace irdm::h5
     write_any(file_, path_, name, dims, H5T_STD_I64LE, H5T_NATIVE_LLONG, data);
   }
 
+  void
+  Writer::write(const std::string &name, const std::vector<hsize_t> &dims, const int *data)
+  {
+    write_any(file_, path_, name, dims, H5T_STD_I32LE, H5T_NATIVE_INT, data);
+  }
+
+  void
+  Writer::write(const std::string &name, const std::vector<hsize_t> &dims,
+                const unsigned short *data)
+  {
+    write_any(file_, path_, name, dims, H5T_STD_U16LE, H5T_NATIVE_USHORT, data);
+  }
+
+  void
+  Writer::copy_from(const std::string &source_file, const std::string &object)
+  {
+    const hid_t src = H5Fopen(source_file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (src < 0)
+      throw InputError("cannot open HDF5 file '" + source_file + "'");
+    const bool ok = H5Ocopy(src, object.c_str(), file_, object.c_str(), H5P_DEFAULT,
+                            H5P_DEFAULT) >= 0;
+    H5Fclose(src);
+    if (!ok)
+      throw InputError("cannot copy '" + object + "' from '" + source_file + "' to '" + path_ + "'");
+  }
+
+  void
+  Writer::copy_root_attributes(const std::string &source_file,
+                               const std::vector<std::string> &except)
+  {
+    const hid_t src = H5Fopen(source_file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (src < 0)
+      throw InputError("cannot open HDF5 file '" + source_file + "'");
+    const hid_t from = H5Gopen2(src, "/", H5P_DEFAULT), to = H5Gopen2(file_, "/", H5P_DEFAULT);
+    H5O_info_t info;
+    H5Oget_info2(from, &info, H5O_INFO_NUM_ATTRS);
+    bool ok = true;
+    for (hsize_t i = 0; i < info.num_attrs && ok; ++i)
+      {
+        const hid_t attr = H5Aopen_by_idx(from, ".", H5_INDEX_NAME, H5_ITER_INC, i, H5P_DEFAULT,
+                                          H5P_DEFAULT);
+        std::string name(static_cast<size_t>(H5Aget_name(attr, 0, nullptr)), '\0');
+        H5Aget_name(attr, name.size() + 1, name.data());
+        if (std::find(except.begin(), except.end(), name) == except.end())
+          {
+            const hid_t type = H5Aget_type(attr), space = H5Aget_space(attr);
+            std::vector<char> buffer(H5Aget_storage_size(attr) + H5Tget_size(type));
+            ok = H5Aread(attr, type, buffer.data()) >= 0;
+            if (H5Aexists(to, name.c_str()) > 0)
+              H5Adelete(to, name.c_str());
+            const hid_t copy = H5Acreate2(to, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
+            ok = ok && copy >= 0 && H5Awrite(copy, type, buffer.data()) >= 0;
+            if (copy >= 0)
+              H5Aclose(copy);
+            H5Sclose(space);
+            H5Tclose(type);
+          }
+        H5Aclose(attr);
+      }
+    H5Gclose(from);
+    H5Gclose(to);
+    H5Fclose(src);
+    if (!ok)
+      throw InputError("cannot copy the root attributes of '" + source_file + "'");
+  }
+
   namespace
   {
     void

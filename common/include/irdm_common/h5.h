@@ -74,6 +74,18 @@ namespace irdm::h5
     write(const std::string &name,
           const std::vector<hsize_t> &dims,
           const long long *data);
+    void
+    write(const std::string &name, const std::vector<hsize_t> &dims, const int *data);
+    void
+    write(const std::string &name, const std::vector<hsize_t> &dims,
+          const unsigned short *data);
+    /// Copies object (a group with everything in it) from another HDF5 file to the same path.
+    void
+    copy_from(const std::string &source_file, const std::string &object);
+    /// Copies every attribute of the source file's root to this file's root, except those
+    /// named in `except`.
+    void
+    copy_root_attributes(const std::string &source_file, const std::vector<std::string> &except);
     /// Attribute on an object ("/" for the file root).
     void
     attribute(const std::string &object,

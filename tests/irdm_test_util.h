@@ -1,0 +1,52 @@
+#pragma once
+// Shared by the IRDM tests: a small damped cantilever scene (beam_2) with a model region near
+// the tip, a scratch folder, and a precompute helper.
+#include <irdm/model.h>
+#include <reference_fem/impulse_response.h>
+#include <reference_fem/scene.h>
+
+#include <filesystem>
+#include <string>
+
+// Heap-allocation counter (test_irdm.cc replaces operator new): armed while true.
+extern bool g_count_allocations;
+extern long g_allocations;
+
+namespace irdm_test
+{
+  namespace fs = std::filesystem;
+  using namespace irdm;
+  // A 0.25 m cantilever (beam_2), soft, damped, generalized-alpha; a probe pushes the top face
+  // near the tip down 2 mm and lets go.
+  inline std::string
+  beam_scene(const std::string &extra)
+  {
+    return std::string(R"({"format": "irdm-scene/1", "name": "irdm_beam",
+      "mesh": {"file": ")") + IRDM_MESH_DIR + R"(/beam_2.msh"}, "fe_degree": 1,
+      "material": {"youngs_modulus_Pa": 2e5, "poisson_ratio": 0.4, "density_kg_m3": 1100},
+      "damping": {"ratios": [0.05, 0.05], "frequencies_Hz": [0.5, 20]},
+      "integrator": {"type": "generalized_alpha", "rho_inf": 0.8},
+      "time": {"step_s": 0.002, "duration_s": 0.2}, "fixed_surfaces": ["clamp"],
+      "model": {"length": 100, "storage": "double",
+                "inputs": {"within": {"center_m": [0.22, 0.0, 0.01], "radius_m": 0.03}}})" +
+           extra + "}";
+  }
+
+  inline std::string
+  tmp(const std::string &name)
+  {
+    fs::create_directories(IRDM_TEST_TMP);
+    return (fs::path(IRDM_TEST_TMP) / name).string();
+  }
+
+  inline ImpulseResponseModel
+  make_model(const fem::Scene &s, const std::string &file)
+  {
+    fem::PrecomputeOptions o;
+    o.output  = tmp(file);
+    o.restart = true;
+    fem::precompute_impulse_responses(s, o);
+    return load_model(o.output, s.time_step);
+  }
+} // namespace irdm_test
+

@@ -1,0 +1,170 @@
+// Compression by representative waveforms: every substituted waveform meets its bound
+// (relative L2 error <= sqrt(1 - theta^2)); the compressed runtime equals direct convolution of
+// the tensor the compressed model stands for; HDF5 round trip and bad input.
+#include <irdm/point_interaction.h>
+#include <irdm/representative_interaction.h>
+#include <irdm/representative_model.h>
+#include <irdm_common/error.h>
+#include <irdm_common/geometry.h>
+#include <irdm_common/h5.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "irdm_test_util.h"
+
+using namespace irdm;
+using namespace irdm_test;
+
+namespace
+{
+  const char *probe_json = R"(, "probes": [{"name": "finger", "surface": "sides",
+      "direction": [0, 0, -1], "unilateral": false, "until_s": 0.15,
+      "path": {"times_s": [0, 0.2], "points_m": [[0.21, 0.001, 0.01], [0.235, -0.002, 0.01]]},
+      "depth": {"times_s": [0, 0.05, 0.1, 0.12], "values_m": [0, 0.002, 0.002, 0.001]}}])";
+
+  // The tensor a compressed model stands for, as an ordinary model (T + delay span samples).
+  ImpulseResponseModel
+  decompress(const RepresentativeModel &c)
+  {
+    ImpulseResponseModel m;
+    static_cast<ModelFrame &>(m) = c;
+    m.length         = c.length + c.delay_span;
+    m.double_storage = true;
+    m.h_double.resize(static_cast<size_t>(m.n_inputs) * m.length * m.n_outputs);
+    for (unsigned k = 0; k < m.n_inputs; ++k)
+      for (unsigned s = 0; s < m.length; ++s)
+        for (unsigned j = 0; j < m.n_outputs; ++j)
+          m.h_double[(static_cast<size_t>(k) * m.length + s) * m.n_outputs + j] = c.response(k, s, j);
+    return m;
+  }
+} // namespace
+
+TEST(Compression, EverySubstitutedWaveformMeetsItsThreshold)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  const auto       model = make_model(scene, "compress_src.h5");
+  for (const unsigned blend : {1u, 2u})
+    for (const double theta : {0.8, 0.95})
+      {
+        CompressionOptions o;
+        o.theta = theta;
+        o.blend = blend;
+        const auto c = compress(model, o);
+        EXPECT_EQ(c.n_representative + c.n_substituted,
+                  static_cast<std::uint64_t>(model.n_inputs) * model.n_outputs);
+        EXPECT_GT(c.n_substituted, 0u);
+        EXPECT_GE(c.min_fit, theta);
+        // Substituted waveforms: |w - w_hat| / |w| <= sqrt(1 - theta^2) (float round-off);
+        // representatives: exact to float.
+        double worst = 0, worst_rep = 0;
+        for (unsigned k = 0; k < model.n_inputs; ++k)
+          for (unsigned j = 0; j < model.n_outputs; ++j)
+            {
+              double e2 = 0, w2 = 0;
+              for (unsigned s = 0; s < model.length; ++s)
+                {
+                  const double w = model.h(k, s, j);
+                  e2 += std::pow(w - c.response(k, s, j), 2);
+                  w2 += w * w;
+                }
+              const size_t t = (static_cast<size_t>(k) * model.n_outputs + j) * blend;
+              const bool is_rep = c.term_amplitude[t] == 1.0f && c.term_delay[t] == 0 &&
+                                  (blend == 1 || c.term_amplitude[t + 1] == 0);
+              (is_rep ? worst_rep : worst) = std::max(is_rep ? worst_rep : worst, std::sqrt(e2 / w2));
+            }
+        EXPECT_LE(worst, std::sqrt(1 - theta * theta) + 1e-5) << "blend " << blend;
+        EXPECT_GT(worst, 0.1 * std::sqrt(1 - theta * theta)); // the threshold is used, not idle
+        EXPECT_LT(worst_rep, 1e-6);
+      }
+}
+
+TEST(Compression, RuntimeEqualsDirectConvolutionOfTheCompressedTensor)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
+  const auto       model = make_model(scene, "compress_run.h5");
+  for (const unsigned blend : {1u, 3u})
+    {
+      CompressionOptions o;
+      o.theta = 0.9;
+      o.blend = blend;
+      const auto c = compress(model, o);
+      ASSERT_GT(c.delay_span, 0u) << "the test must exercise delayed reads";
+      const auto full = decompress(c);
+
+      std::vector<unsigned>                 cand;
+      std::vector<std::array<unsigned, 3>> tris;
+      for (unsigned t = 0; t < model.triangles.size(); ++t)
+        if (model.surface_names[model.triangle_surface[t]] == "sides")
+          cand.push_back(t), tris.push_back(model.triangles[t]);
+      PointInteraction          direct(full);
+      RepresentativeInteraction compressed(c);
+      std::vector<double>       u_direct(model.n_outputs), u_comp(model.n_outputs);
+      double fmax = 0, ferr = 0, umax = 0, uerr = 0;
+      const auto &p = scene.probes[0];
+      for (unsigned n = 0; n < scene.n_steps(); ++n)
+        {
+          const double t  = (n + 1) * scene.time_step;
+          const auto   sp = geometry::closest_point(model.output_coordinates, tris, p.path.at(t));
+          ProbeTarget  target;
+          target.triangle = static_cast<int>(cand[sp.triangle]);
+          target.weights  = sp.weights;
+          for (int d = 0; d < 3; ++d)
+            target.displacement[d] = p.depth.at(t) * p.direction[d];
+          target.present = t <= p.until;
+          ASSERT_TRUE(direct.step(&target, 1));
+          direct.surface_displacement(u_direct.data());
+          g_count_allocations = true;
+          const bool stepped  = compressed.step(&target, 1);
+          compressed.surface_displacement(u_comp.data());
+          g_count_allocations = false;
+          ASSERT_TRUE(stepped);
+          for (int d = 0; d < 3; ++d)
+            {
+              fmax = std::max(fmax, std::abs(direct.force(0)[d]));
+              ferr = std::max(ferr, std::abs(direct.force(0)[d] - compressed.force(0)[d]));
+            }
+          for (unsigned j = 0; j < model.n_outputs; ++j)
+            {
+              umax = std::max(umax, std::abs(u_direct[j]));
+              uerr = std::max(uerr, std::abs(u_direct[j] - u_comp[j]));
+            }
+        }
+      EXPECT_EQ(g_allocations, 0) << "heap allocations inside step() / surface_displacement()";
+      EXPECT_GT(fmax, 1e-4);
+      EXPECT_LT(ferr / fmax, 1e-10) << "blend " << blend;
+      EXPECT_LT(uerr / umax, 1e-10) << "blend " << blend;
+    }
+}
+
+TEST(Compression, FileRoundTripAndBadInput)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  const auto       model = make_model(scene, "compress_io.h5");
+  CompressionOptions o;
+  o.theta = 0.85;
+  o.blend = 2;
+  const auto c = compress(model, o);
+  save_representative_model(c, tmp("compress_io.h5"), tmp("compressed.h5"));
+  const auto back = load_representative_model(tmp("compressed.h5"), 0.002);
+  EXPECT_EQ(back.n_representative, c.n_representative);
+  EXPECT_EQ(back.representatives, c.representatives);
+  EXPECT_EQ(back.term_amplitude, c.term_amplitude);
+  EXPECT_EQ(back.term_delay, c.term_delay);
+  EXPECT_EQ(back.term_representative, c.term_representative);
+  EXPECT_EQ(back.triangles, c.triangles);
+  EXPECT_DOUBLE_EQ(back.theta, 0.85);
+  {
+    h5::Reader r(tmp("compressed.h5")); // the source's metadata is carried over
+    EXPECT_EQ(r.string_attribute("/", "integrator"), "generalized_alpha");
+    EXPECT_TRUE(r.exists("/modes/frequency_Hz"));
+  }
+  EXPECT_THROW(load_representative_model(tmp("compress_io.h5")), InputError); // not compressed
+  EXPECT_THROW(load_representative_model(tmp("compressed.h5"), 0.001), InputError); // step
+  o.theta = 1.5;
+  EXPECT_THROW(compress(model, o), InputError);
+  o.theta = 0.9;
+  o.blend = 5;
+  EXPECT_THROW(compress(model, o), InputError);
+}
