@@ -1,6 +1,7 @@
 // Compression by representative waveforms: every substituted waveform meets its bound
 // (relative L2 error <= sqrt(1 - theta^2)); the compressed runtime equals direct convolution of
 // the tensor the compressed model stands for; HDF5 round trip and bad input.
+#include <irdm/modal_model.h>
 #include <irdm/point_interaction.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
@@ -167,4 +168,63 @@ TEST(Compression, FileRoundTripAndBadInput)
   o.theta = 0.9;
   o.blend = 5;
   EXPECT_THROW(compress(model, o), InputError);
+}
+
+// The modal realization: with every mode it is the exact model (the residual is round-off), and
+// the error against the exact model falls as modes are added.
+TEST(Compression, ModalModelConvergesToTheExactModelWithItsModes)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
+  const auto       model = make_model(scene, "modal.h5");
+  ASSERT_GT(model.modes.n_modes, 20u);
+  std::vector<unsigned>                 cand;
+  std::vector<std::array<unsigned, 3>> tris;
+  for (unsigned t = 0; t < model.triangles.size(); ++t)
+    if (model.surface_names[model.triangle_surface[t]] == "sides")
+      cand.push_back(t), tris.push_back(model.triangles[t]);
+  std::vector<double> errors;
+  for (const unsigned M : {5u, model.modes.n_modes / 4, model.modes.n_modes})
+    {
+      const auto       modal = make_modal_model(model, {M, 2});
+      PointInteraction exact(model);
+      ModalInteraction fast(modal);
+      std::vector<double> ue(model.n_outputs), uf(model.n_outputs);
+      double fmax = 0, ferr = 0, umax = 0, uerr = 0;
+      const auto &p = scene.probes[0];
+      for (unsigned n = 0; n < scene.n_steps(); ++n)
+        {
+          const double t  = (n + 1) * scene.time_step;
+          const auto   sp = geometry::closest_point(model.output_coordinates, tris, p.path.at(t));
+          ProbeTarget  target;
+          target.triangle = static_cast<int>(cand[sp.triangle]);
+          target.weights  = sp.weights;
+          for (int d = 0; d < 3; ++d)
+            target.displacement[d] = p.depth.at(t) * p.direction[d];
+          target.present = t <= p.until;
+          ASSERT_TRUE(exact.step(&target, 1));
+          exact.surface_displacement(ue.data());
+          g_count_allocations = true;
+          const bool stepped  = fast.step(&target, 1);
+          fast.surface_displacement(uf.data());
+          g_count_allocations = false;
+          ASSERT_TRUE(stepped);
+          for (int d = 0; d < 3; ++d)
+            {
+              fmax = std::max(fmax, std::abs(exact.force(0)[d]));
+              ferr = std::max(ferr, std::abs(exact.force(0)[d] - fast.force(0)[d]));
+            }
+          for (unsigned j = 0; j < model.n_outputs; ++j)
+            {
+              umax = std::max(umax, std::abs(ue[j]));
+              uerr = std::max(uerr, std::abs(ue[j] - uf[j]));
+            }
+        }
+      EXPECT_EQ(g_allocations, 0);
+      errors.push_back(std::max(ferr / fmax, uerr / umax));
+    }
+  EXPECT_LT(errors[2], 1e-6) << "every mode: the exact model up to float residual storage";
+  EXPECT_LT(errors[1], errors[0]);
+  EXPECT_LT(errors[2], errors[1]);
+  EXPECT_GT(errors[0], 1e-3); // 5 modes is a real truncation
+  EXPECT_THROW(make_modal_model(model, {model.modes.n_modes + 1, 2}), InputError);
 }

@@ -131,6 +131,18 @@ namespace irdm
       }
     if (!finite)
       fail("impulse_response/H contains NaN or Inf");
+    if (r.exists("/modes/shapes") && r.exists("/modes/step"))
+      {
+        const auto shape = r.shape("/modes/shapes");
+        if (shape.size() != 2 || shape[0] != m.n_outputs)
+          fail("modes/shapes must have shape (outputs, modes)");
+        ModalData &md   = m.modes;
+        md.n_modes      = static_cast<unsigned>(shape[1]);
+        md.frequency_hz = r.read_double("/modes/frequency_Hz", {shape[1]});
+        md.damping_ratio = r.read_double("/modes/damping_ratio", {shape[1]});
+        md.shapes       = r.read_double("/modes/shapes", shape);
+        md.step         = r.read_double("/modes/step", {shape[1], 3, 5});
+      }
     return m;
   }
 } // namespace irdm

@@ -112,33 +112,67 @@ namespace irdm::fem
       return out;
     }
 
-    // Response of one mode (unit mass, stiffness w2, damping alpha + beta w2) of the FEM's
-    // recursion to a unit modal force held during step 0. The algebra is term by term that of
-    // ElasticDynamics::Impl::run(). Writes q[s] for s < T, and the energy after step 1 (when
-    // the impulse is fully delivered) and after step T.
+    // One step of one mode (unit mass, stiffness w2, damping alpha + beta w2) of the FEM's
+    // recursion: state (u, v, a) at step n and the modal forces f_old (step n) and f_new
+    // (step n + 1) give the state at n + 1. The algebra is term by term that of
+    // ElasticDynamics::Impl::run().
+    struct ModalStep
+    {
+      double dt, c_m, c_c, m_v, m_a, c_v, c_a, k_eff, w2, alpha, beta_r;
+      IntegratorCoefficients c;
+      ModalStep(const Scene &sc, const IntegratorCoefficients &coef, const double w2_)
+        : dt(sc.time_step)
+        , w2(w2_)
+        , alpha(sc.rayleigh_alpha)
+        , beta_r(sc.rayleigh_beta)
+        , c(coef)
+      {
+        const StepCoefficients k(c, dt);
+        c_m = k.c_m, c_c = k.c_c, m_v = k.m_v, m_a = k.m_a, c_v = k.c_v, c_a = k.c_a;
+        k_eff = (1 - c.alpha_f + beta_r * c_c) * w2 + (c_m + alpha * c_c);
+      }
+      void
+      operator()(double &u, double &v, double &a, const double f_old, const double f_new) const
+      {
+        const double m_part = c_m * u + m_v * v + m_a * a;
+        const double c_part = c_c * u + c_v * v + c_a * a;
+        const double rhs    = (1 - c.alpha_f) * f_new + c.alpha_f * f_old +
+                           (m_part + alpha * c_part) + w2 * (beta_r * c_part - c.alpha_f * u);
+        const double u_new = rhs / k_eff;
+        const double a_new = (u_new - u - dt * v) / (c.beta * dt * dt) - (1 / (2 * c.beta) - 1) * a;
+        v += dt * (1 - c.gamma) * a + dt * c.gamma * a_new;
+        u = u_new;
+        a = a_new;
+      }
+      // The step as a matrix: x_{n+1} = A x_n + b_new f_{n+1} + b_old f_n, x = (u, v, a);
+      // row-major 3 x 5: [A | b_new | b_old]. Exact, since the step is linear.
+      std::array<double, 15>
+      matrix() const
+      {
+        std::array<double, 15> m{};
+        for (int col = 0; col < 5; ++col)
+          {
+            double x[3] = {col == 0 ? 1.0 : 0.0, col == 1 ? 1.0 : 0.0, col == 2 ? 1.0 : 0.0};
+            (*this)(x[0], x[1], x[2], col == 4 ? 1.0 : 0.0, col == 3 ? 1.0 : 0.0);
+            for (int row = 0; row < 3; ++row)
+              m[5 * row + col] = x[row];
+          }
+        return m;
+      }
+    };
+
+    // Response of one mode to a unit modal force held during step 0: q[s] for s < T, and the
+    // energy after step 1 (when the impulse is fully delivered) and after step T.
     void
     modal_response(const Scene &sc, const IntegratorCoefficients &c, const double w2, double *q,
                    const unsigned T, double &energy0, double &energyT)
     {
-      const double           dt = sc.time_step;
-      const StepCoefficients k(c, dt);
-      const double c_m = k.c_m, c_c = k.c_c, m_v = k.m_v, m_a = k.m_a, c_v = k.c_v, c_a = k.c_a;
-      const double k_eff = (1 - c.alpha_f + sc.rayleigh_beta * c_c) * w2 +
-                           (c_m + sc.rayleigh_alpha * c_c);
-      double u = 0, v = 0, a = 0, f = 0;
+      const ModalStep step(sc, c, w2);
+      double          u = 0, v = 0, a = 0, f = 0;
       for (unsigned s = 0; s <= T; ++s)
         {
-          const double f_new  = s == 0 ? 1.0 : 0.0;
-          const double m_part = c_m * u + m_v * v + m_a * a;
-          const double c_part = c_c * u + c_v * v + c_a * a;
-          const double rhs    = (1 - c.alpha_f) * f_new + c.alpha_f * f +
-                             (m_part + sc.rayleigh_alpha * c_part) +
-                             w2 * (sc.rayleigh_beta * c_part - c.alpha_f * u);
-          const double u_new = rhs / k_eff;
-          double a_new = (u_new - u - dt * v) / (c.beta * dt * dt) - (1 / (2 * c.beta) - 1) * a;
-          v += dt * (1 - c.gamma) * a + dt * c.gamma * a_new;
-          u = u_new;
-          a = a_new;
+          const double f_new = s == 0 ? 1.0 : 0.0;
+          step(u, v, a, f, f_new);
           f = f_new;
           if (s < T)
             q[s] = u;
@@ -457,6 +491,17 @@ namespace irdm::fem
                 }
               f.write("/modes/frequency_Hz", {n}, hz.data());
               f.write("/modes/damping_ratio", {n}, zeta.data());
+              // The modal realization of H: mode shapes at the outputs (M-orthonormal) and
+              // each mode's step matrix; H[s] = Phi_out diag(q_i[s]) Phi_in^T with q_i from
+              // iterating the step (docs/model-format.md).
+              f.write("/modes/shapes", {nout, n}, phi_out.data());
+              std::vector<double> steps(static_cast<size_t>(n) * 15);
+              for (unsigned i = 0; i < n; ++i)
+                {
+                  const auto m = ModalStep(scene, coef, w2[i]).matrix();
+                  std::copy(m.begin(), m.end(), steps.begin() + 15 * i);
+                }
+              f.write("/modes/step", {n, 3, 5}, steps.data());
 
               f.create_group("/impulse_response");
               f.create_dataset("/impulse_response/H", {nin, T, nout}, rep.double_storage, 1);

@@ -30,9 +30,23 @@ namespace irdm
     std::string integrator, mesh_hash, storage_on_disk;
   };
 
+  /// The modal realization the precompute stores with H (/modes): every mode of the fixed
+  /// body, M-orthonormal shapes at the outputs, and each mode's integrator step
+  /// x_{n+1} = A x_n + b_new g_{n+1} + b_old g_n, x = (u, v, a), g the modal force.
+  struct ModalData
+  {
+    unsigned            n_modes = 0;   // 0: the file holds no realization
+    std::vector<double> frequency_hz;  // ascending
+    std::vector<double> damping_ratio;
+    std::vector<double> shapes;        // [output DoF][mode]
+    std::vector<double> step;          // [mode][3 x 5]: [A | b_new | b_old], row-major
+  };
+
   /// The uncompressed model: H in full.
   struct ImpulseResponseModel : ModelFrame
   {
+    ModalData modes;
+
     bool        double_storage = true; // which of h_double / h_float holds H
     std::vector<double> h_double;      // [input DoF][s][output DoF]
     std::vector<float>  h_float;
