@@ -1,13 +1,15 @@
 #pragma once
 // A second compressor: the modal (state-space) realization of H. The precompute's H is exactly
 //   H_kj[s] = sum_i phi_i(j) phi_i(k) q_i[s],
-// q_i the response of mode i to the FEM's own integrator step (irdm/model.h, ModalData). Keep
-// the lowest M modes as a recursion (3 numbers of state per mode, one step matrix each) and
-// replace the rest by L residual taps taken from H itself:
-//   E[s] = H[s] - H_M[s] for s < L - 1,   E[L - 1] = sum_{s >= L - 1} (H[s] - H_M[s]),
-// so the model keeps H's static compliance sum_s H[s] exactly (and H[0] too when L >= 2) and
-// approximates only the dynamics of the dropped modes (docs/compression.md).
-// Cost per step: O(M) for the state, O(n_out M) for the full surface update, independent of T.
+// q_i the response of mode i to the FEM's own integrator step (irdm/model.h, ModalData).
+// The state of every mode is 3 numbers and one step matrix; carrying all of them costs O(N)
+// per step, independent of T and of the number of outputs. So:
+//   - the force loop uses every mode: the contact force is that of the exact model;
+//   - the full surface update uses the lowest M modes, and the rest as a static correction
+//     E = sum_s (H[s] - H_M[s]) applied to this step's force (dropped modes treated as
+//     quasi-static), so the surface keeps H's static compliance exactly.
+// Memory: shapes at the inputs for all modes, at the outputs for M modes, H[0] among the
+// inputs, and E (inputs x outputs). Cost per step: O(N) + O(n_out M) + O(n_out n_active).
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
 
@@ -17,23 +19,25 @@ namespace irdm
 {
   struct ModalModelOptions
   {
-    unsigned modes         = 100; // M lowest modes kept
-    unsigned residual_taps = 2;   // L >= 1
+    unsigned surface_modes = 100; // M lowest modes in the full surface update
   };
 
   struct ModalModel : ModelFrame
   {
-    unsigned            n_modes = 0, residual_taps = 0;
-    double              highest_frequency_hz = 0, build_seconds = 0;
-    std::vector<double> shapes;       // [output DoF][mode]
-    std::vector<double> input_shapes; // [input DoF][mode]
+    unsigned            n_modes = 0, surface_modes = 0;
+    double              highest_frequency_hz = 0; // of the surface modes
+    double              build_seconds        = 0;
+    std::vector<double> shapes;       // [output DoF][surface mode]
+    std::vector<double> input_shapes; // [input DoF][mode], every mode
     std::vector<double> step;         // [mode][3 x 5], as ModalData::step
-    std::vector<float>  residual;     // [input DoF][tap][output DoF]
+    std::vector<double> h0_inputs;    // H[0] from input DoF k to the output of input DoF i, [k][i]
+    std::vector<float>  residual;     // static correction E, [input DoF][output DoF]
     /// Bytes in memory.
     double
     bytes() const
     {
-      return 8.0 * (shapes.size() + input_shapes.size() + step.size()) + 4.0 * residual.size();
+      return 8.0 * (shapes.size() + input_shapes.size() + step.size() + h0_inputs.size()) +
+             4.0 * residual.size();
     }
   };
 
@@ -76,20 +80,16 @@ namespace irdm
     }
 
   private:
-    double
-    residual_history(unsigned output_dof) const;
-
     const ModalModel      &model_;
-    unsigned               M_, L_;
+    unsigned               N_, M_;
     long long              n_ = 0;
     std::vector<double>    x_;       // [mode][3] state after the last step
     std::vector<double>    u_modal_; // [mode] modal displacement (x's first component)
     std::vector<double>    free_;    // [mode][3] this step's state without this step's force
     std::vector<double>    g_prev_;  // [mode] modal force of the last step
-    std::vector<double>    history_; // [input DoF][slot], slot = step % L (residual taps)
-    std::vector<long long> last_nonzero_;
-    std::vector<unsigned>  active_inputs_;
-    std::vector<char>      is_active_input_;
+    std::vector<double>    force_now_;  // [input DoF] this step's force
+    std::vector<unsigned>  pushed_;     // inputs with force this step
+    std::vector<char>      is_pushed_;
     std::array<std::array<double, 3>, contact::max_probes> force_{}, probe_u_{};
     std::array<bool, contact::max_probes>                  active_{};
   };

@@ -1,0 +1,127 @@
+#pragma once
+// Internal to validation/: one scene run through the FEM or through any IRDM runtime
+// (PointInteraction, RepresentativeInteraction, ModalInteraction: the same interface), and
+// their comparison. Used by the point validation and the compression study.
+#include <irdm/model.h>
+#include <irdm/point_interaction.h>
+#include <irdm_common/error.h>
+#include <irdm_common/geometry.h>
+#include <reference_fem/scene.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace irdm::validation
+{
+  using Vec3 = std::array<double, 3>;
+
+  inline double
+  norm(const Vec3 &a)
+  {
+    return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+  }
+
+  // Samples k = 1..N of one run: probe forces and the displacement of the model's outputs.
+  struct Series
+  {
+    std::vector<std::vector<Vec3>>   force;   // [probe][k-1]
+    std::vector<std::vector<double>> surface; // [k-1][output DoF]
+    double force_loop_seconds = 0, surface_seconds = 0, step_seconds = 0;
+    double diverged_at = -1; // s; >= 0: the run was stopped there (force beyond the bound)
+  };
+
+  struct Errors
+  {
+    double force_rel_l2 = 0, force_max = 0, disp_rms = 0, disp_max = 0;
+    std::vector<double> force_t, disp_rms_t; // per sample, relative to the peaks
+  };
+
+  /// Errors of test against truth over the samples both have.
+  Errors
+  compare(const Series &test, const Series &truth);
+
+  /// The largest probe force of a run (N).
+  double
+  peak_force(const Series &s);
+
+  /// FEM run at tau / refine; keeps the samples at t = k tau, k = 1..N, on the model outputs.
+  /// Forces are averaged over the refine sub-steps of each tau (impulse per step / tau).
+  Series
+  run_fem(fem::Scene scene, const ModelFrame &model, unsigned refine, unsigned N);
+
+  /// Per probe: the model triangles on its surface, and those triangles' vertices.
+  struct ProbeSurfaces
+  {
+    std::vector<std::vector<unsigned>>                candidates;
+    std::vector<std::vector<std::array<unsigned, 3>>> triangles;
+  };
+  ProbeSurfaces
+  probe_surfaces(const fem::Scene &scene, const ModelFrame &model);
+
+  /// IRDM run of the scene's probes with any runtime (step n is FEM time (n + 1) tau). Stops
+  /// and sets diverged_at when a probe force is not finite or exceeds force_bound (N).
+  template <class Interaction>
+  Series
+  run_irdm(const fem::Scene &scene, const ModelFrame &model, Interaction &irdm,
+           const bool with_surface, const double force_bound = INFINITY)
+  {
+    using Clock            = std::chrono::steady_clock;
+    const unsigned      N  = scene.n_steps();
+    const int           P  = static_cast<int>(scene.probes.size());
+    const ProbeSurfaces ps = probe_surfaces(scene, model);
+    Series              s;
+    std::vector<double> u(model.n_outputs);
+    s.force.assign(P, {});
+    std::array<ProbeTarget, contact::max_probes> targets;
+    unsigned n = 0;
+    for (; n < N; ++n)
+      {
+        const double t = (n + 1) * scene.time_step;
+        for (int p = 0; p < P; ++p)
+          {
+            const auto &pr = scene.probes[p];
+            const auto  sp = geometry::closest_point(model.output_coordinates, ps.triangles[p], pr.path.at(t));
+            targets[p].triangle = static_cast<int>(ps.candidates[p][sp.triangle]);
+            targets[p].weights  = sp.weights;
+            for (int d = 0; d < 3; ++d)
+              targets[p].displacement[d] = pr.depth.at(t) * pr.direction[d];
+            targets[p].direction  = pr.direction;
+            targets[p].unilateral = pr.unilateral;
+            targets[p].present    = t <= pr.until;
+          }
+        const auto t0 = Clock::now();
+        if (!irdm.step(targets.data(), P))
+          throw InputError("scene '" + scene.name + "': at t = " + std::to_string(t) +
+                           " s a probe touches a triangle whose vertices are not all model "
+                           "inputs; widen the scene's model.inputs region");
+        s.force_loop_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+        bool bad = false;
+        for (int p = 0; p < P; ++p)
+          {
+            s.force[p].push_back(irdm.force(p));
+            const double f = norm(irdm.force(p));
+            bad            = bad || !std::isfinite(f) || f > force_bound;
+          }
+        if (with_surface)
+          {
+            const auto t1 = Clock::now();
+            irdm.surface_displacement(u.data());
+            s.surface_seconds += std::chrono::duration<double>(Clock::now() - t1).count();
+            s.surface.push_back(u);
+          }
+        if (bad)
+          {
+            s.diverged_at = t;
+            ++n;
+            break;
+          }
+      }
+    s.force_loop_seconds /= n;
+    s.surface_seconds /= n;
+    return s;
+  }
+} // namespace irdm::validation
