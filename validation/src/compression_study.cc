@@ -73,7 +73,7 @@ namespace irdm::validation
           const RepresentativeModel c = compress(model, o);
           CompressionRow r = measure<RepresentativeInteraction>(scene, c, fem_run, bound);
           r.method        = blend == 1 ? "representatives" : "interpolated";
-          r.setting       = "theta " + fmt(theta, "%.2f") + (blend > 1 ? ", blend 3" : "");
+          r.setting       = "theta " + fmt(theta, "%.3g") + (blend > 1 ? ", blend 3" : "");
           r.value         = theta;
           r.bytes         = c.bytes();
           r.percent       = 100 * r.bytes / h_float;

@@ -1,0 +1,173 @@
+// Google Benchmark of the IRDM runtime kernels on a real model: one haptic step (force loop)
+// and one full surface update, for the direct convolution, representative waveforms (plain and
+// interpolated) and the modal realization. Every kernel's time is also given as a ratio to the
+// direct convolution's, measured in the same run (printed and written as Markdown).
+//
+//   irdm_kernels MODEL.h5 [REPORT.md] [google-benchmark flags]
+// MODEL.h5: a model from 'irdm precompute' (scripts/benchmark.sh makes one: the press scene's
+// inputs, every surface vertex out, T = 500, float, like the full cat model).
+#include <irdm/modal_model.h>
+#include <irdm/point_interaction.h>
+#include <irdm/representative_interaction.h>
+#include <irdm/representative_model.h>
+#include <irdm_common/error.h>
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <memory>
+
+namespace
+{
+  std::unique_ptr<irdm::ImpulseResponseModel> g_model;
+  std::map<std::string, std::unique_ptr<irdm::RepresentativeModel>> g_rep;
+  std::map<unsigned, std::unique_ptr<irdm::ModalModel>>             g_modal;
+
+  // A probe held on the first triangle the model can touch, pressing with a slow sine, so that
+  // the force history is full and nonzero: the steady state of a haptic press.
+  irdm::ProbeTarget
+  probe_at(const irdm::ModelFrame &m, const long long n)
+  {
+    irdm::ProbeTarget p;
+    for (int t = 0; t < static_cast<int>(m.triangles.size()); ++t)
+      {
+        bool ok = true;
+        for (const unsigned v : m.triangles[t])
+          ok = ok && m.output_input_index[v] >= 0;
+        if (ok)
+          {
+            p.triangle = t;
+            break;
+          }
+      }
+    p.weights      = {0.5, 0.3, 0.2};
+    p.displacement = {0, 0, -0.01 * (1 - std::cos(2 * M_PI * n * m.time_step))};
+    return p;
+  }
+
+  template <class Interaction, class Model>
+  void
+  run(benchmark::State &state, const Model &m, const bool surface)
+  {
+    Interaction         irdm(m);
+    std::vector<double> u(m.n_outputs);
+    long long           n = 0;
+    for (; n < m.length + 70; ++n) // fill the history window (and the delay span)
+      {
+        const auto p = probe_at(m, n);
+        irdm.step(&p, 1);
+      }
+    for (auto _ : state)
+      {
+        const auto p = probe_at(m, n++);
+        irdm.step(&p, 1);
+        if (surface)
+          {
+            irdm.surface_displacement(u.data());
+            benchmark::DoNotOptimize(u.data());
+          }
+        benchmark::ClobberMemory();
+      }
+  }
+
+  // Collects each benchmark's real time per iteration, for the ratio table.
+  class Collector : public benchmark::ConsoleReporter
+  {
+  public:
+    std::vector<std::pair<std::string, double>> times; // name, ns
+    void
+    ReportRuns(const std::vector<Run> &runs) override
+    {
+      for (const auto &r : runs)
+        if (r.run_type == Run::RT_Iteration)
+          times.emplace_back(r.benchmark_name(), r.GetAdjustedRealTime());
+      ConsoleReporter::ReportRuns(runs);
+    }
+  };
+} // namespace
+
+int
+main(int argc, char **argv)
+{
+  benchmark::Initialize(&argc, argv);
+  if (argc < 2 || std::string(argv[1]) == "--help")
+    {
+      std::fprintf(stderr, "Usage: irdm_kernels MODEL.h5 [REPORT.md] [benchmark flags]\n");
+      return argc < 2 ? 2 : 0;
+    }
+  const std::string report = argc > 2 ? argv[2] : "";
+  try
+    {
+      g_model = std::make_unique<irdm::ImpulseResponseModel>(irdm::load_model(argv[1]));
+      const auto &m = *g_model;
+      for (const auto &[name, blend, theta] :
+           {std::tuple<const char *, unsigned, double>{"representatives theta 0.90", 1, 0.90},
+            {"representatives theta 0.99", 1, 0.99},
+            {"interpolated theta 0.90 blend 3", 3, 0.90}})
+        {
+          irdm::CompressionOptions o;
+          o.theta = theta;
+          o.blend = blend;
+          g_rep[name] = std::make_unique<irdm::RepresentativeModel>(irdm::compress(m, o));
+        }
+      for (const unsigned M : {25u, 100u})
+        if (M <= m.modes.n_modes)
+          g_modal[M] = std::make_unique<irdm::ModalModel>(irdm::make_modal_model(m, {M}));
+    }
+  catch (const std::exception &e)
+    {
+      std::fprintf(stderr, "irdm_kernels: error: %s\n", e.what());
+      return 2;
+    }
+  for (const bool surface : {false, true})
+    {
+      const std::string what = surface ? "step + full surface update/" : "force loop step/";
+      benchmark::RegisterBenchmark((what + "direct convolution").c_str(), [=](benchmark::State &s) {
+        run<irdm::PointInteraction>(s, *g_model, surface);
+      });
+      for (const auto &[name, model] : g_rep)
+        {
+          const irdm::RepresentativeModel *c = model.get();
+          benchmark::RegisterBenchmark((what + name).c_str(), [=](benchmark::State &s) {
+            run<irdm::RepresentativeInteraction>(s, *c, surface);
+          });
+        }
+      for (const auto &[M, model] : g_modal)
+        {
+          const irdm::ModalModel *mm = model.get();
+          benchmark::RegisterBenchmark((what + "modal M " + std::to_string(M)).c_str(),
+                                       [=](benchmark::State &s) { run<irdm::ModalInteraction>(s, *mm, surface); });
+        }
+    }
+  Collector collector;
+  benchmark::RunSpecifiedBenchmarks(&collector);
+
+  std::map<std::string, double> direct;
+  for (const auto &[name, ns] : collector.times)
+    if (name.find("direct convolution") != std::string::npos)
+      direct[name.substr(0, name.find('/'))] = ns;
+  std::string md = "| kernel | time per call (us) | ratio to direct convolution |\n|---|---|---|\n";
+  for (const auto &[name, ns] : collector.times)
+    {
+      char line[256];
+      std::snprintf(line, sizeof line, "| %s | %.2f | %.3g |\n", name.c_str(), ns / 1e3,
+                    ns / direct[name.substr(0, name.find('/'))]);
+      md += line;
+    }
+  const auto &m = *g_model;
+  char        head[512];
+  std::snprintf(head, sizeof head,
+                "# IRDM runtime kernels (Google Benchmark, one core)\n\nModel: %u inputs x %u "
+                "outputs x T = %u (%s), one probe pressing with a slow sine, steady state (the "
+                "history window full). Ratios are to the direct convolution of the same kernel, "
+                "measured in this run.\n\n",
+                m.n_inputs, m.n_outputs, m.length, m.double_storage ? "double" : "float");
+  std::printf("\n%s%s", head, md.c_str());
+  if (!report.empty())
+    std::ofstream(report) << head << md;
+  benchmark::Shutdown();
+  return 0;
+}
