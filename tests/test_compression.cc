@@ -229,3 +229,21 @@ TEST(Compression, ModalModelConvergesToTheExactModelWithItsModes)
   EXPECT_GT(errors[0], 1e-3); // 5 surface modes is a real truncation
   EXPECT_THROW(make_modal_model(model, {model.modes.n_modes + 1}), InputError);
 }
+
+// The command line: a missing model or a threshold out of range is exit status 2 with a
+// message, and a good run writes a model the loader accepts.
+TEST(Compression, CommandLineChecksItsInput)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  make_model(scene, "cli_src.h5");
+  const std::string cli = std::string("env -i PATH=/usr/bin:/bin HOME=/tmp ") + IRDM_CLI + " compress ";
+  const auto status = [](const std::string &cmd) {
+    const int s = std::system((cmd + " > /dev/null 2>&1").c_str());
+    return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
+  };
+  EXPECT_EQ(status(cli + tmp("missing.h5") + " --out " + tmp("c.h5")), 2);
+  EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("c.h5") + " --theta 1.5"), 2);
+  EXPECT_EQ(status(cli + tmp("cli_src.h5")), 2); // no --out
+  EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_c.h5") + " --theta 0.9 --quiet"), 0);
+  EXPECT_NO_THROW(load_representative_model(tmp("cli_c.h5"), 0.002));
+}

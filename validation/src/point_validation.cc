@@ -476,6 +476,7 @@ namespace irdm::validation
             CompressionRow row;
             row.method = "representatives";
             row.setting = "theta " + fmt(theta, "%.2f");
+            row.rep_percent = 100.0 * c.n_representative / waveforms;
             row.bytes = c.bytes();
             row.percent = 100 * c.bytes() / h_bytes;
             row.build_seconds = c.compression_seconds;
