@@ -1,6 +1,8 @@
 #include <irdm/modal_model.h>
 #include <irdm_common/error.h>
 
+#include <Eigen/Core>
+
 #include <algorithm>
 #include <chrono>
 
@@ -8,6 +10,12 @@
 
 namespace irdm
 {
+  namespace
+  {
+    using Vec    = Eigen::Map<const Eigen::VectorXd>;
+    using VecMut = Eigen::Map<Eigen::VectorXd>;
+  } // namespace
+
   ModalModel
   make_modal_model(const ImpulseResponseModel &m, const ModalModelOptions &o)
   {
@@ -84,9 +92,12 @@ namespace irdm
     , N_(model.n_modes)
     , M_(model.surface_modes)
   {
-    x_.assign(3 * N_, 0.0);
-    u_modal_.assign(N_, 0.0);
-    free_.assign(3 * N_, 0.0);
+    for (auto *v : {&xu_, &xv_, &xa_, &fu_, &fv_, &fa_})
+      v->assign(N_, 0.0);
+    coef_.resize(15 * static_cast<size_t>(N_));
+    for (unsigned i = 0; i < N_; ++i)
+      for (unsigned e = 0; e < 15; ++e)
+        coef_[e * static_cast<size_t>(N_) + i] = model.step[15 * static_cast<size_t>(i) + e];
     g_prev_.assign(N_, 0.0);
     force_now_.assign(model.n_inputs, 0.0);
     is_pushed_.assign(model.n_inputs, 0);
@@ -108,15 +119,18 @@ namespace irdm
     for (const unsigned k : pushed_)
       force_now_[k] = 0, is_pushed_[k] = 0;
     pushed_.clear();
-    // The state this step reaches if its force is zero.
-    for (unsigned i = 0; i < N_; ++i)
-      {
-        const double *A = &model_.step[15 * i];
-        const double *x = &x_[3 * i];
-        for (int r = 0; r < 3; ++r)
-          free_[3 * i + r] = A[5 * r] * x[0] + A[5 * r + 1] * x[1] + A[5 * r + 2] * x[2] +
-                             A[5 * r + 4] * g_prev_[i];
-      }
+    // The state this step reaches if its force is zero (structure of arrays: vectorizes).
+    {
+      const double *c = coef_.data();
+      const size_t  N = N_;
+      for (size_t i = 0; i < N; ++i)
+        {
+          const double u = xu_[i], v = xv_[i], a = xa_[i], g = g_prev_[i];
+          fu_[i] = c[0 * N + i] * u + c[1 * N + i] * v + c[2 * N + i] * a + c[4 * N + i] * g;
+          fv_[i] = c[5 * N + i] * u + c[6 * N + i] * v + c[7 * N + i] * a + c[9 * N + i] * g;
+          fa_[i] = c[10 * N + i] * u + c[11 * N + i] * v + c[12 * N + i] * a + c[14 * N + i] * g;
+        }
+    }
     const unsigned nin = model_.n_inputs;
     // The input DoF whose output is output DoF j (contact rows are outputs of inputs).
     const auto input_of = [&](const unsigned j) {
@@ -126,11 +140,7 @@ namespace irdm
     detail::probe_step(
       model_, probes, P,
       [&](const unsigned i, unsigned) {
-        const double *pi  = &model_.input_shapes[static_cast<size_t>(i) * N_];
-        double        sum = 0;
-        for (unsigned m = 0; m < N_; ++m)
-          sum += pi[m] * free_[3 * m];
-        return sum;
+        return Vec(&model_.input_shapes[static_cast<size_t>(i) * N_], N_).dot(Vec(fu_.data(), N_));
       },
       [&](const unsigned k, const unsigned j) {
         return model_.h0_inputs[static_cast<size_t>(k) * nin + input_of(j)];
@@ -150,17 +160,17 @@ namespace irdm
     // Modal force of this step, then the state.
     std::fill(g_prev_.begin(), g_prev_.end(), 0.0);
     for (const unsigned k : pushed_)
-      {
-        const double *pk = &model_.input_shapes[static_cast<size_t>(k) * N_];
-        for (unsigned m = 0; m < N_; ++m)
-          g_prev_[m] += pk[m] * force_now_[k];
-      }
-    for (unsigned m = 0; m < N_; ++m)
-      {
-        for (int r = 0; r < 3; ++r)
-          x_[3 * m + r] = free_[3 * m + r] + model_.step[15 * m + 5 * r + 3] * g_prev_[m];
-        u_modal_[m] = x_[3 * m];
-      }
+      VecMut(g_prev_.data(), N_) += force_now_[k] * Vec(&model_.input_shapes[static_cast<size_t>(k) * N_], N_);
+    {
+      const double *c = coef_.data();
+      const size_t  N = N_;
+      for (size_t i = 0; i < N; ++i)
+        {
+          xu_[i] = fu_[i] + c[3 * N + i] * g_prev_[i];
+          xv_[i] = fv_[i] + c[8 * N + i] * g_prev_[i];
+          xa_[i] = fa_[i] + c[13 * N + i] * g_prev_[i];
+        }
+    }
     ++n_;
     return true;
   }
@@ -169,14 +179,10 @@ namespace irdm
   ModalInteraction::surface_displacement(double *u) const
   {
     const size_t nout = model_.n_outputs;
-    for (size_t j = 0; j < nout; ++j)
-      {
-        const double *pj  = &model_.shapes[j * M_];
-        double        sum = 0;
-        for (unsigned m = 0; m < M_; ++m)
-          sum += pj[m] * u_modal_[m];
-        u[j] = sum;
-      }
+    // u = Phi_M u_modal: shapes is [output][mode] row-major, i.e. Phi_M^T column-major.
+    Eigen::Map<Eigen::VectorXd>(u, nout).noalias() =
+      Eigen::Map<const Eigen::MatrixXd>(model_.shapes.data(), M_, nout).transpose() *
+      Vec(xu_.data(), M_);
     for (const unsigned k : pushed_) // static correction of the modes beyond M
       {
         const double f = force_now_[k];

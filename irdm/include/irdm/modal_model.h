@@ -83,9 +83,9 @@ namespace irdm
     const ModalModel      &model_;
     unsigned               N_, M_;
     long long              n_ = 0;
-    std::vector<double>    x_;       // [mode][3] state after the last step
-    std::vector<double>    u_modal_; // [mode] modal displacement (x's first component)
-    std::vector<double>    free_;    // [mode][3] this step's state without this step's force
+    std::vector<double>    coef_;          // step matrices, [entry of 3 x 5][mode]
+    std::vector<double>    xu_, xv_, xa_;  // [mode] state (u, v, a) after the last step
+    std::vector<double>    fu_, fv_, fa_;  // [mode] this step's state without its force
     std::vector<double>    g_prev_;  // [mode] modal force of the last step
     std::vector<double>    force_now_;  // [input DoF] this step's force
     std::vector<unsigned>  pushed_;     // inputs with force this step
