@@ -40,6 +40,63 @@ namespace
           m.h_double[(static_cast<size_t>(k) * m.length + s) * m.n_outputs + j] = c.response(k, s, j);
     return m;
   }
+
+  // Drives a reference runtime and a tested one through the scene's probe (on the "sides"
+  // surface) side by side; the tested one's step and surface update run with the allocation
+  // counter armed. Returns the largest force and surface differences relative to the
+  // reference's peaks, and the reference's peak force.
+  struct Difference
+  {
+    double force = 0, surface = 0, peak_force = 0;
+    bool   stepped = true;
+  };
+
+  template <class Reference, class Tested>
+  Difference
+  run_side_by_side(const fem::Scene &scene, const ModelFrame &model, Reference &reference,
+                   Tested &tested)
+  {
+    std::vector<unsigned>                 cand;
+    std::vector<std::array<unsigned, 3>> tris;
+    for (unsigned t = 0; t < model.triangles.size(); ++t)
+      if (model.surface_names[model.triangle_surface[t]] == "sides")
+        cand.push_back(t), tris.push_back(model.triangles[t]);
+    std::vector<double> ur(model.n_outputs), ut(model.n_outputs);
+    double      fmax = 0, ferr = 0, umax = 0, uerr = 0;
+    Difference  out;
+    const auto &p = scene.probes[0];
+    for (unsigned n = 0; n < scene.n_steps(); ++n)
+      {
+        const double t  = (n + 1) * scene.time_step;
+        const auto   sp = geometry::closest_point(model.output_coordinates, tris, p.path.at(t));
+        ProbeTarget  target;
+        target.triangle = static_cast<int>(cand[sp.triangle]);
+        target.weights  = sp.weights;
+        for (int d = 0; d < 3; ++d)
+          target.displacement[d] = p.depth.at(t) * p.direction[d];
+        target.present = t <= p.until;
+        out.stepped    = out.stepped && reference.step(&target, 1);
+        reference.surface_displacement(ur.data());
+        g_count_allocations = true;
+        out.stepped         = tested.step(&target, 1) && out.stepped;
+        tested.surface_displacement(ut.data());
+        g_count_allocations = false;
+        for (int d = 0; d < 3; ++d)
+          {
+            fmax = std::max(fmax, std::abs(reference.force(0)[d]));
+            ferr = std::max(ferr, std::abs(reference.force(0)[d] - tested.force(0)[d]));
+          }
+        for (unsigned j = 0; j < model.n_outputs; ++j)
+          {
+            umax = std::max(umax, std::abs(ur[j]));
+            uerr = std::max(uerr, std::abs(ur[j] - ut[j]));
+          }
+      }
+    out.force      = ferr / fmax;
+    out.surface    = uerr / umax;
+    out.peak_force = fmax;
+    return out;
+  }
 } // namespace
 
 TEST(Compression, EverySubstitutedWaveformMeetsItsThreshold)
@@ -94,48 +151,14 @@ TEST(Compression, RuntimeEqualsDirectConvolutionOfTheCompressedTensor)
       ASSERT_GT(c.delay_span, 0u) << "the test must exercise delayed reads";
       const auto full = decompress(c);
 
-      std::vector<unsigned>                 cand;
-      std::vector<std::array<unsigned, 3>> tris;
-      for (unsigned t = 0; t < model.triangles.size(); ++t)
-        if (model.surface_names[model.triangle_surface[t]] == "sides")
-          cand.push_back(t), tris.push_back(model.triangles[t]);
       PointInteraction          direct(full);
       RepresentativeInteraction compressed(c);
-      std::vector<double>       u_direct(model.n_outputs), u_comp(model.n_outputs);
-      double fmax = 0, ferr = 0, umax = 0, uerr = 0;
-      const auto &p = scene.probes[0];
-      for (unsigned n = 0; n < scene.n_steps(); ++n)
-        {
-          const double t  = (n + 1) * scene.time_step;
-          const auto   sp = geometry::closest_point(model.output_coordinates, tris, p.path.at(t));
-          ProbeTarget  target;
-          target.triangle = static_cast<int>(cand[sp.triangle]);
-          target.weights  = sp.weights;
-          for (int d = 0; d < 3; ++d)
-            target.displacement[d] = p.depth.at(t) * p.direction[d];
-          target.present = t <= p.until;
-          ASSERT_TRUE(direct.step(&target, 1));
-          direct.surface_displacement(u_direct.data());
-          g_count_allocations = true;
-          const bool stepped  = compressed.step(&target, 1);
-          compressed.surface_displacement(u_comp.data());
-          g_count_allocations = false;
-          ASSERT_TRUE(stepped);
-          for (int d = 0; d < 3; ++d)
-            {
-              fmax = std::max(fmax, std::abs(direct.force(0)[d]));
-              ferr = std::max(ferr, std::abs(direct.force(0)[d] - compressed.force(0)[d]));
-            }
-          for (unsigned j = 0; j < model.n_outputs; ++j)
-            {
-              umax = std::max(umax, std::abs(u_direct[j]));
-              uerr = std::max(uerr, std::abs(u_direct[j] - u_comp[j]));
-            }
-        }
+      const Difference          diff = run_side_by_side(scene, model, direct, compressed);
+      ASSERT_TRUE(diff.stepped);
       EXPECT_EQ(g_allocations, 0) << "heap allocations inside step() / surface_displacement()";
-      EXPECT_GT(fmax, 1e-4);
-      EXPECT_LT(ferr / fmax, 1e-10) << "blend " << blend;
-      EXPECT_LT(uerr / umax, 1e-10) << "blend " << blend;
+      EXPECT_GT(diff.peak_force, 1e-4);
+      EXPECT_LT(diff.force, 1e-10) << "blend " << blend;
+      EXPECT_LT(diff.surface, 1e-10) << "blend " << blend;
     }
 }
 
@@ -177,51 +200,17 @@ TEST(Compression, ModalModelConvergesToTheExactModelWithItsModes)
   const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
   const auto       model = make_model(scene, "modal.h5");
   ASSERT_GT(model.modes.n_modes, 20u);
-  std::vector<unsigned>                 cand;
-  std::vector<std::array<unsigned, 3>> tris;
-  for (unsigned t = 0; t < model.triangles.size(); ++t)
-    if (model.surface_names[model.triangle_surface[t]] == "sides")
-      cand.push_back(t), tris.push_back(model.triangles[t]);
   std::vector<double> errors;
   for (const unsigned M : {5u, model.modes.n_modes / 4, model.modes.n_modes})
     {
       const auto       modal = make_modal_model(model, {M});
       PointInteraction exact(model);
       ModalInteraction fast(modal);
-      std::vector<double> ue(model.n_outputs), uf(model.n_outputs);
-      double fmax = 0, ferr = 0, umax = 0, uerr = 0;
-      const auto &p = scene.probes[0];
-      for (unsigned n = 0; n < scene.n_steps(); ++n)
-        {
-          const double t  = (n + 1) * scene.time_step;
-          const auto   sp = geometry::closest_point(model.output_coordinates, tris, p.path.at(t));
-          ProbeTarget  target;
-          target.triangle = static_cast<int>(cand[sp.triangle]);
-          target.weights  = sp.weights;
-          for (int d = 0; d < 3; ++d)
-            target.displacement[d] = p.depth.at(t) * p.direction[d];
-          target.present = t <= p.until;
-          ASSERT_TRUE(exact.step(&target, 1));
-          exact.surface_displacement(ue.data());
-          g_count_allocations = true;
-          const bool stepped  = fast.step(&target, 1);
-          fast.surface_displacement(uf.data());
-          g_count_allocations = false;
-          ASSERT_TRUE(stepped);
-          for (int d = 0; d < 3; ++d)
-            {
-              fmax = std::max(fmax, std::abs(exact.force(0)[d]));
-              ferr = std::max(ferr, std::abs(exact.force(0)[d] - fast.force(0)[d]));
-            }
-          for (unsigned j = 0; j < model.n_outputs; ++j)
-            {
-              umax = std::max(umax, std::abs(ue[j]));
-              uerr = std::max(uerr, std::abs(ue[j] - uf[j]));
-            }
-        }
+      const Difference diff = run_side_by_side(scene, model, exact, fast);
+      ASSERT_TRUE(diff.stepped);
       EXPECT_EQ(g_allocations, 0);
-      EXPECT_LT(ferr / fmax, 1e-9) << "the force loop carries every mode: exact";
-      errors.push_back(uerr / umax);
+      EXPECT_LT(diff.force, 1e-9) << "the force loop carries every mode: exact";
+      errors.push_back(diff.surface);
     }
   EXPECT_LT(errors[2], 1e-6) << "every mode: the exact surface up to float residual storage";
   EXPECT_LT(errors[1], errors[0]);

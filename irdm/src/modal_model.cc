@@ -136,7 +136,6 @@ namespace irdm
     const auto input_of = [&](const unsigned j) {
       return 3u * static_cast<unsigned>(model_.output_input_index[j / 3]) + j % 3;
     };
-    detail::ProbeResults res;
     detail::probe_step(
       model_, probes, P,
       [&](const unsigned i, unsigned) {
@@ -153,10 +152,7 @@ namespace irdm
             pushed_.push_back(k); // capacity reserved: never reallocates
           }
       },
-      res);
-    force_   = res.force;
-    probe_u_ = res.displacement;
-    active_  = res.active;
+      results_);
     // Modal force of this step, then the state.
     std::fill(g_prev_.begin(), g_prev_.end(), 0.0);
     for (const unsigned k : pushed_)

@@ -13,10 +13,7 @@ namespace irdm
   {
     if (model.n_inputs == 0 || model.n_outputs == 0)
       throw InputError("model has no inputs or outputs");
-    history_.assign(static_cast<size_t>(model.n_inputs) * taps_, 0.0);
-    last_nonzero_.assign(model.n_inputs, -1);
-    is_active_input_.assign(model.n_inputs, 0);
-    active_inputs_.reserve(model.n_inputs);
+    history_.reset(model.n_inputs, taps_, taps_);
     const size_t n = model.n_inputs;
     if (n * n * taps_ * sizeof(double) <= (size_t(256) << 20))
       {
@@ -38,9 +35,9 @@ namespace irdm
     const size_t    n    = model_.n_inputs;
     const long long smax = std::min<long long>(taps_ - 1, n_);
     double          sum  = 0;
-    for (const unsigned k : active_inputs_)
+    for (const unsigned k : history_.active())
       {
-        const double *f = &history_[static_cast<size_t>(k) * taps_];
+        const double *f = history_.row(k);
         const double *h = &h_cc_[(k * n + i) * taps_];
         // s = 1 .. smax reads slots (n_ - s) mod taps: two contiguous runs, walked backwards.
         const long long first = (n_ - 1) % taps_; // slot of s = 1
@@ -58,10 +55,7 @@ namespace irdm
   PointInteraction::reset()
   {
     n_ = 0;
-    std::fill(history_.begin(), history_.end(), 0.0);
-    std::fill(last_nonzero_.begin(), last_nonzero_.end(), -1);
-    std::fill(is_active_input_.begin(), is_active_input_.end(), 0);
-    active_inputs_.clear();
+    history_.reset(model_.n_inputs, taps_, taps_);
   }
 
   bool
@@ -80,9 +74,9 @@ namespace irdm
     const unsigned T    = model_.length;
     const size_t   nout = model_.n_outputs;
     const long long smax = std::min<long long>(taps_ - 1, n_);
-    for (const unsigned k : active_inputs_)
+    for (const unsigned k : history_.active())
       {
-        const double *f   = &history_[static_cast<size_t>(k) * taps_];
+        const double *f   = history_.row(k);
         const Scalar *hk  = H + static_cast<size_t>(k) * T * nout + j;
         for (long long s = 1; s <= smax; ++s)
           sum += static_cast<double>(hk[s * nout]) * f[(n_ - s) % taps_];
@@ -96,24 +90,7 @@ namespace irdm
     for (int p = 0; p < P; ++p)
       if (!can_touch(probes[p].triangle))
         return false;
-    // Retire inputs whose last force has left the window (no allocation: erase in place).
-    active_inputs_.erase(std::remove_if(active_inputs_.begin(), active_inputs_.end(),
-                                        [&](const unsigned k) {
-                                          const bool gone = n_ - last_nonzero_[k] >= taps_;
-                                          if (gone)
-                                            {
-                                              is_active_input_[k] = 0;
-                                              std::fill_n(&history_[static_cast<size_t>(k) * taps_],
-                                                          taps_, 0.0);
-                                            }
-                                          return gone;
-                                        }),
-                         active_inputs_.end());
-    // Clear this step's slot (it held the force of step n - taps).
-    for (const unsigned k : active_inputs_)
-      history_[static_cast<size_t>(k) * taps_ + n_ % taps_] = 0.0;
-
-    detail::ProbeResults r;
+    history_.begin_step(n_, [](unsigned) {});
     detail::probe_step(
       model_, probes, P,
       [&](const unsigned i, const unsigned j) {
@@ -122,19 +99,8 @@ namespace irdm
                                         : history_at(model_.h_float.data(), j);
       },
       [&](const unsigned k, const unsigned j) { return model_.h(k, 0, j); },
-      [&](const unsigned k, const double f) {
-        history_[static_cast<size_t>(k) * taps_ + n_ % taps_] += f;
-        last_nonzero_[k] = n_;
-        if (!is_active_input_[k])
-          {
-            is_active_input_[k] = 1;
-            active_inputs_.push_back(k); // capacity reserved: never reallocates
-          }
-      },
-      r);
-    force_   = r.force;
-    probe_u_ = r.displacement;
-    active_  = r.active;
+      [&](const unsigned k, const double f) { history_.push(k, n_, f); },
+      results_);
     ++n_;
     return true;
   }
@@ -149,9 +115,9 @@ namespace irdm
     if (now < 0)
       return;
     const long long smax = std::min<long long>(taps_ - 1, now);
-    for (const unsigned k : active_inputs_)
+    for (const unsigned k : history_.active())
       {
-        const double *f  = &history_[static_cast<size_t>(k) * taps_];
+        const double *f  = history_.row(k);
         const Scalar *hk = H + static_cast<size_t>(k) * model_.length * nout;
         for (long long s = 0; s <= smax; ++s)
           {

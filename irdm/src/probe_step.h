@@ -11,12 +11,6 @@
 
 namespace irdm::detail
 {
-  struct ProbeResults
-  {
-    std::array<std::array<double, 3>, contact::max_probes> force{}, displacement{};
-    std::array<bool, contact::max_probes>                  active{};
-  };
-
   inline bool
   can_touch(const ModelFrame &m, const int t)
   {

@@ -25,12 +25,10 @@ namespace irdm
         const size_t row = model.first_representative[t / per_input] + model.term_representative[t];
         term_offset_[t]  = static_cast<std::uint32_t>(row * 2 * ring_ + ring_ - model.term_delay[t]);
       }
-    history_.assign(static_cast<size_t>(model.n_inputs) * T_, 0.0);
+    // An input stays active while its convolutions or their delayed reads can be nonzero.
+    history_.reset(model.n_inputs, T_, static_cast<long long>(T_) + ring_);
     partial_.assign(R, 0.0);
     c_.assign(R * 2 * ring_, 0.0);
-    last_nonzero_.assign(model.n_inputs, -1);
-    is_active_input_.assign(model.n_inputs, 0);
-    active_inputs_.reserve(model.n_inputs);
   }
 
   bool
@@ -57,7 +55,7 @@ namespace irdm
   {
     const unsigned slot = static_cast<unsigned>(n_ % ring_);
     double         sum  = 0;
-    for (const unsigned k : active_inputs_)
+    for (const unsigned k : history_.active())
       {
         const size_t base = (static_cast<size_t>(k) * model_.n_outputs + j) * model_.blend;
         for (unsigned b = 0; b < model_.blend; ++b)
@@ -80,34 +78,20 @@ namespace irdm
     for (int p = 0; p < P; ++p)
       if (!can_touch(probes[p].triangle))
         return false;
-    // An input stays active while its convolutions or their delayed reads can be nonzero.
-    const long long window = static_cast<long long>(T_) + ring_;
-    active_inputs_.erase(
-      std::remove_if(active_inputs_.begin(), active_inputs_.end(),
-                     [&](const unsigned k) {
-                       const bool gone = n_ - last_nonzero_[k] >= window;
-                       if (gone)
-                         {
-                           is_active_input_[k] = 0;
-                           std::fill_n(&history_[static_cast<size_t>(k) * T_], T_, 0.0);
-                           for (auto r = model_.first_representative[k];
-                                r < model_.first_representative[k + 1]; ++r)
-                             {
-                               partial_[r] = 0;
-                               std::fill_n(&c_[r * 2 * ring_], 2 * ring_, 0.0);
-                             }
-                         }
-                       return gone;
-                     }),
-      active_inputs_.end());
+    history_.begin_step(n_, [&](const unsigned k) {
+      for (auto r = model_.first_representative[k]; r < model_.first_representative[k + 1]; ++r)
+        {
+          partial_[r] = 0;
+          std::fill_n(&c_[r * 2 * ring_], 2 * ring_, 0.0);
+        }
+    });
     // p_r for every representative of every active input (this step's force slot cleared).
     const long long first = (n_ + T_ - 1) % T_; // slot of s = 1
     const long long smax  = std::min<long long>(T_ - 1, n_);
     const long long run1  = std::min<long long>(smax, first + 1);
-    for (const unsigned k : active_inputs_)
+    for (const unsigned k : history_.active())
       {
-        double *f = &history_[static_cast<size_t>(k) * T_];
-        f[n_ % T_] = 0.0;
+        const double *f = history_.row(k);
         for (auto r = model_.first_representative[k]; r < model_.first_representative[k + 1]; ++r)
           {
             const double *h   = &representatives_[r * T_];
@@ -120,29 +104,17 @@ namespace irdm
           }
       }
 
-    detail::ProbeResults res;
     detail::probe_step(
       model_, probes, P, [&](unsigned, const unsigned j) { return history_at(j); },
       [&](const unsigned k, const unsigned j) { return feed_through(k, j); },
-      [&](const unsigned k, const double f) {
-        history_[static_cast<size_t>(k) * T_ + n_ % T_] += f;
-        last_nonzero_[k] = n_;
-        if (!is_active_input_[k])
-          {
-            is_active_input_[k] = 1;
-            active_inputs_.push_back(k); // capacity reserved: never reallocates
-          }
-      },
-      res);
-    force_   = res.force;
-    probe_u_ = res.displacement;
-    active_  = res.active;
+      [&](const unsigned k, const double f) { history_.push(k, n_, f); },
+      results_);
 
     // c_r[n] = p_r + r[0] f_k[n], written at both copies of the ring slot.
     const unsigned slot = static_cast<unsigned>(n_ % ring_);
-    for (const unsigned k : active_inputs_)
+    for (const unsigned k : history_.active())
       {
-        const double f = history_[static_cast<size_t>(k) * T_ + n_ % T_];
+        const double f = history_.row(k)[n_ % T_];
         for (auto r = model_.first_representative[k]; r < model_.first_representative[k + 1]; ++r)
           {
             const double c = partial_[r] + representatives_[r * T_] * f;
@@ -162,7 +134,7 @@ namespace irdm
       return;
     const unsigned slot = static_cast<unsigned>((n_ - 1) % ring_); // the last step taken
     const double  *c    = c_.data() + slot;
-    for (const unsigned k : active_inputs_)
+    for (const unsigned k : history_.active())
       {
         const float         *a   = &model_.term_amplitude[k * nout * B];
         const std::uint32_t *off = &term_offset_[k * nout * B];

@@ -445,18 +445,25 @@ namespace irdm::validation
                   "|---|---|---|---|---|---|\n";
         std::vector<std::string> cells[7];
         std::vector<CompressionRow> full_rows;
+        const auto row_of = [&](const std::string &method, const std::string &setting,
+                                const double bytes, const double build_seconds, const Series &run) {
+          CompressionRow row;
+          row.method        = method;
+          row.setting       = setting;
+          row.bytes         = bytes;
+          row.percent       = 100 * bytes / h_bytes;
+          row.build_seconds = build_seconds;
+          row.errors        = compare(run, fem_full);
+          row.force_loop_us = 1e6 * run.force_loop_seconds;
+          row.surface_us    = 1e6 * run.surface_seconds;
+          row.stable        = run.diverged_at < 0;
+          row.diverged_at   = run.diverged_at;
+          return row;
+        };
         {
           PointInteraction direct(full_model);
-          const Series     d = run_irdm(s, full_model, direct, true, bound);
-          CompressionRow   row;
-          row.method = "IRDM direct";
-          row.setting = "float, T = 500";
-          row.bytes = full_model.bytes();
-          row.percent = 100;
-          row.errors = compare(d, fem_full);
-          row.force_loop_us = 1e6 * d.force_loop_seconds;
-          row.surface_us = 1e6 * d.surface_seconds;
-          full_rows.push_back(row);
+          full_rows.push_back(row_of("IRDM direct", "float, T = 500", full_model.bytes(), 0,
+                                     run_irdm(s, full_model, direct, true, bound)));
         }
         for (const double theta : {0.80, 0.85, 0.90, 0.95})
           {
@@ -472,38 +479,16 @@ namespace irdm::validation
             cells[5].push_back(fmt(c.compression_seconds, "%.1f"));
             cells[6].push_back(fmt(c.mean_fit, "%.3f") + " / " + fmt(c.mean_delay, "%.1f"));
             RepresentativeInteraction irdm(c);
-            const Series   run = run_irdm(s, c, irdm, true, bound);
-            CompressionRow row;
-            row.method = "representatives";
-            row.setting = "theta " + fmt(theta, "%.2f");
-            row.rep_percent = 100.0 * c.n_representative / waveforms;
-            row.bytes = c.bytes();
-            row.percent = 100 * c.bytes() / h_bytes;
-            row.build_seconds = c.compression_seconds;
-            row.errors = compare(run, fem_full);
-            row.force_loop_us = 1e6 * run.force_loop_seconds;
-            row.surface_us = 1e6 * run.surface_seconds;
-            row.stable = run.diverged_at < 0;
-            row.diverged_at = run.diverged_at;
-            full_rows.push_back(row);
+            full_rows.push_back(row_of("representatives", "theta " + fmt(theta, "%.2f"), c.bytes(),
+                                       c.compression_seconds, run_irdm(s, c, irdm, true, bound)));
+            full_rows.back().rep_percent = 100.0 * c.n_representative / waveforms;
           }
         for (const unsigned M : {50u, 100u, 200u})
           {
             const ModalModel mm = make_modal_model(full_model, {M});
             ModalInteraction irdm(mm);
-            const Series     run = run_irdm(s, mm, irdm, true, bound);
-            CompressionRow   row;
-            row.method = "modal";
-            row.setting = "M " + std::to_string(M);
-            row.bytes = mm.bytes();
-            row.percent = 100 * mm.bytes() / h_bytes;
-            row.build_seconds = mm.build_seconds;
-            row.errors = compare(run, fem_full);
-            row.force_loop_us = 1e6 * run.force_loop_seconds;
-            row.surface_us = 1e6 * run.surface_seconds;
-            row.stable = run.diverged_at < 0;
-            row.diverged_at = run.diverged_at;
-            full_rows.push_back(row);
+            full_rows.push_back(row_of("modal", "M " + std::to_string(M), mm.bytes(),
+                                       mm.build_seconds, run_irdm(s, mm, irdm, true, bound)));
           }
         const char *labels[7] = {"number of representative data", "number of non-representative data",
                                  "compression ratio (representatives / waveforms)",

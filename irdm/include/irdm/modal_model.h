@@ -48,7 +48,7 @@ namespace irdm
 
   /// Point interaction run from a modal model; same interface and guarantees as
   /// PointInteraction (step() and surface_displacement() allocate nothing).
-  class ModalInteraction
+  class ModalInteraction : public ProbeOutputs
   {
   public:
     explicit ModalInteraction(const ModalModel &model);
@@ -56,33 +56,12 @@ namespace irdm
     can_touch(int triangle) const;
     bool
     step(const ProbeTarget *probes, int n_probes);
-    const std::array<double, 3> &
-    force(int p) const
-    {
-      return force_[p];
-    }
-    bool
-    active(int p) const
-    {
-      return active_[p];
-    }
-    const std::array<double, 3> &
-    probe_displacement(int p) const
-    {
-      return probe_u_[p];
-    }
     void
     surface_displacement(double *u) const;
-    long long
-    steps() const
-    {
-      return n_;
-    }
 
   private:
     const ModalModel      &model_;
     unsigned               N_, M_;
-    long long              n_ = 0;
     std::vector<double>    coef_;          // step matrices, [entry of 3 x 5][mode]
     std::vector<double>    xu_, xv_, xa_;  // [mode] state (u, v, a) after the last step
     std::vector<double>    fu_, fv_, fa_;  // [mode] this step's state without its force
@@ -90,7 +69,5 @@ namespace irdm
     std::vector<double>    force_now_;  // [input DoF] this step's force
     std::vector<unsigned>  pushed_;     // inputs with force this step
     std::vector<char>      is_pushed_;
-    std::array<std::array<double, 3>, contact::max_probes> force_{}, probe_u_{};
-    std::array<bool, contact::max_probes>                  active_{};
   };
 } // namespace irdm

@@ -12,6 +12,7 @@
 //
 // step() and surface_displacement() allocate nothing and take no locks: every buffer is sized
 // in the constructor.
+#include <irdm/force_history.h>
 #include <irdm/model.h>
 #include <irdm_common/contact.h>
 
@@ -30,7 +31,48 @@ namespace irdm
     bool                  present      = true; // false: no contact this step (probe lifted)
   };
 
-  class PointInteraction
+  /// What a force-loop step yields, per probe.
+  struct ProbeResults
+  {
+    std::array<std::array<double, 3>, contact::max_probes> force{}, displacement{};
+    std::array<bool, contact::max_probes>                  active{};
+  };
+
+  /// The accessors every runtime kind (direct, representatives, modal) shares, so that one
+  /// harness drives them all; no virtual functions (the haptic path stays inlined).
+  class ProbeOutputs
+  {
+  public:
+    /// After step(): the force on the body at probe p (N), its contact state, and the
+    /// displacement of the probed point (m).
+    const std::array<double, 3> &
+    force(int p) const
+    {
+      return results_.force[p];
+    }
+    bool
+    active(int p) const
+    {
+      return results_.active[p];
+    }
+    const std::array<double, 3> &
+    probe_displacement(int p) const
+    {
+      return results_.displacement[p];
+    }
+    /// Steps taken so far; the state after step n is FEM time (n + 1) * time_step.
+    long long
+    steps() const
+    {
+      return n_;
+    }
+
+  protected:
+    ProbeResults results_;
+    long long    n_ = 0;
+  };
+
+  class PointInteraction : public ProbeOutputs
   {
   public:
     /// taps: how many samples of each response to use (0: all; fewer truncates).
@@ -45,34 +87,10 @@ namespace irdm
     bool
     step(const ProbeTarget *probes, int n_probes);
 
-    /// After step(): the force on the body at probe p (N), its contact state, and the
-    /// displacement of the probed point (m).
-    const std::array<double, 3> &
-    force(int p) const
-    {
-      return force_[p];
-    }
-    bool
-    active(int p) const
-    {
-      return active_[p];
-    }
-    const std::array<double, 3> &
-    probe_displacement(int p) const
-    {
-      return probe_u_[p];
-    }
-
     /// The full surface update: displacement of every output DoF after the last step (m).
     void
     surface_displacement(double *u) const;
 
-    /// Steps taken so far; the state after step n is FEM time (n + 1) * time_step.
-    long long
-    steps() const
-    {
-      return n_;
-    }
     void
     reset();
 
@@ -93,12 +111,6 @@ namespace irdm
     // the force loop reads the strided model directly).
     std::vector<double>         h_cc_;
     unsigned                    taps_;
-    long long                   n_ = 0; // steps taken
-    std::vector<double>         history_;      // [input DoF][slot], slot = step % taps
-    std::vector<long long>      last_nonzero_; // per input DoF, -1: never
-    std::vector<unsigned>       active_inputs_; // inputs with force inside the window
-    std::vector<char>           is_active_input_;
-    std::array<std::array<double, 3>, contact::max_probes> force_{}, probe_u_{};
-    std::array<bool, contact::max_probes>                  active_{};
+    ForceHistory                history_; // taps slots per input, kept for taps steps
   };
 } // namespace irdm

@@ -17,7 +17,7 @@
 
 namespace irdm
 {
-  class RepresentativeInteraction
+  class RepresentativeInteraction : public ProbeOutputs
   {
   public:
     explicit RepresentativeInteraction(const RepresentativeModel &model);
@@ -26,28 +26,8 @@ namespace irdm
     can_touch(int triangle) const;
     bool
     step(const ProbeTarget *probes, int n_probes);
-    const std::array<double, 3> &
-    force(int p) const
-    {
-      return force_[p];
-    }
-    bool
-    active(int p) const
-    {
-      return active_[p];
-    }
-    const std::array<double, 3> &
-    probe_displacement(int p) const
-    {
-      return probe_u_[p];
-    }
     void
     surface_displacement(double *u) const;
-    long long
-    steps() const
-    {
-      return n_;
-    }
 
   private:
     double
@@ -57,18 +37,12 @@ namespace irdm
 
     const RepresentativeModel &model_;
     unsigned                   T_, ring_; // ring_ = delay_span + 1
-    long long                  n_ = 0;
     std::vector<double>        representatives_; // as double, [r][s]
     // Per term, the offset of its delayed read in c_ (representative row * 2 ring + ring - d);
     // add the current ring slot to read c_r[n - d].
     std::vector<std::uint32_t> term_offset_;
-    std::vector<double>        history_;  // [input DoF][slot], slot = step % T
+    ForceHistory               history_;  // T slots per input, kept for T + ring steps
     std::vector<double>        partial_;  // p_r, per representative
     std::vector<double>        c_;        // [r][2 ring]: each value written twice (no modulo)
-    std::vector<long long>     last_nonzero_;
-    std::vector<unsigned>      active_inputs_;
-    std::vector<char>          is_active_input_;
-    std::array<std::array<double, 3>, contact::max_probes> force_{}, probe_u_{};
-    std::array<bool, contact::max_probes>                  active_{};
   };
 } // namespace irdm
