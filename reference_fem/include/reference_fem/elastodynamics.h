@@ -18,6 +18,8 @@
 
 namespace irdm::fem
 {
+  class NonlinearElasticity;
+
   struct SurfaceMesh
   {
     std::vector<long long>               node_tags;   // gmsh node tags
@@ -105,5 +107,6 @@ namespace irdm::fem
   private:
     class Impl;
     std::unique_ptr<Impl> impl_;
+    friend class NonlinearElasticity; // builds on the same discretization (Impl)
   };
 } // namespace irdm::fem

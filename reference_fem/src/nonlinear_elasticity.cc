@@ -1,0 +1,265 @@
+// Total Lagrangian neo-Hookean statics on the linear solver's discretization (its Impl gives
+// the mesh, elements, mapping, constraints and loads), in the step-44 shape: assemble the
+// residual and the tangent, solve with Newton plus line search.
+#include <deal.II/fe/fe_values.h>
+#include <deal.II/lac/sparse_direct.h>
+
+#include <reference_fem/nonlinear_elasticity.h>
+
+#include <irdm_common/error.h>
+
+#include <cmath>
+#include <random>
+
+#include "elastodynamics_impl.h"
+
+namespace irdm::fem
+{
+  class NonlinearElasticity::Impl
+  {
+  public:
+    explicit Impl(const Scene &scene)
+      : linear(scene)
+    {
+      const double E = scene.youngs_modulus, nu = scene.poisson_ratio;
+      lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+      mu     = E / (2 * (1 + nu));
+    }
+
+    /// Internal force f_int(u) = int P : grad phi, and (if K) the tangent dP/dF. With
+    /// `constrained`, the fixed DoFs are condensed out (rows and columns zero, diagonal kept,
+    /// residual zero there). Returns false if some quadrature point has J <= 0 (inverted).
+    bool
+    assemble(const Vector<double> &u, Vector<double> &f_int, SparseMatrix<double> *K,
+             bool constrained, double *energy = nullptr) const;
+
+    ElasticDynamics::Impl linear;
+    double                lambda = 0, mu = 0;
+  };
+
+  bool
+  NonlinearElasticity::Impl::assemble(const Vector<double> &u, Vector<double> &f_int,
+                                       SparseMatrix<double> *K, const bool constrained,
+                                       double *energy) const
+  {
+    const auto &L = linear;
+    const FEValuesExtractors::Vector displacement(0);
+    FEValues<3> fv(L.mapping, L.fe, L.quadrature, update_gradients | update_JxW_values);
+    const unsigned n_dofs = L.fe.n_dofs_per_cell(), n_q = L.quadrature.size();
+    FullMatrix<double>                   cell_K(n_dofs, n_dofs);
+    Vector<double>                       cell_f(n_dofs);
+    std::vector<types::global_dof_index> dofs(n_dofs);
+    std::vector<Tensor<2, 3>>            grad_u(n_q);
+    std::vector<Tensor<2, 3>>            grad_phi(n_dofs);
+    f_int.reinit(L.dof_handler.n_dofs());
+    if (K)
+      *K = 0;
+    if (energy)
+      *energy = 0;
+    bool ok = true;
+    for (const auto &cell : L.dof_handler.active_cell_iterators())
+      {
+        fv.reinit(cell);
+        fv[displacement].get_function_gradients(u, grad_u);
+        cell->get_dof_indices(dofs);
+        cell_K = 0;
+        cell_f = 0;
+        for (unsigned q = 0; q < n_q; ++q)
+          {
+            // Written in H = grad u so that small strains lose no digits to cancellation:
+            // J - 1 = tr H + (tr(H)^2 - tr(H^2)) / 2 + det H, F - F^{-T} = H + H^T F^{-T}.
+            const Tensor<2, 3> &H  = grad_u[q];
+            const Tensor<2, 3>  F  = unit_symmetric_tensor<3>() + H;
+            const double        tH = trace(H);
+            const double J_minus_1 = tH + 0.5 * (tH * tH - scalar_product(H, transpose(H))) + determinant(H);
+            if (!(J_minus_1 > -1))
+              {
+                ok = false;
+                continue;
+              }
+            const double       lnJ   = std::log1p(J_minus_1);
+            const Tensor<2, 3> FinvT = transpose(invert(F));
+            const Tensor<2, 3> P     = mu * (H + transpose(H) * FinvT) + lambda * lnJ * FinvT;
+            const double       dx    = fv.JxW(q);
+            if (energy)
+              *energy += dx * (0.5 * mu * (2 * tH + scalar_product(H, H)) - mu * lnJ +
+                               0.5 * lambda * lnJ * lnJ); // tr(F^T F) - 3 = 2 tr H + H:H
+            for (unsigned i = 0; i < n_dofs; ++i)
+              grad_phi[i] = fv[displacement].gradient(i, q);
+            for (unsigned i = 0; i < n_dofs; ++i)
+              {
+                cell_f(i) += scalar_product(P, grad_phi[i]) * dx;
+                if (!K)
+                  continue;
+                for (unsigned j = 0; j < n_dofs; ++j)
+                  {
+                    // dP[G] = mu G + (mu - lambda ln J) F^{-T} G^T F^{-T} + lambda (F^{-T}:G) F^{-T}
+                    const Tensor<2, 3> &G  = grad_phi[j];
+                    const Tensor<2, 3>  dP = mu * G +
+                                            (mu - lambda * lnJ) * (FinvT * transpose(G) * FinvT) +
+                                            lambda * scalar_product(FinvT, G) * FinvT;
+                    cell_K(i, j) += scalar_product(grad_phi[i], dP) * dx;
+                  }
+              }
+          }
+        for (unsigned i = 0; i < n_dofs; ++i)
+          {
+            f_int(dofs[i]) += cell_f(i);
+            if (K)
+              for (unsigned j = 0; j < n_dofs; ++j)
+                K->add(dofs[i], dofs[j], cell_K(i, j));
+          }
+      }
+    if (constrained)
+      {
+        for (unsigned row = 0; row < f_int.size(); ++row)
+          if (L.constraints.is_constrained(row))
+            f_int(row) = 0;
+        if (K)
+          *K = L.condensed(*K);
+      }
+    return ok;
+  }
+
+  NonlinearElasticity::NonlinearElasticity(const Scene &scene)
+    : impl_(std::make_unique<Impl>(scene))
+  {}
+  NonlinearElasticity::~NonlinearElasticity() = default;
+
+  RunResult
+  NonlinearElasticity::solve_static(const double t, const double load_scale,
+                                    const unsigned increments, NewtonReport *report) const
+  {
+    const auto &L = impl_->linear;
+    if (L.constraints.n_constraints() == 0)
+      throw InputError("static equilibrium needs at least one fixed surface");
+    if (!L.scene.probes.empty() || !L.scene.prescribed.empty())
+      throw InputError("nonlinear statics takes loads only (no probes, no prescribed vertices)");
+    if (increments < 1)
+      throw InputError("nonlinear statics needs at least one load increment");
+    const unsigned n = L.dof_handler.n_dofs();
+    Vector<double> f_total(n), f(n), u(n), du(n), r(n), trial(n), f_int(n);
+    L.external_force(t, f_total);
+    f_total *= load_scale;
+    for (unsigned row = 0; row < n; ++row)
+      if (L.constraints.is_constrained(row))
+        f_total(row) = 0;
+    const double f_norm = f_total.l2_norm();
+    NewtonReport rep;
+    SparseMatrix<double> K(L.sparsity);
+    const double tol = 1e-10; // relative residual; 1e-6 is the hard limit below
+    for (unsigned inc = 1; inc <= increments; ++inc)
+      {
+        f.equ(double(inc) / increments, f_total);
+        impl_->assemble(u, f_int, nullptr, true);
+        r = f_int;
+        r -= f;
+        unsigned it = 0;
+        for (; r.l2_norm() > tol * f_norm && it < 50; ++it)
+          {
+            double W0 = 0;
+            impl_->assemble(u, f_int, &K, true, &W0);
+            SparseDirectUMFPACK solver;
+            solver.initialize(K);
+            du = r;
+            du *= -1;
+            solver.solve(du);
+            // Converged to round-off: the residual of a slender body has a floor well above
+            // machine precision relative to its small loads (cancellation in P).
+            if (it > 0 && du.linfty_norm() <= 1e-10 * u.linfty_norm())
+              break;
+            // Backtracking on the potential energy Pi(u) = W(u) - f.u (Armijo): the merit
+            // function of hyperelastic statics. (The residual norm is not one here: for a
+            // slender body a good Newton step can raise it, as its quadratic part is large
+            // next to the small loads that bend it.)
+            const double Pi0   = W0 - (f * u);
+            const double slope = r * du; // dPi/dalpha at 0, negative for a descent step
+            double       alpha = 1;
+            bool         accepted = false;
+            for (unsigned cut = 0; cut <= 30; ++cut, alpha /= 2)
+              {
+                trial = u;
+                trial.add(alpha, du);
+                double     W  = 0;
+                const bool ok = impl_->assemble(trial, f_int, nullptr, true, &W);
+                // Far from the solution the energy decides; near it the energy's round-off
+                // (its first-order terms cancel) hides the decrease, and the residual decides.
+                bool better = ok && W - (f * trial) <= Pi0 + 1e-4 * alpha * slope;
+                if (ok && !better)
+                  {
+                    Vector<double> rt = f_int;
+                    rt -= f;
+                    better = rt.l2_norm() < 0.5 * r.l2_norm();
+                  }
+                if (better)
+                  {
+                    accepted = true;
+                    break;
+                  }
+                ++rep.line_search_cuts;
+              }
+            if (!accepted)
+              {
+                // No decrease measurable in the energy: round-off, if the step is negligible.
+                if (du.linfty_norm() <= 1e-10 * std::max(u.linfty_norm(), 1e-300))
+                  break;
+                throw InputError("nonlinear statics: the line search found no decrease at load "
+                                 "increment " + std::to_string(inc) + " (residual " +
+                                 std::to_string(r.l2_norm() / f_norm) + "); use more increments");
+              }
+            f_int -= f;
+            u = trial;
+            r = f_int;
+          }
+        rep.iterations += it;
+        if (r.l2_norm() > 1e-6 * f_norm)
+          throw InputError("nonlinear statics: Newton did not converge in 50 iterations at load "
+                           "increment " + std::to_string(inc) + " (residual " +
+                           std::to_string(r.l2_norm() / f_norm) + ")");
+      }
+    rep.residual = f_norm > 0 ? r.l2_norm() / f_norm : 0;
+    if (report)
+      *report = rep;
+    RunResult out;
+    L.init_result(out);
+    const Vector<double> zero(n), no_lambda;
+    L.record(u, zero, zero, f, no_lambda, t, out);
+    double W = 0;
+    impl_->assemble(u, f_int, nullptr, true, &W);
+    out.strain_energy.back() = W;
+    return out;
+  }
+
+  double
+  NonlinearElasticity::tangent_check(const double amplitude, const double h) const
+  {
+    const auto    &L = impl_->linear;
+    const unsigned n = L.dof_handler.n_dofs();
+    Vector<double> u(n), d(n), f_plus(n), f_minus(n), Kd(n), f_int(n);
+    // A smooth displacement (bending and twisting in the coordinates), and a random direction.
+    std::mt19937                           rng(7);
+    std::uniform_real_distribution<double> uniform(-1, 1);
+    for (const auto &cell : L.dof_handler.active_cell_iterators())
+      for (const unsigned v : cell->vertex_indices())
+        {
+          const Point<3> x = cell->vertex(v);
+          for (unsigned c = 0; c < 3; ++c)
+            u(cell->vertex_dof_index(v, c)) =
+              amplitude * (std::sin(3 * x[0] + c) * x[(c + 1) % 3] + 0.5 * x[c] * x[(c + 2) % 3] * 10);
+        }
+    for (unsigned i = 0; i < n; ++i)
+      d(i) = uniform(rng) * amplitude;
+    SparseMatrix<double> K(L.sparsity);
+    impl_->assemble(u, f_int, &K, false);
+    K.vmult(Kd, d);
+    Vector<double> up = u, um = u;
+    up.add(h, d);
+    um.add(-h, d);
+    impl_->assemble(up, f_plus, nullptr, false);
+    impl_->assemble(um, f_minus, nullptr, false);
+    f_plus -= f_minus;
+    f_plus /= 2 * h;
+    f_plus -= Kd;
+    return f_plus.l2_norm() / Kd.l2_norm();
+  }
+} // namespace irdm::fem
