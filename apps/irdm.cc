@@ -306,7 +306,7 @@ with the source's metadata plus theta and the statistics (docs/model-format.md).
                 "size: representatives %.2f MB + blend tables %.2f MB = %.2f MB, %.3g %% of %.1f MB "
                 "(float H); time %.2f s\n",
                 in.c_str(), a.options.at("--out").c_str(), c.theta, c.blend, waveforms,
-                static_cast<unsigned long long>(c.n_representative), 100 * c.n_representative / waveforms,
+                static_cast<unsigned long long>(c.n_representative()), 100 * c.n_representative() / waveforms,
                 static_cast<unsigned long long>(c.n_substituted), c.mean_fit, c.min_fit,
                 c.mean_delay, c.delay_span, c.representative_bytes() / 1e6,
                 (c.bytes() - c.representative_bytes()) / 1e6, c.bytes() / 1e6,
@@ -324,13 +324,17 @@ Runs every scene of --scenes through the reference FEM (ground truth) and the IR
 with a model precomputed for the scene, and writes reports/<scene>/report.md with CSV and
 charts, and a summary reports/validation.md: (a) exactness of the untruncated model (double
 and float), (b) error against the response length T, (c) both against the FEM at tau/10,
-(d) time per step of each, measured in the same run. Exit status 3 if an untruncated double
-model differs from the FEM by more than 1e-9.
+(d) time per step of each, measured in the same run, (e) compression: representative
+waveforms (plain and interpolated, theta 0.80 .. 0.999) and the modal realization run in
+closed loop, with errors, time per step, memory and stability (docs/compression.md). With the
+full model it also writes the seed's Table 1 for the cat. Exit status 3 if an untruncated
+double model differs from the FEM by more than 1e-9.
   --scenes DIR     scene folder (default: validation/scenes)
   --out DIR        report folder (default: reports)
   --models DIR     where models are written while they are used (default: out/models)
   --scene NAME     run only this scene (repeatable)
-  --no-full-model  skip timing the precompute of the full cat model (about 45 s, 4.8 GB)
+  --no-full-model  skip the full cat model (T = 500, 4.8 GB): its precompute timing, the
+                   seed's Table 1 and the full-model runtimes (about 5 min)
 )";
     const Args a = parse(argc, argv, 2, {"--scenes", "--out", "--models", "--scene"},
                          {"--help", "--no-full-model"});
