@@ -110,7 +110,7 @@ TEST(Compression, EverySubstitutedWaveformMeetsItsThreshold)
         o.theta = theta;
         o.blend = blend;
         const auto c = compress(model, o);
-        EXPECT_EQ(c.n_representative + c.n_substituted,
+        EXPECT_EQ(c.n_representative() + c.n_substituted,
                   static_cast<std::uint64_t>(model.n_inputs) * model.n_outputs);
         EXPECT_GT(c.n_substituted, 0u);
         EXPECT_GE(c.min_fit, theta);
@@ -172,7 +172,7 @@ TEST(Compression, FileRoundTripAndBadInput)
   const auto c = compress(model, o);
   save_representative_model(c, tmp("compress_io.h5"), tmp("compressed.h5"));
   const auto back = load_representative_model(tmp("compressed.h5"), 0.002);
-  EXPECT_EQ(back.n_representative, c.n_representative);
+  EXPECT_EQ(back.n_representative(), c.n_representative());
   EXPECT_EQ(back.representatives, c.representatives);
   EXPECT_EQ(back.term_amplitude, c.term_amplitude);
   EXPECT_EQ(back.term_delay, c.term_delay);

@@ -14,8 +14,7 @@ namespace irdm
   {
     if (model.n_inputs == 0 || model.n_outputs == 0)
       throw InputError("model has no inputs or outputs");
-    representatives_.assign(model.representatives.begin(), model.representatives.end());
-    const size_t R = model.n_representatives_total();
+    const size_t R = model.n_representative();
     term_offset_.resize(model.term_amplitude.size());
     const size_t per_input = static_cast<size_t>(model.n_outputs) * model.blend;
     if (2 * R * ring_ >= (size_t(1) << 32))
@@ -44,8 +43,8 @@ namespace irdm
     double       h0   = 0;
     for (unsigned b = 0; b < model_.blend; ++b)
       if (model_.term_delay[base + b] == 0 && model_.term_amplitude[base + b] != 0)
-        h0 += model_.term_amplitude[base + b] *
-              representatives_[(model_.first_representative[k] + model_.term_representative[base + b]) * T_];
+        h0 += static_cast<double>(model_.term_amplitude[base + b]) *
+              model_.representatives[(model_.first_representative[k] + model_.term_representative[base + b]) * T_];
     return h0;
   }
 
@@ -94,12 +93,12 @@ namespace irdm
         const double *f = history_.row(k);
         for (auto r = model_.first_representative[k]; r < model_.first_representative[k + 1]; ++r)
           {
-            const double *h   = &representatives_[r * T_];
+            const float  *h   = &model_.representatives[r * T_];
             double        sum = 0;
             for (long long s = 1; s <= run1; ++s)
-              sum += h[s] * f[first - (s - 1)];
+              sum += static_cast<double>(h[s]) * f[first - (s - 1)];
             for (long long s = run1 + 1; s <= smax; ++s)
-              sum += h[s] * f[T_ - 1 - (s - run1 - 1)];
+              sum += static_cast<double>(h[s]) * f[T_ - 1 - (s - run1 - 1)];
             partial_[r] = sum;
           }
       }
@@ -117,7 +116,7 @@ namespace irdm
         const double f = history_.row(k)[n_ % T_];
         for (auto r = model_.first_representative[k]; r < model_.first_representative[k + 1]; ++r)
           {
-            const double c = partial_[r] + representatives_[r * T_] * f;
+            const double c = partial_[r] + static_cast<double>(model_.representatives[r * T_]) * f;
             c_[r * 2 * ring_ + slot] = c_[r * 2 * ring_ + slot + ring_] = c;
           }
       }

@@ -294,7 +294,6 @@ namespace irdm
         out.delay_span = std::max(out.delay_span, r.delay_max);
         r = InputResult();
       }
-    out.n_representative = out.first_representative.back();
     out.mean_fit   = out.n_substituted > 0 ? fit_sum / out.n_substituted : 0;
     out.mean_delay = out.n_substituted > 0 ? delay_sum / out.n_substituted : 0;
     if (out.n_substituted == 0)
@@ -320,7 +319,7 @@ namespace irdm
     f.attribute("/", "delay_span_steps", static_cast<long long>(m.delay_span));
     f.attribute("/", "blend", static_cast<long long>(m.blend));
     f.attribute("/", "candidates", static_cast<long long>(m.candidates));
-    f.attribute("/", "n_representative", static_cast<long long>(m.n_representative));
+    f.attribute("/", "n_representative", static_cast<long long>(m.n_representative()));
     f.attribute("/", "n_substituted", static_cast<long long>(m.n_substituted));
     f.attribute("/", "mean_fit", m.mean_fit);
     f.attribute("/", "min_fit", m.min_fit);
@@ -330,7 +329,7 @@ namespace irdm
     for (const char *g : {"/outputs", "/inputs", "/surface", "/modes"})
       f.copy_from(source_file, g);
     f.create_group("/representatives");
-    f.write("/representatives/waveforms", {m.n_representatives_total(), m.length},
+    f.write("/representatives/waveforms", {m.n_representative(), m.length},
             m.representatives.data());
     std::vector<long long> first(m.first_representative.begin(), m.first_representative.end());
     f.write("/representatives/first", {first.size()}, first.data());
@@ -402,7 +401,6 @@ namespace irdm
     for (const float x : m.representatives)
       if (!std::isfinite(x))
         fail("representative waveforms contain NaN or Inf");
-    m.n_representative = R;
     m.n_substituted    = static_cast<std::uint64_t>(m.n_inputs) * m.n_outputs - R;
     return m;
   }

@@ -26,17 +26,22 @@ namespace irdm::validation
     CompressionRow
     measure(const fem::Scene &scene, const Model &m, const Series &fem_run, const double bound)
     {
-      Interaction    irdm(m);
-      const Series   s = run_irdm(scene, m, irdm, true, bound);
-      CompressionRow r;
-      r.errors        = compare(s, fem_run);
-      r.force_loop_us = 1e6 * s.force_loop_seconds;
-      r.surface_us    = 1e6 * s.surface_seconds;
-      r.diverged_at   = s.diverged_at;
-      r.stable        = s.diverged_at < 0;
-      return r;
+      Interaction irdm(m);
+      return measured_row(run_irdm(scene, m, irdm, true, bound), fem_run);
     }
   } // namespace
+
+  CompressionRow
+  measured_row(const Series &run, const Series &fem_run)
+  {
+    CompressionRow r;
+    r.errors        = compare(run, fem_run);
+    r.force_loop_us = 1e6 * run.force_loop_seconds;
+    r.surface_us    = 1e6 * run.surface_seconds;
+    r.diverged_at   = run.diverged_at;
+    r.stable        = run.diverged_at < 0;
+    return r;
+  }
 
   std::vector<CompressionRow>
   compression_study(const fem::Scene &scene, const ImpulseResponseModel &model,
@@ -77,7 +82,7 @@ namespace irdm::validation
           r.value         = theta;
           r.bytes         = c.bytes();
           r.percent       = 100 * r.bytes / h_float;
-          r.rep_percent   = 100.0 * c.n_representative / (double(model.n_inputs) * model.n_outputs);
+          r.rep_percent   = 100.0 * c.n_representative() / (double(model.n_inputs) * model.n_outputs);
           r.build_seconds = c.compression_seconds;
           log << "  " << r.method << " " << r.setting << ": " << fmt(r.percent) << " % size, disp. RMS "
               << fmt(r.errors.disp_rms) << ", force L2 " << fmt(r.errors.force_rel_l2)

@@ -27,6 +27,11 @@ namespace irdm::validation
     double      diverged_at = -1;
   };
 
+  /// The measured part of a row: errors of a closed-loop run against the FEM's, its time per
+  /// step, and whether it stayed bounded.
+  CompressionRow
+  measured_row(const Series &run, const Series &fem_run);
+
   /// Runs the scene through every compressor; `model` is the scene's untruncated model and
   /// fem_run the FEM at the same step (ground truth).
   std::vector<CompressionRow>

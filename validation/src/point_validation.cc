@@ -447,17 +447,12 @@ namespace irdm::validation
         std::vector<CompressionRow> full_rows;
         const auto row_of = [&](const std::string &method, const std::string &setting,
                                 const double bytes, const double build_seconds, const Series &run) {
-          CompressionRow row;
-          row.method        = method;
-          row.setting       = setting;
-          row.bytes         = bytes;
-          row.percent       = 100 * bytes / h_bytes;
-          row.build_seconds = build_seconds;
-          row.errors        = compare(run, fem_full);
-          row.force_loop_us = 1e6 * run.force_loop_seconds;
-          row.surface_us    = 1e6 * run.surface_seconds;
-          row.stable        = run.diverged_at < 0;
-          row.diverged_at   = run.diverged_at;
+          CompressionRow row = measured_row(run, fem_full);
+          row.method         = method;
+          row.setting        = setting;
+          row.bytes          = bytes;
+          row.percent        = 100 * bytes / h_bytes;
+          row.build_seconds  = build_seconds;
           return row;
         };
         {
@@ -471,9 +466,9 @@ namespace irdm::validation
             co.theta = theta;
             co.log   = [&](const std::string &l) { log << "  theta " << theta << ": " << l << "\n"; };
             const RepresentativeModel c = compress(full_model, co);
-            cells[0].push_back(std::to_string(c.n_representative));
+            cells[0].push_back(std::to_string(c.n_representative()));
             cells[1].push_back(std::to_string(c.n_substituted));
-            cells[2].push_back(fmt(100.0 * c.n_representative / waveforms, "%.1f%%"));
+            cells[2].push_back(fmt(100.0 * c.n_representative() / waveforms, "%.1f%%"));
             cells[3].push_back(fmt(c.representative_bytes() / 1e9, "%.3f"));
             cells[4].push_back(fmt(c.bytes() / 1e9, "%.3f") + " (" + fmt(100 * c.bytes() / h_bytes, "%.1f%%") + ")");
             cells[5].push_back(fmt(c.compression_seconds, "%.1f"));
@@ -481,7 +476,7 @@ namespace irdm::validation
             RepresentativeInteraction irdm(c);
             full_rows.push_back(row_of("representatives", "theta " + fmt(theta, "%.2f"), c.bytes(),
                                        c.compression_seconds, run_irdm(s, c, irdm, true, bound)));
-            full_rows.back().rep_percent = 100.0 * c.n_representative / waveforms;
+            full_rows.back().rep_percent = 100.0 * c.n_representative() / waveforms;
           }
         for (const unsigned M : {50u, 100u, 200u})
           {

@@ -7,95 +7,95 @@
 
 namespace irdm::validation
 {
-    Errors
-    compare(const Series &test, const Series &truth)
-    {
-      Errors e;
-      double num = 0, den = 0, fpeak = 0, dmax = 0;
-      const size_t N = std::min(test.force.empty() ? 0 : test.force[0].size(),
-                                  truth.force.empty() ? 0 : truth.force[0].size());
-      for (size_t p = 0; p < truth.force.size(); ++p)
-        for (size_t k = 0; k < truth.force[p].size(); ++k)
-          fpeak = std::max(fpeak, norm(truth.force[p][k]));
-      double upeak = 0;
-      for (const auto &u : truth.surface)
-        for (size_t j = 0; j + 2 < u.size(); j += 3)
-          upeak = std::max(upeak, norm({u[j], u[j + 1], u[j + 2]}));
-      e.force_t.assign(N, 0);
-      e.disp_rms_t.assign(N, 0);
-      double sum2 = 0;
-      size_t count = 0;
-      for (size_t k = 0; k < N; ++k)
-        {
-          for (size_t p = 0; p < truth.force.size(); ++p)
-            {
-              Vec3 d;
-              for (int c = 0; c < 3; ++c)
-                d[c] = test.force[p][k][c] - truth.force[p][k][c];
-              num += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-              den += std::pow(norm(truth.force[p][k]), 2);
-              e.force_max = std::max(e.force_max, norm(d));
-              e.force_t[k] = std::max(e.force_t[k], norm(d) / fpeak);
-            }
-          double s2 = 0;
-          const auto &a = test.surface[k], &b = truth.surface[k];
-          for (size_t j = 0; j + 2 < b.size(); j += 3)
-            {
-              const double d = norm({a[j] - b[j], a[j + 1] - b[j + 1], a[j + 2] - b[j + 2]});
-              s2 += d * d;
-              dmax = std::max(dmax, d);
-            }
-          sum2 += s2;
-          count += b.size() / 3;
-          e.disp_rms_t[k] = std::sqrt(s2 / (b.size() / 3)) / upeak;
-        }
-      e.force_rel_l2 = std::sqrt(num / den);
-      e.force_max /= fpeak;
-      e.disp_rms = std::sqrt(sum2 / count) / upeak;
-      e.disp_max = dmax / upeak;
-      return e;
-    }
+  Errors
+  compare(const Series &test, const Series &truth)
+  {
+    Errors e;
+    double num = 0, den = 0, fpeak = 0, dmax = 0;
+    const size_t N = std::min(test.force.empty() ? 0 : test.force[0].size(),
+                                truth.force.empty() ? 0 : truth.force[0].size());
+    for (size_t p = 0; p < truth.force.size(); ++p)
+      for (size_t k = 0; k < truth.force[p].size(); ++k)
+        fpeak = std::max(fpeak, norm(truth.force[p][k]));
+    double upeak = 0;
+    for (const auto &u : truth.surface)
+      for (size_t j = 0; j + 2 < u.size(); j += 3)
+        upeak = std::max(upeak, norm({u[j], u[j + 1], u[j + 2]}));
+    e.force_t.assign(N, 0);
+    e.disp_rms_t.assign(N, 0);
+    double sum2 = 0;
+    size_t count = 0;
+    for (size_t k = 0; k < N; ++k)
+      {
+        for (size_t p = 0; p < truth.force.size(); ++p)
+          {
+            Vec3 d;
+            for (int c = 0; c < 3; ++c)
+              d[c] = test.force[p][k][c] - truth.force[p][k][c];
+            num += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            den += std::pow(norm(truth.force[p][k]), 2);
+            e.force_max = std::max(e.force_max, norm(d));
+            e.force_t[k] = std::max(e.force_t[k], norm(d) / fpeak);
+          }
+        double s2 = 0;
+        const auto &a = test.surface[k], &b = truth.surface[k];
+        for (size_t j = 0; j + 2 < b.size(); j += 3)
+          {
+            const double d = norm({a[j] - b[j], a[j + 1] - b[j + 1], a[j + 2] - b[j + 2]});
+            s2 += d * d;
+            dmax = std::max(dmax, d);
+          }
+        sum2 += s2;
+        count += b.size() / 3;
+        e.disp_rms_t[k] = std::sqrt(s2 / (b.size() / 3)) / upeak;
+      }
+    e.force_rel_l2 = std::sqrt(num / den);
+    e.force_max /= fpeak;
+    e.disp_rms = std::sqrt(sum2 / count) / upeak;
+    e.disp_max = dmax / upeak;
+    return e;
+  }
 
-    Series
-    run_fem(fem::Scene scene, const ModelFrame &model, const unsigned refine,
-            const unsigned N)
-    {
-      scene.time_step /= refine;
-      scene.outputs           = {};
-      scene.outputs.surface   = true;
-      scene.outputs.directory = "";
-      fem::ElasticDynamics fem(scene);
-      const auto           r = fem.run();
-      std::map<long long, unsigned> index;
-      for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
-        index[r.surface.node_tags[i]] = i;
-      Series s;
-      s.step_seconds = r.stepping_seconds / r.n_steps;
-      for (const auto &p : scene.probes)
-        {
-          s.force.emplace_back();
-          for (unsigned k = 1; k <= N; ++k)
-            {
-              Vec3 mean = {0, 0, 0};
-              for (unsigned i = (k - 1) * refine + 1; i <= k * refine; ++i)
-                for (int c = 0; c < 3; ++c)
-                  mean[c] += r.probe_force.at(p.name)[i][c] / refine;
-              s.force.back().push_back(mean);
-            }
-        }
-      for (unsigned k = 1; k <= N; ++k)
-        {
-          std::vector<double> u(model.n_outputs);
-          for (unsigned v = 0; v < model.output_node_tags.size(); ++v)
-            {
-              const unsigned i = index.at(model.output_node_tags[v]);
-              for (int d = 0; d < 3; ++d)
-                u[3 * v + d] = r.surface_displacement[k * refine][3 * i + d];
-            }
-          s.surface.push_back(std::move(u));
-        }
-      return s;
-    }
+  Series
+  run_fem(fem::Scene scene, const ModelFrame &model, const unsigned refine,
+          const unsigned N)
+  {
+    scene.time_step /= refine;
+    scene.outputs           = {};
+    scene.outputs.surface   = true;
+    scene.outputs.directory = "";
+    fem::ElasticDynamics fem(scene);
+    const auto           r = fem.run();
+    std::map<long long, unsigned> index;
+    for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
+      index[r.surface.node_tags[i]] = i;
+    Series s;
+    s.step_seconds = r.stepping_seconds / r.n_steps;
+    for (const auto &p : scene.probes)
+      {
+        s.force.emplace_back();
+        for (unsigned k = 1; k <= N; ++k)
+          {
+            Vec3 mean = {0, 0, 0};
+            for (unsigned i = (k - 1) * refine + 1; i <= k * refine; ++i)
+              for (int c = 0; c < 3; ++c)
+                mean[c] += r.probe_force.at(p.name)[i][c] / refine;
+            s.force.back().push_back(mean);
+          }
+      }
+    for (unsigned k = 1; k <= N; ++k)
+      {
+        std::vector<double> u(model.n_outputs);
+        for (unsigned v = 0; v < model.output_node_tags.size(); ++v)
+          {
+            const unsigned i = index.at(model.output_node_tags[v]);
+            for (int d = 0; d < 3; ++d)
+              u[3 * v + d] = r.surface_displacement[k * refine][3 * i + d];
+          }
+        s.surface.push_back(std::move(u));
+      }
+    return s;
+  }
 
   double
   peak_force(const Series &s)

@@ -37,7 +37,6 @@ namespace irdm
 
     const RepresentativeModel &model_;
     unsigned                   T_, ring_; // ring_ = delay_span + 1
-    std::vector<double>        representatives_; // as double, [r][s]
     // Per term, the offset of its delayed read in c_ (representative row * 2 ring + ring - d);
     // add the current ring slot to read c_r[n - d].
     std::vector<std::uint32_t> term_offset_;

@@ -48,12 +48,13 @@ namespace irdm
     std::vector<float>         term_amplitude;
 
     // Statistics (counted over waveforms).
-    std::uint64_t n_representative = 0, n_substituted = 0;
+    std::uint64_t n_substituted = 0;
     double        mean_fit = 0, min_fit = 0; // fit correlation of substituted waveforms
     double        mean_delay = 0;            // mean delay of substituted waveforms (steps)
 
+    /// Representative waveforms stored (all inputs).
     std::uint64_t
-    n_representatives_total() const
+    n_representative() const
     {
       return first_representative.empty() ? 0 : first_representative.back();
     }
