@@ -4,12 +4,15 @@
 #include <irdm_common/error.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
+#include <reference_fem/nonlinear_elasticity.h>
 #include <reference_fem/scene.h>
 #include <validation/fem_verification.h>
 #include <validation/point_validation.h>
 
 #include <deal.II/base/mpi.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -102,9 +105,11 @@ Scene files: docs/scene-format.md. Result files: docs/fem-output.md.
   {
     const char *help = R"(Usage: irdm simulate <scene.json> [--quiet]
 
-Runs the scene with the reference FEM (linear elasticity, P1/P2 tetrahedra, implicit
-Newmark or generalized-alpha) from its initial state to its duration, and writes the outputs
-the scene asks for (HDF5, CSV, VTU) into its output directory.
+Runs the scene with the reference FEM (P1/P2 tetrahedra, implicit Newmark or
+generalized-alpha) from its initial state to its duration, and writes the outputs the scene
+asks for (HDF5, CSV, VTU) into its output directory. "kinematics": "linear" (default) is
+small-strain elasticity; "nonlinear" is Total Lagrangian neo-Hookean elasticity with Newton
+at each step, rigid planes (penalty contact) and an initial velocity.
   --quiet   no progress on stderr
 )";
     const Args a = parse(argc, argv, 2, {}, {"--help", "--quiet"});
@@ -113,17 +118,44 @@ the scene asks for (HDF5, CSV, VTU) into its output directory.
     if (a.positional.size() != 1)
       throw irdm::InputError("simulate takes one scene file (see --help)");
     const auto scene = irdm::fem::read_scene(a.positional[0]);
-    irdm::fem::ElasticDynamics fem(scene);
-    std::fprintf(stderr, "%s: %u cells, %u DoFs (P%u), %u steps of %g s\n", scene.name.c_str(),
-                 fem.n_cells(), fem.n_dofs(), scene.fe_degree, scene.n_steps(), scene.time_step);
-    const auto result = fem.run(a.options.count("--quiet") ? nullptr : print_progress);
-    fem.write_outputs(result);
+    const auto progress = a.options.count("--quiet") ? nullptr : print_progress;
+    irdm::fem::RunResult result;
+    if (scene.kinematics == irdm::fem::Kinematics::nonlinear)
+      {
+        irdm::fem::NonlinearElasticity fem(scene);
+        std::fprintf(stderr, "%s: nonlinear (neo-Hookean), %u steps of %g s\n",
+                     scene.name.c_str(), scene.n_steps(), scene.time_step);
+        result = fem.run(progress);
+        fem.write_outputs(result);
+      }
+    else
+      {
+        irdm::fem::ElasticDynamics fem(scene);
+        std::fprintf(stderr, "%s: %u cells, %u DoFs (P%u), %u steps of %g s\n",
+                     scene.name.c_str(), fem.n_cells(), fem.n_dofs(), scene.fe_degree,
+                     scene.n_steps(), scene.time_step);
+        result = fem.run(progress);
+        fem.write_outputs(result);
+      }
     std::printf("setup %.3f s, factorization %.3f s, %u steps in %.3f s (%.3g ms/step)\n",
                 result.setup_seconds, result.factorization_seconds, result.n_steps,
                 result.stepping_seconds, 1e3 * result.stepping_seconds / result.n_steps);
+    if (scene.kinematics == irdm::fem::Kinematics::nonlinear)
+      std::printf("Newton: %u iterations, %u tangent factorizations\n",
+                  result.newton_iterations, result.tangent_factorizations);
     for (const auto &[name, f] : result.probe_force)
       std::printf("probe %s: final force (%.6g, %.6g, %.6g) N\n", name.c_str(), f.back()[0],
                   f.back()[1], f.back()[2]);
+    for (const auto &[name, f] : result.plane_force)
+      {
+        double peak = 0, deepest = -1e300;
+        for (const auto &F : f)
+          peak = std::max(peak, std::sqrt(F[0] * F[0] + F[1] * F[1] + F[2] * F[2]));
+        for (const double p : result.plane_penetration.at(name))
+          deepest = std::max(deepest, p);
+        std::printf("plane %s: peak force %.6g N, deepest penetration %.4g m (penalty %.3g Pa/m)\n",
+                    name.c_str(), peak, deepest, result.plane_penalty.at(name));
+      }
     if (!scene.outputs.directory.empty())
       std::printf("outputs in %s\n", scene.outputs.directory.c_str());
     return 0;

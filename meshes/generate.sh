@@ -15,3 +15,7 @@ mesh cat.geo  cat.msh       lc 0.015
 mesh cat.geo  cat_fine.msh  lc 0.0068
 for n in 2 4 8; do mesh beam.geo "beam_$n.msh" n $n; done
 mesh ball.geo ball.msh      lc 0.01
+# Balls refined at the pole that touches the floor (Hertz impact, mesh convergence).
+mesh ball_pole.geo ball_pole_4.msh lc 0.01 lc_pole 0.004
+mesh ball_pole.geo ball_pole_2.msh lc 0.01 lc_pole 0.002
+mesh ball_pole.geo ball_pole_1.msh lc 0.01 lc_pole 0.001

@@ -88,6 +88,23 @@ namespace irdm::fem
         w.create_group("/energy");
         w.write("/energy/kinetic", {N}, r.kinetic_energy.data());
         w.write("/energy/strain", {N}, r.strain_energy.data());
+        w.attribute("/", "kinematics", std::string(scene.kinematics == Kinematics::nonlinear
+                                                     ? "nonlinear (Total Lagrangian neo-Hookean)"
+                                                     : "linear"));
+        if (!r.contact_energy.empty())
+          {
+            w.write("/energy/contact", {N}, r.contact_energy.data());
+            w.write("/energy/gravity", {N}, r.gravity_energy.data());
+          }
+        if (!r.plane_force.empty())
+          w.create_group("/planes");
+        for (const auto &[name, series] : r.plane_force)
+          {
+            w.create_group("/planes/" + name);
+            w.write("/planes/" + name + "/force", {N, 3}, flatten(series).data());
+            w.write("/planes/" + name + "/penetration", {N}, r.plane_penetration.at(name).data());
+            w.attribute("/planes/" + name, "penalty_Pa_m", r.plane_penalty.at(name));
+          }
         if (!r.vertex_displacement.empty())
           w.create_group("/vertices");
         for (const auto &[name, series] : r.vertex_displacement)
@@ -145,6 +162,18 @@ namespace irdm::fem
           }
         for (const auto &[name, series] : r.fixed_reaction)
           add_vec3_columns(name + "_R", "N", series, header, columns);
+        if (!r.contact_energy.empty())
+          {
+            header.insert(header.end(), {"contact_energy_J", "gravity_energy_J"});
+            columns.push_back(r.contact_energy);
+            columns.push_back(r.gravity_energy);
+          }
+        for (const auto &[name, series] : r.plane_force)
+          {
+            add_vec3_columns(name + "_F", "N", series, header, columns);
+            header.push_back(name + "_penetration_m");
+            columns.push_back(r.plane_penetration.at(name));
+          }
         write_csv(base + "_series.csv", header, columns);
         if (scene.outputs.surface)
           {

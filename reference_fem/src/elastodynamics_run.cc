@@ -112,6 +112,9 @@ namespace irdm::fem
   {
     if (!(scene.duration > 0))
       throw InputError("scene '" + scene.name + "' gives no time.duration_s: nothing to run");
+    if (!scene.planes.empty() || scene.initial_velocity != Vec3{0, 0, 0})
+      throw InputError("scene '" + scene.name + "': planes and initial velocities are run by the "
+                       "nonlinear solver (NonlinearElasticity), not the linear one");
     RunResult out;
     init_result(out);
     out.setup_seconds         = setup_seconds;

@@ -1,41 +1,48 @@
 // Total Lagrangian neo-Hookean statics on the linear solver's discretization (its Impl gives
 // the mesh, elements, mapping, constraints and loads), in the step-44 shape: assemble the
 // residual and the tangent, solve with Newton plus line search.
-#include <deal.II/fe/fe_values.h>
 #include <deal.II/lac/sparse_direct.h>
-
-#include <reference_fem/nonlinear_elasticity.h>
 
 #include <irdm_common/error.h>
 
 #include <cmath>
 #include <random>
 
-#include "elastodynamics_impl.h"
+#include "nonlinear_impl.h"
 
 namespace irdm::fem
 {
-  class NonlinearElasticity::Impl
+  NonlinearElasticity::Impl::Impl(const Scene &scene)
+    : linear(scene)
+    , stiffness_quadrature(scene.fe_degree == 1 ? 1 : scene.fe_degree + 1)
+    , contact_quadrature(scene.fe_degree + 2)
   {
-  public:
-    explicit Impl(const Scene &scene)
-      : linear(scene)
-    {
-      const double E = scene.youngs_modulus, nu = scene.poisson_ratio;
-      lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
-      mu     = E / (2 * (1 + nu));
-    }
-
-    /// Internal force f_int(u) = int P : grad phi, and (if K) the tangent dP/dF. With
-    /// `constrained`, the fixed DoFs are condensed out (rows and columns zero, diagonal kept,
-    /// residual zero there). Returns false if some quadrature point has J <= 0 (inverted).
-    bool
-    assemble(const Vector<double> &u, Vector<double> &f_int, SparseMatrix<double> *K,
-             bool constrained, double *energy = nullptr) const;
-
-    ElasticDynamics::Impl linear;
-    double                lambda = 0, mu = 0;
-  };
+    const double E = scene.youngs_modulus, nu = scene.poisson_ratio;
+    lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
+    mu     = E / (2 * (1 + nu));
+    std::vector<bool> on_boundary(linear.triangulation.n_vertices(), false);
+    double            edge_sum = 0;
+    unsigned          n_edges  = 0;
+    for (const auto &cell : linear.dof_handler.active_cell_iterators())
+      for (const unsigned f : cell->face_indices())
+        if (cell->face(f)->at_boundary())
+          {
+            boundary_faces.emplace_back(cell, f);
+            const auto face = cell->face(f);
+            for (const unsigned v : face->vertex_indices())
+              {
+                on_boundary[face->vertex_index(v)] = true;
+                edge_sum += face->vertex(v).distance(face->vertex((v + 1) % 3));
+                ++n_edges;
+              }
+          }
+    for (unsigned v = 0; v < on_boundary.size(); ++v)
+      if (on_boundary[v])
+        boundary_vertices.push_back(v);
+    const double h = edge_sum / std::max(1u, n_edges);
+    for (const auto &p : scene.planes)
+      penalty.push_back(p.penalty > 0 ? p.penalty : 100 * E / h);
+  }
 
   bool
   NonlinearElasticity::Impl::assemble(const Vector<double> &u, Vector<double> &f_int,
@@ -44,13 +51,18 @@ namespace irdm::fem
   {
     const auto &L = linear;
     const FEValuesExtractors::Vector displacement(0);
-    FEValues<3> fv(L.mapping, L.fe, L.quadrature, update_gradients | update_JxW_values);
-    const unsigned n_dofs = L.fe.n_dofs_per_cell(), n_q = L.quadrature.size();
+    FEValues<3> fv(L.mapping, L.fe, stiffness_quadrature, update_gradients | update_JxW_values);
+    const unsigned n_dofs = L.fe.n_dofs_per_cell(), n_q = stiffness_quadrature.size();
     FullMatrix<double>                   cell_K(n_dofs, n_dofs);
     Vector<double>                       cell_f(n_dofs);
     std::vector<types::global_dof_index> dofs(n_dofs);
     std::vector<Tensor<2, 3>>            grad_u(n_q);
-    std::vector<Tensor<2, 3>>            grad_phi(n_dofs);
+    // Shape function i of the vector element is e_{c_i} N_i: its gradient is e_{c_i} (x) g_i,
+    // so the tangent needs only the scalar gradients g_i and A g_i with A = F^{-T}.
+    std::vector<unsigned>     component(n_dofs);
+    std::vector<Tensor<1, 3>> g(n_dofs), Ag(n_dofs);
+    for (unsigned i = 0; i < n_dofs; ++i)
+      component[i] = L.fe.system_to_component_index(i).first;
     f_int.reinit(L.dof_handler.n_dofs());
     if (K)
       *K = 0;
@@ -85,30 +97,32 @@ namespace irdm::fem
               *energy += dx * (0.5 * mu * (2 * tH + scalar_product(H, H)) - mu * lnJ +
                                0.5 * lambda * lnJ * lnJ); // tr(F^T F) - 3 = 2 tr H + H:H
             for (unsigned i = 0; i < n_dofs; ++i)
-              grad_phi[i] = fv[displacement].gradient(i, q);
-            for (unsigned i = 0; i < n_dofs; ++i)
               {
-                cell_f(i) += scalar_product(P, grad_phi[i]) * dx;
-                if (!K)
-                  continue;
-                for (unsigned j = 0; j < n_dofs; ++j)
-                  {
-                    // dP[G] = mu G + (mu - lambda ln J) F^{-T} G^T F^{-T} + lambda (F^{-T}:G) F^{-T}
-                    const Tensor<2, 3> &G  = grad_phi[j];
-                    const Tensor<2, 3>  dP = mu * G +
-                                            (mu - lambda * lnJ) * (FinvT * transpose(G) * FinvT) +
-                                            lambda * scalar_product(FinvT, G) * FinvT;
-                    cell_K(i, j) += scalar_product(grad_phi[i], dP) * dx;
-                  }
+                g[i]  = fv.shape_grad_component(i, q, component[i]);
+                Ag[i] = FinvT * g[i];
+                cell_f(i) += (P * g[i])[component[i]] * dx;
               }
+            if (!K)
+              continue;
+            // K_ij = grad phi_i : dP[grad phi_j], with
+            // dP[G] = mu G + (mu - lambda ln J) A G^T A + lambda (A : G) A, A = F^{-T}:
+            // K_ij = mu d_{c_i c_j} g_i.g_j + (mu - lambda ln J)(A g_j)_{c_i} (A g_i)_{c_j}
+            //        + lambda (A g_j)_{c_j} (A g_i)_{c_i}.
+            const double m2 = mu - lambda * lnJ;
+            for (unsigned i = 0; i < n_dofs; ++i)
+              for (unsigned j = 0; j < n_dofs; ++j)
+                {
+                  const unsigned ci = component[i], cj = component[j];
+                  double k_ij = m2 * Ag[j][ci] * Ag[i][cj] + lambda * Ag[j][cj] * Ag[i][ci];
+                  if (ci == cj)
+                    k_ij += mu * (g[i] * g[j]);
+                  cell_K(i, j) += k_ij * dx;
+                }
           }
         for (unsigned i = 0; i < n_dofs; ++i)
-          {
-            f_int(dofs[i]) += cell_f(i);
-            if (K)
-              for (unsigned j = 0; j < n_dofs; ++j)
-                K->add(dofs[i], dofs[j], cell_K(i, j));
-          }
+          f_int(dofs[i]) += cell_f(i);
+        if (K)
+          K->add(dofs, cell_K);
       }
     if (constrained)
       {

@@ -353,6 +353,7 @@ namespace irdm::fem
     const Node top{root, "'" + origin + "'"};
     top.allow_only({"format", "name", "mesh", "fe_degree", "material", "damping",
                     "integrator", "time", "initial_state", "gravity",
+                    "kinematics", "initial_velocity_m_s", "planes",
                     "fixed_surfaces", "loads", "prescribed_displacements",
                     "probes", "model", "outputs", "comment"});
     Scene s;
@@ -489,6 +490,22 @@ namespace irdm::fem
         if (g.has("acceleration_m_s2"))
           s.gravity = g.at("acceleration_m_s2").vec3();
       }
+    if (top.has("kinematics"))
+      {
+        const std::string k = top.at("kinematics").string();
+        if (k == "linear")
+          s.kinematics = Kinematics::linear;
+        else if (k == "nonlinear")
+          s.kinematics = Kinematics::nonlinear;
+        else
+          fail(top.where + ".kinematics", "must be 'linear' or 'nonlinear'");
+      }
+    if (top.has("initial_velocity_m_s"))
+      {
+        s.initial_velocity = top.at("initial_velocity_m_s").vec3();
+        if (s.initial != InitialState::rest)
+          fail(top.where + ".initial_velocity_m_s", "needs initial_state 'rest'");
+      }
     if (top.has("fixed_surfaces"))
       for (const auto &n : top.at("fixed_surfaces").array())
         s.fixed_surfaces.push_back(n.string());
@@ -563,6 +580,30 @@ namespace irdm::fem
             fail(n.where + ".depth", "must be 0 at t = 0: the body starts at rest");
           s.probes.push_back(p);
         }
+    if (top.has("planes"))
+      for (const auto &n : top.at("planes").array())
+        {
+          n.allow_only({"name", "normal", "position", "penalty_Pa_m"});
+          RigidPlane p;
+          p.name            = unique(n, parse_name(n, "plane" + std::to_string(names.size())));
+          const Vec3   d    = n.at("normal").vec3();
+          const double norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+          if (!(norm > 0))
+            fail(n.where + ".normal", "must not be zero");
+          p.normal = {d[0] / norm, d[1] / norm, d[2] / norm};
+          std::vector<Node> samples;
+          parse_samples(n.at("position"), "points_m", p.position.times, samples);
+          for (const auto &x : samples)
+            p.position.values.push_back(x.vec3());
+          if (n.has("penalty_Pa_m"))
+            p.penalty = n.at("penalty_Pa_m").positive();
+          s.planes.push_back(p);
+        }
+    if (s.kinematics == Kinematics::linear && !s.planes.empty())
+      fail(top.where + ".planes", "plane contact needs \"kinematics\": \"nonlinear\"");
+    if (s.kinematics == Kinematics::nonlinear && (!s.probes.empty() || !s.prescribed.empty()))
+      fail(top.where, "nonlinear kinematics takes loads and planes, not probes or prescribed "
+                      "displacements");
     if (!s.probes.empty() && !s.prescribed.empty())
       fail(top.where, "use either 'probes' or 'prescribed_displacements' in one scene, not both");
     if (s.probes.size() > 4)

@@ -15,6 +15,16 @@
 
 namespace irdm::fem
 {
+  /// Dynamics (run): the linear solver's integrator (Newmark or generalized-alpha, same
+  /// coefficients, same Rayleigh damping C = alpha M + beta K_0 with the reference stiffness
+  /// K_0), with the internal force at the alpha level, f_int(u_{n+1-alpha_f}). Loads and the
+  /// planes' contact forces enter as the linear solver's loads do,
+  /// (1 - alpha_f) f_{n+1} + alpha_f f_n, the contact force f_{n+1} being evaluated on u_{n+1}
+  /// with the planes at t_{n+1}; so a plane touching during one step is one force sample, as in
+  /// the impulse-response convention. Each step is solved by Newton's method: first with the
+  /// linear solver's factorized K_eff (cheap, enough for small motion without contact), then,
+  /// if that does not contract, with the full tangent (neo-Hookean plus penalty) refactorized
+  /// every iteration and a backtracking line search on the residual norm.
   struct NewtonReport
   {
     unsigned iterations       = 0; // over all load increments
@@ -39,6 +49,18 @@ namespace irdm::fem
     RunResult
     solve_static(double t, double load_scale = 1, unsigned increments = 1,
                  NewtonReport *report = nullptr) const;
+
+    /// Runs the scene (kinematics nonlinear: loads, gravity, planes, initial velocity) from
+    /// rest to its duration. Outputs as ElasticDynamics::run plus the planes' forces and
+    /// penetrations and the contact and gravity energies; strain energy is the neo-Hookean one.
+    /// The callback, if given, gets the fraction done about every 5 %. Throws InputError if
+    /// Newton fails at a step (an element inverted, or no convergence: use a smaller step).
+    RunResult
+    run(const std::function<void(double)> &progress = {}) const;
+
+    /// Writes the scene's outputs (HDF5 and CSV as configured) for a result of this solver.
+    void
+    write_outputs(const RunResult &result) const;
 
     /// Consistency of the tangent: at the displacement amplitude * (a smooth field), the
     /// relative difference || K_T d - (R(u + h d) - R(u - h d)) / (2h) || / || K_T d || for a

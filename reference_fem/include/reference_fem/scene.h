@@ -101,6 +101,20 @@ namespace irdm::fem
     std::optional<VertexRegion> outputs; // default: every free surface vertex
   };
 
+  /// A rigid frictionless plane (floor, wall) the body may touch; nonlinear kinematics only.
+  /// The plane passes through position(t) with the unit normal `normal`, which points to the
+  /// side where the body is. A point x of the body surface penetrates by
+  /// normal . (position(t) - x) when that is positive; the plane then pushes it with the penalty
+  /// traction penalty * penetration * normal, integrated over the boundary faces.
+  struct RigidPlane
+  {
+    std::string name;
+    Vec3        normal;       // unit, toward the body
+    History     position;     // m, a point of the plane over time (its prescribed motion)
+    double      penalty = 0;  // Pa/m (traction per metre of penetration); 0: the default
+                              // 100 E / h (h: mean boundary edge length)
+  };
+
   struct ObservedVertex
   {
     std::string    name;
@@ -111,6 +125,14 @@ namespace irdm::fem
   {
     newmark,          // average acceleration: beta = 1/4, gamma = 1/2
     generalized_alpha // Chung-Hulbert, parametrised by rho_inf
+  };
+
+  /// Linear: small-strain elasticity (ElasticDynamics). Nonlinear: Total Lagrangian
+  /// neo-Hookean with rigid-plane contact (NonlinearElasticity).
+  enum class Kinematics
+  {
+    linear,
+    nonlinear
   };
 
   enum class InitialState
@@ -144,6 +166,9 @@ namespace irdm::fem
     double       duration   = 0;   // s
     InitialState initial    = InitialState::rest;
 
+    Kinematics kinematics       = Kinematics::linear;
+    Vec3       initial_velocity = {0, 0, 0}; // m/s, uniform (a thrown or dropped body)
+
     bool gravity_enabled = false;
     Vec3 gravity         = {0, 0, -9.81}; // m/s^2
 
@@ -152,6 +177,7 @@ namespace irdm::fem
     std::vector<SurfaceForce>           surface_forces;
     std::vector<PrescribedDisplacement> prescribed;
     std::vector<Probe>                  probes;
+    std::vector<RigidPlane>             planes;
     ModelSpec                           model;
 
     struct Outputs

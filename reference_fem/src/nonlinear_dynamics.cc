@@ -1,0 +1,367 @@
+// Nonlinear dynamics with rigid-plane penalty contact: the linear solver's time loop
+// (elastodynamics_run.cc) with Newton's method at each step, the residual being the
+// generalized-alpha balance with the neo-Hookean internal force.
+#include <irdm_common/error.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "nonlinear_impl.h"
+
+namespace irdm::fem
+{
+  PlaneContactState
+  NonlinearElasticity::Impl::plane_contact(const Vector<double> &u, const double t,
+                                           Vector<double> &f_c, SparseMatrix<double> *K) const
+  {
+    const auto &L      = linear;
+    const auto &planes = L.scene.planes;
+    PlaneContactState s;
+    s.force.assign(planes.size(), Vec3{0, 0, 0});
+    s.penetration.assign(planes.size(), -1e300);
+    f_c.reinit(L.dof_handler.n_dofs());
+    if (planes.empty())
+      return s;
+    const FEValuesExtractors::Vector displacement(0);
+    FEFaceValues<3> fv(L.mapping, L.fe, contact_quadrature,
+                       update_values | update_quadrature_points | update_JxW_values);
+    const unsigned n_dofs = L.fe.n_dofs_per_cell();
+    std::vector<types::global_dof_index> dofs(n_dofs);
+    std::vector<Tensor<1, 3>>            u_q(contact_quadrature.size());
+    std::vector<double>                  n_phi(n_dofs);
+    Vector<double>                       cell_f(n_dofs);
+    FullMatrix<double>                   cell_K(n_dofs, n_dofs);
+    const auto position = [&](const unsigned vertex) {
+      Point<3> x;
+      for (unsigned d = 0; d < 3; ++d)
+        x[d] = L.mesh.vertices[vertex][d] + u[L.dofs_of_vertex[vertex][d]];
+      return x;
+    };
+    for (unsigned p = 0; p < planes.size(); ++p)
+      {
+        Tensor<1, 3> n;
+        Point<3>     x0;
+        const Vec3   at = planes[p].position.at(t);
+        for (unsigned d = 0; d < 3; ++d)
+          {
+            n[d]  = planes[p].normal[d];
+            x0[d] = at[d];
+          }
+        const double k     = penalty[p];
+        const auto   depth = [&](const Point<3> &x) { return n * (x0 - x); };
+        for (const unsigned v : boundary_vertices)
+          s.penetration[p] = std::max(s.penetration[p], depth(position(v)));
+        if (s.penetration[p] <= -1e-3 * L.scene.time_step) // clearly apart: no face can touch
+          continue;
+        for (const auto &[cell, f] : boundary_faces)
+          {
+            // P1: the face is flat and its displacement linear, so it touches only if a
+            // vertex does. P2 faces can bulge; a margin of their size covers sane meshes.
+            const auto face   = cell->face(f);
+            double     deepest = -1e300;
+            for (const unsigned v : face->vertex_indices())
+              deepest = std::max(deepest, depth(position(face->vertex_index(v))));
+            double margin = 0;
+            if (L.scene.fe_degree > 1)
+              for (const unsigned v : face->vertex_indices())
+                margin = std::max(margin, face->vertex(v).distance(face->vertex((v + 1) % 3)));
+            if (deepest <= -margin)
+              continue;
+            fv.reinit(cell, f);
+            fv[displacement].get_function_values(u, u_q);
+            cell->get_dof_indices(dofs);
+            cell_f = 0;
+            cell_K = 0;
+            bool touched = false;
+            for (const unsigned q : fv.quadrature_point_indices())
+              {
+                const double g = depth(fv.quadrature_point(q) + u_q[q]);
+                if (g <= 0)
+                  continue;
+                touched        = true;
+                const double dA = fv.JxW(q);
+                ++s.active_points;
+                s.energy += 0.5 * k * g * g * dA;
+                for (unsigned d = 0; d < 3; ++d)
+                  s.force[p][d] += k * g * n[d] * dA;
+                for (unsigned i = 0; i < n_dofs; ++i)
+                  n_phi[i] = n * fv[displacement].value(i, q);
+                for (unsigned i = 0; i < n_dofs; ++i)
+                  {
+                    cell_f(i) += k * g * n_phi[i] * dA;
+                    if (K)
+                      for (unsigned j = 0; j < n_dofs; ++j)
+                        cell_K(i, j) += k * n_phi[i] * n_phi[j] * dA;
+                  }
+              }
+            if (!touched)
+              continue;
+            for (unsigned i = 0; i < n_dofs; ++i)
+              f_c(dofs[i]) += cell_f(i);
+            if (K)
+              K->add(dofs, cell_K);
+          }
+      }
+    return s;
+  }
+
+  RunResult
+  NonlinearElasticity::run(const std::function<void(double)> &progress) const
+  {
+    const Impl &I  = *impl_;
+    const auto &L  = I.linear;
+    const auto &sc = L.scene;
+    if (!(sc.duration > 0))
+      throw InputError("scene '" + sc.name + "' gives no time.duration_s: nothing to run");
+    if (!sc.probes.empty() || !sc.prescribed.empty())
+      throw InputError("nonlinear dynamics takes loads and planes, not probes or prescribed "
+                       "displacements");
+    if (sc.initial != InitialState::rest)
+      throw InputError("nonlinear dynamics starts at rest (initial_state 'rest'), possibly "
+                       "with an initial velocity");
+
+    RunResult out;
+    L.init_result(out);
+    out.setup_seconds         = L.setup_seconds;
+    out.factorization_seconds = L.factorization_seconds;
+    for (unsigned p = 0; p < sc.planes.size(); ++p)
+      out.plane_penalty[sc.planes[p].name] = I.penalty[p];
+
+    const unsigned n  = L.dof_handler.n_dofs();
+    const double   dt = sc.time_step;
+    const unsigned N  = sc.n_steps();
+    const auto    &c  = L.coeffs;
+    const double   af = c.alpha_f, am = c.alpha_m;
+    const StepCoefficients k(c, dt);
+
+    Vector<double> u(n), v(n), a(n), f(n), f_c(n);         // state n and its loads
+    Vector<double> u_new(n), v_new(n), a_new(n), f_new(n), f_c_new(n);
+    Vector<double> f_int(n), r(n), du(n), trial(n), r_trial(n), tmp(n), w(n);
+    SparseMatrix<double> tangent(L.sparsity), K_T(L.sparsity);
+
+    for (unsigned i = 0; i < n; ++i)
+      if (!L.constraints.is_constrained(i))
+        v[i] = sc.initial_velocity[L.dof_component[i]];
+    L.external_force(0.0, f);
+    PlaneContactState contact = I.plane_contact(u, 0.0, f_c, nullptr);
+    {
+      // M a0 = f(0) + f_c(0) - C v0 (f_int(0) = 0).
+      Vector<double> rhs = f;
+      rhs += f_c;
+      L.mass.vmult(tmp, v);
+      rhs.add(-sc.rayleigh_alpha, tmp);
+      L.stiffness.vmult(tmp, v);
+      rhs.add(-sc.rayleigh_beta, tmp);
+      L.constraints.set_zero(rhs);
+      if (rhs.l2_norm() > 0)
+        {
+          DirectSolver m_inverse;
+          m_inverse.initialize(L.condensed(L.mass));
+          m_inverse.solve(rhs);
+          a = rhs;
+        }
+    }
+
+    const auto record = [&](const double t, const PlaneContactState &cs) {
+      // The linear record() takes the fixed reactions as M a + C v + K_0 u - f; passing
+      // f + f_c + K_0 u - f_int(u) makes them the nonlinear balance M a + C v + f_int - f - f_c.
+      double W = 0;
+      I.assemble(u, f_int, nullptr, false, &W);
+      Vector<double> balance(n);
+      L.stiffness.vmult(balance, u);
+      balance += f;
+      balance += f_c;
+      balance -= f_int;
+      const Vector<double> no_lambda;
+      L.record(u, v, a, balance, no_lambda, t, out);
+      out.strain_energy.back() = W;
+      out.contact_energy.push_back(cs.energy);
+      out.gravity_energy.push_back(-(L.gravity_force * u));
+      L.mass.vmult(balance, v);
+      Vec3 momentum = {0, 0, 0};
+      for (unsigned i = 0; i < n; ++i)
+        momentum[L.dof_component[i]] += balance[i];
+      out.linear_momentum.push_back(momentum);
+      for (unsigned p = 0; p < sc.planes.size(); ++p)
+        {
+          out.plane_force[sc.planes[p].name].push_back(cs.force[p]);
+          out.plane_penetration[sc.planes[p].name].push_back(cs.penetration[p]);
+        }
+    };
+    record(0.0, contact);
+
+    // The residual of the step to t1 at the trial u_new = x (a_new, v_new follow from x by
+    // Newmark). With `T`, also the tangent dR/dx, condensed. Returns false if an element
+    // inverted; `scale` gets a force scale for the convergence test.
+    double     scale = 0;
+    const auto combine = [](Vector<double> &out, const double p, const Vector<double> &x,
+                            const double q, const Vector<double> &y) {
+      out.equ(p, x);
+      out.add(q, y);
+    };
+    const auto residual = [&](const double t1, const Vector<double> &x, Vector<double> &res,
+                              SparseMatrix<double> *T, PlaneContactState &cs) {
+      a_new = x;
+      a_new -= u;
+      a_new.add(-dt, v);
+      a_new *= 1 / (c.beta * dt * dt);
+      a_new.add(-(1 / (2 * c.beta) - 1), a);
+      v_new = v;
+      v_new.add(dt * (1 - c.gamma), a, dt * c.gamma, a_new);
+      combine(w, 1 - af, x, af, u); // u at the alpha level
+      const bool ok = I.assemble(w, f_int, T ? &K_T : nullptr, false);
+      cs            = I.plane_contact(x, t1, f_c_new, T ? &K_T : nullptr);
+      combine(w, 1 - am, a_new, am, a);
+      L.mass.vmult(res, w);
+      scale = std::max({res.l2_norm(), f_int.l2_norm(), f_new.l2_norm(), f_c_new.l2_norm()});
+      combine(w, 1 - af, v_new, af, v); // Rayleigh damping at the alpha level
+      L.mass.vmult(tmp, w);
+      res.add(sc.rayleigh_alpha, tmp);
+      L.stiffness.vmult(tmp, w);
+      res.add(sc.rayleigh_beta, tmp);
+      res += f_int;
+      res.add(-(1 - af), f_new, -(1 - af), f_c_new);
+      res.add(-af, f, -af, f_c);
+      L.constraints.set_zero(res);
+      if (T)
+        {
+          // dR/dx = c_m M + c_c C + (1 - af)(K_T(u_alpha) + K_contact(x)).
+          T->copy_from(L.stiffness);
+          *T *= k.c_c * sc.rayleigh_beta;
+          T->add(k.c_m + k.c_c * sc.rayleigh_alpha, L.mass);
+          T->add(1 - af, K_T);
+          *T = L.condensed(*T);
+        }
+      return ok;
+    };
+
+    // The latest factorized tangent, reused while it makes the residual contract (null: use
+    // the linear solver's K_eff).
+    std::unique_ptr<DirectSolver> tangent_solver;
+    const auto     t_start     = std::chrono::steady_clock::now();
+    unsigned       last_report = 0;
+    for (unsigned step = 1; step <= N; ++step)
+      {
+        const double t1 = step * dt;
+        L.external_force(t1, f_new);
+        // Constant-velocity predictor: the acceleration of a body in penalty contact changes
+        // sign from step to step, so extrapolating it overshoots.
+        u_new = u;
+        u_new.add(dt, v);
+        L.constraints.set_zero(u_new);
+        if (!residual(t1, u_new, r, nullptr, contact))
+          {
+            u_new = u; // the predictor inverted an element: start from the last state
+            residual(t1, u_new, r, nullptr, contact);
+          }
+        unsigned it        = 0;
+        bool     converged = false;
+        for (; it < 40; ++it)
+          {
+            const double r_norm = r.l2_norm();
+            if (r_norm <= 1e-8 * scale || scale == 0)
+              {
+                converged = true;
+                break;
+              }
+            PlaneContactState cs_trial;
+            // First a step with the factors we have (the latest tangent, at first the linear
+            // K_eff): kept if it contracts the residual well, which it does in smooth motion.
+            du = r;
+            du *= -1;
+            if (tangent_solver)
+              tangent_solver->solve(du);
+            else
+              L.step_solver.inverse.solve(du);
+            trial = u_new;
+            trial += du;
+            if (residual(t1, trial, r_trial, nullptr, cs_trial) &&
+                r_trial.l2_norm() <= 0.1 * r_norm)
+              {
+                u_new.swap(trial);
+                r.swap(r_trial);
+                contact = cs_trial;
+                if (du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
+                  {
+                    converged = true;
+                    break;
+                  }
+                continue;
+              }
+            // Otherwise Newton's step with the tangent at u_new, and a line search.
+            residual(t1, u_new, r, &tangent, contact);
+            tangent_solver = std::make_unique<DirectSolver>();
+            tangent_solver->initialize(tangent);
+            ++out.tangent_factorizations;
+            du = r;
+            du *= -1;
+            tangent_solver->solve(du);
+            double alpha    = 1;
+            bool   accepted = false;
+            for (unsigned cut = 0; cut < 12; ++cut, alpha /= 2)
+              {
+                trial = u_new;
+                trial.add(alpha, du);
+                const bool ok = residual(t1, trial, r_trial, nullptr, cs_trial);
+                if (ok && r_trial.l2_norm() < (1 - 1e-4 * alpha) * r_norm)
+                  {
+                    accepted = true;
+                    break;
+                  }
+              }
+            if (!accepted)
+              {
+                // No decrease: round-off if the step is negligible against the motion.
+                if (du.linfty_norm() <= 1e-9 * std::max(u_new.linfty_norm(), 1e-300))
+                  {
+                    residual(t1, u_new, r, nullptr, contact);
+                    converged = true;
+                    break;
+                  }
+                throw InputError("nonlinear dynamics: the line search found no decrease at "
+                                 "step " + std::to_string(step) + " (t = " + std::to_string(t1) +
+                                 " s); a smaller time step or a softer penalty may help");
+              }
+            u_new.swap(trial);
+            r.swap(r_trial);
+            contact = cs_trial;
+            if (alpha == 1 && du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
+              {
+                converged = true;
+                break;
+              }
+          }
+        if (!converged)
+          throw InputError("nonlinear dynamics: Newton did not converge in 40 iterations at "
+                           "step " + std::to_string(step) + " (t = " + std::to_string(t1) +
+                           " s, residual " + std::to_string(r.l2_norm() / scale) +
+                           " of the force scale); use a smaller time step");
+        out.newton_iterations += it;
+        // The work vectors hold a_new, v_new, f_c_new of the accepted u_new (the last residual
+        // evaluated was at u_new).
+        u.swap(u_new);
+        v.swap(v_new);
+        a.swap(a_new);
+        f.swap(f_new);
+        f_c.swap(f_c_new);
+        if (step % sc.outputs.every == 0 || step == N)
+          record(t1, contact);
+        if (progress && (20 * step) / N != last_report)
+          {
+            last_report = (20 * step) / N;
+            progress(static_cast<double>(step) / N);
+          }
+      }
+    out.stepping_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    out.n_steps = N;
+    return out;
+  }
+
+  void
+  NonlinearElasticity::write_outputs(const RunResult &result) const
+  {
+    impl_->linear.write_outputs(result);
+  }
+} // namespace irdm::fem

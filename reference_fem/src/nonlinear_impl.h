@@ -1,0 +1,51 @@
+#pragma once
+// Internal: the deal.II side of NonlinearElasticity, shared by its translation units
+// (statics in nonlinear_elasticity.cc, dynamics and plane contact in nonlinear_dynamics.cc).
+#include <deal.II/fe/fe_values.h>
+
+#include <reference_fem/nonlinear_elasticity.h>
+
+#include "elastodynamics_impl.h"
+
+namespace irdm::fem
+{
+  /// What the rigid planes do to the body in one configuration.
+  struct PlaneContactState
+  {
+    std::vector<Vec3>   force;       // N, per plane, on the body
+    std::vector<double> penetration; // m, per plane, deepest surface vertex (negative: gap)
+    double              energy = 0;  // J, penalty energy
+    unsigned            active_points = 0; // face quadrature points in contact
+  };
+
+  class NonlinearElasticity::Impl
+  {
+  public:
+    explicit Impl(const Scene &scene);
+
+    /// Internal force f_int(u) = int P : grad phi, and (if K) the tangent dP/dF. With
+    /// `constrained`, the fixed DoFs are condensed out (rows and columns zero, diagonal kept,
+    /// residual zero there). Returns false if some quadrature point has J <= 0 (inverted).
+    bool
+    assemble(const Vector<double> &u, Vector<double> &f_int, SparseMatrix<double> *K,
+             bool constrained, double *energy = nullptr) const;
+
+    /// Penalty contact of the scene's planes at time t on the body displaced by u: sets f_c
+    /// (force on the body) and, if K is given, adds the penalty tangent
+    /// k int (n . phi_i)(n . phi_j) dA over the points in contact.
+    PlaneContactState
+    plane_contact(const Vector<double> &u, double t, Vector<double> &f_c,
+                  SparseMatrix<double> *K) const;
+
+    ElasticDynamics::Impl linear;
+    double                lambda = 0, mu = 0;
+    // P1: the deformation gradient is constant per cell, so one point integrates f_int and K
+    // exactly; P2 keeps the linear solver's rule.
+    const QGaussSimplex<3> stiffness_quadrature;
+    const QGaussSimplex<2> contact_quadrature; // the penalty integrand has a kink: more points
+    std::vector<double>    penalty;            // Pa/m, per plane (the scene's or the default)
+    // Boundary faces (cell, face), and the mesh vertices on the boundary, for contact.
+    std::vector<std::pair<DoFHandler<3>::active_cell_iterator, unsigned>> boundary_faces;
+    std::vector<unsigned> boundary_vertices;
+  };
+} // namespace irdm::fem
