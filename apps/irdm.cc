@@ -5,6 +5,7 @@
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/nonlinear_elasticity.h>
+#include <reference_fem/virtual_dof.h>
 #include <reference_fem/scene.h>
 #include <validation/fem_verification.h>
 #include <validation/point_validation.h>
@@ -34,6 +35,7 @@ Commands (reference FEM):
 
 Commands (IRDM):
   precompute <scene.json> impulse-response model of the scene's body (HDF5); mpirun-able
+  precompute-vdof <scene.json>  virtual-DOF model (plane contact, seed 001); mpirun-able
   compress <model.h5>     compress a model by representative waveforms (seed 000 sec. 3)
   validate                IRDM against the FEM on validation/scenes; writes reports/
 
@@ -276,6 +278,74 @@ and the next run with the same spec resumes it.
   }
 
   double
+  real_in(const std::string &option, const std::string &value, double lo, double hi);
+
+  int
+  cmd_precompute_vdof(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm precompute-vdof <scene.json> --out VDOF.h5 [options]
+       mpirun -np N irdm precompute-vdof <scene.json> --out VDOF.h5 [options]
+
+Virtual degrees of freedom (seed 001): for each plane orientation (the vertices of a geodesic
+dome), hits the scene's grounded body once with a rigid frictionless wall in the nonlinear
+FEM (neo-Hookean, penalty contact) and records the responses of the surface and of every
+virtual DOF to that impulse, per newton of wall force (docs/model-format.md). Uses the
+scene's mesh, material, damping, integrator, step, fixed surfaces and model length T; loads,
+probes and gravity are left out. Under mpirun the orientations are dealt to the ranks; rank 0
+writes. The time of every orientation is printed and stored.
+  --out FILE          model file to write (required)
+  --subdivisions S    icosahedron subdivisions: 10 * 4^S + 2 orientations (default 2: 162)
+  --depth D           m, the wall's penetration into the undeformed body during its one step
+                      of contact (default 0.001)
+  --band B            m, vertices within B of a plane at first contact define its virtual
+                      DOF's displacement (default 0.001, the seed's 1 mm)
+  --length T          samples per response (overrides the scene)
+  --storage S         float or double (overrides the scene)
+  --quiet             no progress on stderr
+)";
+    const Args a = parse(argc, argv, 2,
+                         {"--out", "--subdivisions", "--depth", "--band", "--length", "--storage"},
+                         {"--help", "--quiet"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (a.positional.size() != 1)
+      throw irdm::InputError("precompute-vdof takes one scene file (see --help)");
+    if (!a.options.count("--out"))
+      throw irdm::InputError("precompute-vdof needs --out VDOF.h5");
+    const auto scene = irdm::fem::read_scene(a.positional[0]);
+    irdm::fem::VirtualDofOptions o;
+    o.output = a.options.at("--out");
+    if (a.options.count("--subdivisions"))
+      o.subdivisions = static_cast<unsigned>(real_in("--subdivisions", a.options.at("--subdivisions"), 0, 4));
+    if (a.options.count("--depth"))
+      o.impulse_depth = real_in("--depth", a.options.at("--depth"), 1e-7, 0.05);
+    if (a.options.count("--band"))
+      o.band = real_in("--band", a.options.at("--band"), 1e-7, 0.05);
+    if (a.options.count("--length"))
+      o.length = positive_integer("--length", a.options.at("--length"));
+    if (a.options.count("--storage"))
+      {
+        const std::string st = a.options.at("--storage");
+        if (st != "float" && st != "double")
+          throw irdm::InputError("--storage must be float or double, got '" + st + "'");
+        o.double_storage = st == "double";
+      }
+    if (!a.options.count("--quiet"))
+      o.log = [](const std::string &s) { std::fprintf(stderr, "  %s\n", s.c_str()); };
+    const auto r = irdm::fem::precompute_virtual_dofs(scene, o);
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    if (rank == 0)
+      std::printf("virtual DOF model %s: %u orientations x %u samples, %u surface vertices, "
+                  "%d rank(s)\ntime: total %.2f s; per orientation mean %.2f s, max %.2f s "
+                  "(one rank); %u Newton iterations\nimpulse forces %.4g to %.4g N\n",
+                  o.output.c_str(), r.n_orientations, r.length, r.n_surface, r.ranks,
+                  r.seconds_total, r.seconds_per_orientation_mean, r.seconds_per_orientation_max,
+                  r.newton_iterations, r.impulse_force_min, r.impulse_force_max);
+    return 0;
+  }
+
+  double
   real_in(const std::string &option, const std::string &value, const double lo, const double hi)
   {
     char        *end = nullptr;
@@ -453,6 +523,8 @@ main(int argc, char **argv)
         return cmd_verify_fem(argc, argv);
       if (cmd == "precompute")
         return cmd_precompute(argc, argv);
+      if (cmd == "precompute-vdof")
+        return cmd_precompute_vdof(argc, argv);
       if (cmd == "validate")
         return cmd_validate(argc, argv);
       if (cmd == "compress")

@@ -7,6 +7,7 @@
 #include <reference_fem/mesh.h>
 
 #include "integrator.h"
+#include "provenance.h"
 
 #include <mpi.h>
 
@@ -406,8 +407,7 @@ namespace irdm::fem
               auto &f = *w;
               f.attribute("/", "format", std::string("irdm-impulse-response"));
               f.attribute("/", "format_version", 1LL);
-              f.attribute("/", "irdm_version", std::string(IRDM_VERSION));
-              f.attribute("/", "spec_id", spec_id);
+              write_provenance(f, scene, coef);
               f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; H in m/N"));
               f.attribute("/", "convention",
                           std::string("u[n] = sum_s H[s] f[n-s]; f[n] is the force held during "
@@ -415,28 +415,9 @@ namespace irdm::fem
                                       "displacement s steps after a unit force sample at step "
                                       "0 from rest; H[0] is the direct feed-through; IRDM "
                                       "step n is FEM time (n+1)*time_step"));
-              f.attribute("/", "time_step_s", scene.time_step);
               f.attribute("/", "length", static_cast<long long>(T));
               f.attribute("/", "storage", std::string(rep.double_storage ? "double" : "float"));
               f.attribute("/", "route", std::string("modal (all modes, exact)"));
-              f.attribute("/", "integrator",
-                          std::string(scene.integrator == Integrator::newmark ? "newmark"
-                                                                              : "generalized_alpha"));
-              f.attribute("/", "rho_inf", scene.rho_inf);
-              f.attribute("/", "alpha_m", coef.alpha_m);
-              f.attribute("/", "alpha_f", coef.alpha_f);
-              f.attribute("/", "gamma", coef.gamma);
-              f.attribute("/", "beta", coef.beta);
-              f.attribute("/", "youngs_modulus_Pa", scene.youngs_modulus);
-              f.attribute("/", "poisson_ratio", scene.poisson_ratio);
-              f.attribute("/", "density_kg_m3", scene.density);
-              f.attribute("/", "rayleigh_alpha_1_s", scene.rayleigh_alpha);
-              f.attribute("/", "rayleigh_beta_s", scene.rayleigh_beta);
-              f.attribute("/", "fe_degree", static_cast<long long>(scene.fe_degree));
-              f.attribute("/", "mesh_file", scene.mesh_file);
-              f.attribute("/", "mesh_hash", mesh_hash);
-              f.attribute("/", "fixed_surfaces", join(scene.fixed_surfaces));
-              f.attribute("/", "scene", scene.json_text);
               f.attribute("/", "free_dofs", static_cast<long long>(n));
 
               const auto write_vertices = [&](const std::string &g, const std::vector<unsigned> &vs) {

@@ -260,7 +260,7 @@ namespace irdm::fem
         for (; it < 40; ++it)
           {
             const double r_norm = r.l2_norm();
-            if (r_norm <= 1e-8 * scale || scale == 0)
+            if (r_norm <= 1e-7 * scale || scale == 0)
               {
                 converged = true;
                 break;

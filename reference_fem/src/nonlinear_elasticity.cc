@@ -15,7 +15,10 @@ namespace irdm::fem
   NonlinearElasticity::Impl::Impl(const Scene &scene)
     : linear(scene)
     , stiffness_quadrature(scene.fe_degree == 1 ? 1 : scene.fe_degree + 1)
-    , contact_quadrature(scene.fe_degree + 2)
+    , contact_quadrature(
+        scene.fe_degree == 1
+          ? Quadrature<2>({Point<2>(0, 0), Point<2>(1, 0), Point<2>(0, 1)}, {1. / 6, 1. / 6, 1. / 6})
+          : Quadrature<2>(QGaussSimplex<2>(scene.fe_degree + 2)))
   {
     const double E = scene.youngs_modulus, nu = scene.poisson_ratio;
     lambda = E * nu / ((1 + nu) * (1 - 2 * nu));

@@ -42,7 +42,10 @@ namespace irdm::fem
     // P1: the deformation gradient is constant per cell, so one point integrates f_int and K
     // exactly; P2 keeps the linear solver's rule.
     const QGaussSimplex<3> stiffness_quadrature;
-    const QGaussSimplex<2> contact_quadrature; // the penalty integrand has a kink: more points
+    // P1: the face's vertices with weight area / 3 (lumped, node-based penalty): a plane that
+    // touches one vertex (a sharp ear tip) is felt, and each vertex's penalty is independent.
+    // P2: Gauss points (lumping P2 faces gives zero vertex weights).
+    const Quadrature<2> contact_quadrature;
     std::vector<double>    penalty;            // Pa/m, per plane (the scene's or the default)
     // Boundary faces (cell, face), and the mesh vertices on the boundary, for contact.
     std::vector<std::pair<DoFHandler<3>::active_cell_iterator, unsigned>> boundary_faces;

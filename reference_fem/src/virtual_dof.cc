@@ -1,0 +1,359 @@
+// Virtual-DOF precompute: one nonlinear FEM run per wall orientation (NonlinearElasticity,
+// through its public interface), dealt to MPI ranks; rank 0 gathers and writes.
+#include <irdm_common/error.h>
+#include <irdm_common/h5.h>
+#include <reference_fem/elastodynamics.h>
+#include <reference_fem/nonlinear_elasticity.h>
+#include <reference_fem/virtual_dof.h>
+
+#include "integrator.h"
+#include "provenance.h"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+
+namespace irdm::fem
+{
+  namespace
+  {
+    Vec3
+    normalized(const Vec3 &v)
+    {
+      const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+      return {v[0] / n, v[1] / n, v[2] / n};
+    }
+
+    double
+    dot(const Vec3 &a, const Vec3 &b)
+    {
+      return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    }
+
+    double
+    seconds_since(const std::chrono::steady_clock::time_point t0)
+    {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+  } // namespace
+
+  GeodesicDome
+  geodesic_dome(const unsigned subdivisions)
+  {
+    if (subdivisions > 6)
+      throw InputError("geodesic dome: at most 6 subdivisions (40962 orientations)");
+    GeodesicDome d;
+    // Icosahedron: the poles and two rings of five at z = +-1/sqrt(5), offset by 36 degrees.
+    const double z = 1 / std::sqrt(5.0), r = 2 / std::sqrt(5.0);
+    d.directions.push_back({0, 0, 1});
+    for (int i = 0; i < 5; ++i)
+      d.directions.push_back({r * std::cos(2 * M_PI * i / 5), r * std::sin(2 * M_PI * i / 5), z});
+    for (int i = 0; i < 5; ++i)
+      d.directions.push_back({r * std::cos(2 * M_PI * (i + 0.5) / 5),
+                              r * std::sin(2 * M_PI * (i + 0.5) / 5), -z});
+    d.directions.push_back({0, 0, -1});
+    for (unsigned i = 0; i < 5; ++i)
+      {
+        const unsigned u0 = 1 + i, u1 = 1 + (i + 1) % 5, l0 = 6 + i, l1 = 6 + (i + 1) % 5;
+        d.triangles.push_back({0, u0, u1});
+        d.triangles.push_back({u0, l0, u1});
+        d.triangles.push_back({u1, l0, l1});
+        d.triangles.push_back({11, l1, l0});
+      }
+    for (unsigned s = 0; s < subdivisions; ++s)
+      {
+        std::map<std::pair<unsigned, unsigned>, unsigned> midpoint;
+        const auto mid = [&](unsigned a, unsigned b) {
+          if (a > b)
+            std::swap(a, b);
+          const auto it = midpoint.find({a, b});
+          if (it != midpoint.end())
+            return it->second;
+          const Vec3 &p = d.directions[a], &q = d.directions[b];
+          d.directions.push_back(normalized({p[0] + q[0], p[1] + q[1], p[2] + q[2]}));
+          return midpoint[{a, b}] = static_cast<unsigned>(d.directions.size() - 1);
+        };
+        std::vector<std::array<unsigned, 3>> finer;
+        for (const auto &t : d.triangles)
+          {
+            const unsigned a = mid(t[0], t[1]), b = mid(t[1], t[2]), c = mid(t[2], t[0]);
+            finer.push_back({t[0], a, c});
+            finer.push_back({a, t[1], b});
+            finer.push_back({c, b, t[2]});
+            finer.push_back({a, b, c});
+          }
+        d.triangles.swap(finer);
+      }
+    return d;
+  }
+
+  VirtualDofReport
+  precompute_virtual_dofs(const Scene &scene, const VirtualDofOptions &options)
+  {
+    const auto t_start = std::chrono::steady_clock::now();
+    int        rank = 0, size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    const auto log = [&](const std::string &s) {
+      if (rank == 0 && options.log)
+        options.log(s);
+    };
+    if (options.output.empty())
+      throw InputError("virtual DOFs: no output file given");
+    if (scene.fixed_surfaces.empty())
+      throw InputError("virtual DOFs: the scene fixes no surface; a free body hit by a wall "
+                       "moves away rigidly (non-grounded objects are not supported yet)");
+    if (!(options.impulse_depth > 0) || !(options.band > 0))
+      throw InputError("virtual DOFs: the impulse depth and the band must be > 0");
+
+    const GeodesicDome dome = geodesic_dome(options.subdivisions);
+    const unsigned     K    = dome.directions.size();
+    const unsigned     T    = options.length.value_or(scene.model.length);
+    const bool         dbl  = options.double_storage.value_or(scene.model.double_storage);
+    const double       dt   = scene.time_step;
+
+    // First contact per orientation, from the undeformed surface.
+    std::vector<double> first_contact(K, -1e300);
+    {
+      const ElasticDynamics fem(scene);
+      const SurfaceMesh     b = fem.boundary();
+      for (unsigned k = 0; k < K; ++k)
+        for (const auto &x : b.coordinates)
+          first_contact[k] = std::max(first_contact[k], dot(dome.directions[k], x));
+    }
+
+    // The scene of orientation k: the body alone, hit once by the wall.
+    const auto hit_scene = [&](const unsigned k) {
+      Scene s = scene;
+      s.kinematics      = Kinematics::nonlinear;
+      s.gravity_enabled = false; // a constant load, not part of the responses
+      s.vertex_forces.clear();
+      s.surface_forces.clear();
+      s.probes.clear();
+      s.prescribed.clear();
+      s.initial          = InitialState::rest;
+      s.initial_velocity = {0, 0, 0};
+      s.duration         = (T + 1) * dt;
+      s.outputs          = Scene::Outputs();
+      s.outputs.surface  = true;
+      s.outputs.hdf5 = s.outputs.csv = false;
+      const Vec3  &d = dome.directions[k];
+      const double away = first_contact[k] + 0.1, in = first_contact[k] - options.impulse_depth;
+      RigidPlane   wall;
+      wall.name     = "wall";
+      wall.normal   = {-d[0], -d[1], -d[2]};
+      wall.position.times  = {0, dt, 2 * dt};
+      wall.position.values = {{away * d[0], away * d[1], away * d[2]},
+                              {in * d[0], in * d[1], in * d[2]},
+                              {away * d[0], away * d[1], away * d[2]}};
+      s.planes = {wall};
+      return s;
+    };
+
+    // Each rank runs its orientations and keeps their rows.
+    struct Rows
+    {
+      std::vector<double> surface, dofs; // T x 3n, T x K
+      double force = 0, seconds = 0, band_size = 0, newton = 0;
+    };
+    std::map<unsigned, Rows> mine;
+    SurfaceMesh              surface;
+    std::vector<std::vector<unsigned>> band(K); // surface vertices of each virtual DOF
+    unsigned n_done = 0, n_mine = 0;
+    for (unsigned k = rank; k < K; k += size)
+      ++n_mine;
+    log("virtual DOFs: " + std::to_string(K) + " orientations x " + std::to_string(T) +
+        " samples, " + std::to_string(size) + " rank(s)");
+    for (unsigned k = rank; k < K; k += size)
+      {
+        const auto          t0 = std::chrono::steady_clock::now();
+        const Scene         s  = hit_scene(k);
+        NonlinearElasticity fem(s);
+        const RunResult     r = fem.run();
+        if (surface.node_tags.empty())
+          {
+            surface = r.surface;
+            for (unsigned j = 0; j < K; ++j)
+              for (unsigned i = 0; i < surface.coordinates.size(); ++i)
+                if (dot(dome.directions[j], surface.coordinates[i]) >=
+                    first_contact[j] - options.band)
+                  band[j].push_back(i);
+          }
+        const Vec3  &d = dome.directions[k];
+        const double F = -dot(r.plane_force.at("wall")[1], d); // along -d_k, at step 1
+        if (!(F > 0))
+          throw InputError("virtual DOFs: the wall of orientation " + std::to_string(k) +
+                           " took no force at its impulse step");
+        for (unsigned s2 = 2; s2 < r.plane_force.at("wall").size(); ++s2)
+          if (dot(r.plane_force.at("wall")[s2], r.plane_force.at("wall")[s2]) > 0)
+            throw InputError("virtual DOFs: the wall of orientation " + std::to_string(k) +
+                             " touched the body again after its impulse step");
+        Rows        rows;
+        const auto  n3 = 3 * surface.node_tags.size();
+        rows.surface.resize(static_cast<size_t>(T) * n3);
+        rows.dofs.resize(static_cast<size_t>(T) * K);
+        for (unsigned s2 = 0; s2 < T; ++s2)
+          {
+            const auto &u = r.surface_displacement[1 + s2];
+            for (size_t i = 0; i < n3; ++i)
+              rows.surface[s2 * n3 + i] = u[i] / F;
+            for (unsigned j = 0; j < K; ++j)
+              {
+                double y = 0;
+                for (const unsigned i : band[j])
+                  y -= dot(dome.directions[j], {u[3 * i], u[3 * i + 1], u[3 * i + 2]});
+                rows.dofs[static_cast<size_t>(s2) * K + j] = y / band[j].size() / F;
+              }
+          }
+        rows.force     = F;
+        rows.seconds   = seconds_since(t0);
+        rows.band_size = band[k].size();
+        rows.newton    = r.newton_iterations;
+        ++n_done;
+        if (rank == 0)
+          {
+            char line[160];
+            std::snprintf(line, sizeof line,
+                          "  orientation %u (%u of %u on rank 0): force %.4g N, %.2f s, %u "
+                          "Newton iterations", k, n_done, n_mine, F, rows.seconds,
+                          r.newton_iterations);
+            log(line);
+          }
+        mine[k] = std::move(rows);
+      }
+
+    // Rank 0 gathers in orientation order and writes.
+    VirtualDofReport rep;
+    rep.n_orientations = K;
+    rep.length         = T;
+    rep.ranks          = size;
+    unsigned long long n3 = 3 * surface.node_tags.size();
+    MPI_Bcast(&n3, 1, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+    rep.n_surface = n3 / 3;
+    std::unique_ptr<h5::Writer> w;
+    std::vector<double> force(K), seconds(K), band_size(K), newton(K);
+    if (rank == 0)
+      {
+        w = std::make_unique<h5::Writer>(options.output);
+        auto &f = *w;
+        f.attribute("/", "format", std::string("irdm-virtual-dof-model"));
+        f.attribute("/", "format_version", 1LL);
+        write_provenance(f, scene, IntegratorCoefficients::from_scene(scene));
+        f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; responses in m/N"));
+        f.attribute("/", "convention",
+                    std::string("y[n] = sum_s Y[s] f[n-s], u_surface[n] = sum_s S[s] f[n-s]; "
+                                "f_k[n] (N) is the force wall k applies along -d_k during step n "
+                                "(impulse = f * time_step); the responses are the nonlinear "
+                                "FEM's after a wall touching for one step (its resultant F_k "
+                                "at that step), divided by F_k; y_j is the mean of -d_j . u "
+                                "over the surface vertices within band_m of plane j at first "
+                                "contact"));
+        f.attribute("/", "kinematics", std::string("nonlinear (Total Lagrangian neo-Hookean), "
+                                                   "penalty plane contact"));
+        f.attribute("/", "length", static_cast<long long>(T));
+        f.attribute("/", "storage", std::string(dbl ? "double" : "float"));
+        f.attribute("/", "subdivisions", static_cast<long long>(options.subdivisions));
+        f.attribute("/", "impulse_depth_m", options.impulse_depth);
+        f.attribute("/", "band_m", options.band);
+        f.attribute("/", "precompute_ranks", static_cast<long long>(size));
+        f.create_group("/outputs");
+        f.write("/outputs/node_tags", {surface.node_tags.size()}, surface.node_tags.data());
+        std::vector<double> xyz;
+        for (const auto &x : surface.coordinates)
+          xyz.insert(xyz.end(), x.begin(), x.end());
+        f.write("/outputs/coordinates", {surface.coordinates.size(), 3}, xyz.data());
+        f.create_group("/surface");
+        std::vector<long long> tris;
+        for (const auto &t : surface.triangles)
+          tris.insert(tris.end(), t.begin(), t.end());
+        f.write("/surface/triangles", {surface.triangles.size(), 3}, tris.data());
+        f.create_group("/virtual_dofs");
+        std::vector<double> dirs;
+        for (const auto &d : dome.directions)
+          dirs.insert(dirs.end(), d.begin(), d.end());
+        f.write("/virtual_dofs/directions", {K, 3}, dirs.data());
+        std::vector<long long> dome_tris;
+        for (const auto &t : dome.triangles)
+          dome_tris.insert(dome_tris.end(), t.begin(), t.end());
+        f.write("/virtual_dofs/dome_triangles", {dome.triangles.size(), 3}, dome_tris.data());
+        f.write("/virtual_dofs/first_contact", {K}, first_contact.data());
+        f.attribute("/virtual_dofs/first_contact", "meaning",
+                    std::string("m: the wall of orientation k first touches the undeformed "
+                                "body at the plane d_k . x = first_contact[k]"));
+        f.create_dataset("/virtual_dofs/surface_response", {K, T, n3}, dbl, 1);
+        f.attribute("/virtual_dofs/surface_response", "layout",
+                    std::string("[orientation k][step s][3 * surface vertex + axis], m/N"));
+        f.create_dataset("/virtual_dofs/dof_response", {K, T, K}, dbl, 1);
+        f.attribute("/virtual_dofs/dof_response", "layout",
+                    std::string("[input orientation k][step s][output virtual DOF j], m/N"));
+      }
+    for (unsigned k = 0; k < K; ++k)
+      {
+        const int owner = static_cast<int>(k % size);
+        Rows      rows;
+        if (owner == rank)
+          rows = std::move(mine.at(k));
+        else if (rank == 0)
+          {
+            rows.surface.resize(static_cast<size_t>(T) * n3);
+            rows.dofs.resize(static_cast<size_t>(T) * K);
+          }
+        if (owner != 0)
+          {
+            double scalars[4] = {rows.force, rows.seconds, rows.band_size, rows.newton};
+            if (owner == rank)
+              {
+                MPI_Send(scalars, 4, MPI_DOUBLE, 0, 3 * k, MPI_COMM_WORLD);
+                MPI_Send(rows.surface.data(), rows.surface.size(), MPI_DOUBLE, 0, 3 * k + 1,
+                         MPI_COMM_WORLD);
+                MPI_Send(rows.dofs.data(), rows.dofs.size(), MPI_DOUBLE, 0, 3 * k + 2,
+                         MPI_COMM_WORLD);
+              }
+            else if (rank == 0)
+              {
+                MPI_Recv(scalars, 4, MPI_DOUBLE, owner, 3 * k, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+                MPI_Recv(rows.surface.data(), rows.surface.size(), MPI_DOUBLE, owner, 3 * k + 1,
+                         MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+                MPI_Recv(rows.dofs.data(), rows.dofs.size(), MPI_DOUBLE, owner, 3 * k + 2,
+                         MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+                rows.force     = scalars[0];
+                rows.seconds   = scalars[1];
+                rows.band_size = scalars[2];
+                rows.newton    = scalars[3];
+              }
+          }
+        if (rank == 0)
+          {
+            w->write_rows("/virtual_dofs/surface_response", k, 1, rows.surface.data());
+            w->write_rows("/virtual_dofs/dof_response", k, 1, rows.dofs.data());
+            force[k]     = rows.force;
+            seconds[k]   = rows.seconds;
+            band_size[k] = rows.band_size;
+            newton[k]    = rows.newton;
+          }
+      }
+    if (rank == 0)
+      {
+        w->write("/virtual_dofs/impulse_force", {K}, force.data());
+        w->attribute("/virtual_dofs/impulse_force", "meaning",
+                     std::string("N: F_k, the wall's resultant along -d_k at its impulse step"));
+        w->write("/virtual_dofs/band_size", {K}, band_size.data());
+        w->write("/virtual_dofs/seconds", {K}, seconds.data());
+        w->write("/virtual_dofs/newton_iterations", {K}, newton.data());
+        w->commit();
+        rep.seconds_per_orientation_max  = *std::max_element(seconds.begin(), seconds.end());
+        rep.seconds_per_orientation_mean = 0;
+        for (const double s : seconds)
+          rep.seconds_per_orientation_mean += s / K;
+        rep.impulse_force_min = *std::min_element(force.begin(), force.end());
+        rep.impulse_force_max = *std::max_element(force.begin(), force.end());
+        for (const double x : newton)
+          rep.newton_iterations += static_cast<unsigned>(x);
+      }
+    rep.seconds_total = seconds_since(t_start);
+    return rep;
+  }
+} // namespace irdm::fem
