@@ -8,6 +8,7 @@
 #include <reference_fem/virtual_dof.h>
 #include <reference_fem/scene.h>
 #include <validation/fem_verification.h>
+#include <validation/plane_validation.h>
 #include <validation/point_validation.h>
 
 #include <deal.II/base/mpi.h>
@@ -38,6 +39,7 @@ Commands (IRDM):
   precompute-vdof <scene.json>  virtual-DOF model (plane contact, seed 001); mpirun-able
   compress <model.h5>     compress a model by representative waveforms (seed 000 sec. 3)
   validate                IRDM against the FEM on validation/scenes; writes reports/
+  validate-planes         virtual-DOF plane contact against the nonlinear FEM; reports/planes
 
 Run 'irdm <command> --help' for the options of a command. Units are SI throughout.
 Scene files: docs/scene-format.md. Result files: docs/fem-output.md.
@@ -418,6 +420,46 @@ with the source's metadata plus theta and the statistics (docs/model-format.md).
   }
 
   int
+  cmd_validate_planes(const int argc, char **argv)
+  {
+    const char *help = R"(Usage: irdm validate-planes [--scene FILE] [--out DIR] [--model FILE] [--subdivisions S] [--length T]
+
+Plane contact by virtual DOFs (seed 001) against the nonlinear reference FEM on the grounded
+cat: a rigid wall pressing from the side and from the top at depths 2, 5, 10 and 20 mm, and
+hitting the side at 0.05 to 0.5 m/s. Precomputes the virtual-DOF model first (or reuses
+--model when it was made from the same scene, S and T; run 'mpirun -np N irdm
+precompute-vdof' to make it in parallel). Writes DIR/planes/planes.md, planes.csv and
+planes.png: force and surface-displacement errors, nearest against interpolated orientation
+mapping, time per step of both methods in the same run.
+  --scene FILE        the body (default validation/scenes/press.json; its probes are ignored)
+  --out DIR           report directory (default reports)
+  --model FILE        virtual-DOF model (default out/models/cat_vdof.h5)
+  --subdivisions S    dome subdivisions (default 2: 162 orientations)
+  --length T          samples per response (default 250)
+)";
+    const Args a = parse(argc, argv, 2, {"--scene", "--out", "--model", "--subdivisions", "--length"},
+                         {"--help"});
+    if (a.options.count("--help"))
+      return std::printf("%s", help), 0;
+    if (!a.positional.empty())
+      throw irdm::InputError("validate-planes takes no positional arguments (see --help)");
+    irdm::validation::PlaneValidationOptions o;
+    if (a.options.count("--scene"))
+      o.scene = a.options.at("--scene");
+    if (a.options.count("--out"))
+      o.report_dir = a.options.at("--out");
+    if (a.options.count("--model"))
+      o.model_file = a.options.at("--model");
+    if (a.options.count("--subdivisions"))
+      o.subdivisions = static_cast<unsigned>(real_in("--subdivisions", a.options.at("--subdivisions"), 0, 4));
+    if (a.options.count("--length"))
+      o.length = positive_integer("--length", a.options.at("--length"));
+    o.plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_planes.py";
+    irdm::validation::run_plane_validation(o, std::cout);
+    return 0;
+  }
+
+  int
   cmd_validate(const int argc, char **argv)
   {
     const char *help = R"(Usage: irdm validate [--scenes DIR] [--out DIR] [--models DIR] [--scene NAME]... [--no-full-model]
@@ -529,6 +571,8 @@ main(int argc, char **argv)
         return cmd_validate(argc, argv);
       if (cmd == "compress")
         return cmd_compress(argc, argv);
+      if (cmd == "validate-planes")
+        return cmd_validate_planes(argc, argv);
       std::fprintf(stderr, "irdm: unknown command '%s'\n\n%s", cmd.c_str(), top_help);
       return 2;
     }

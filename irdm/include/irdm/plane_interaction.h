@@ -1,0 +1,113 @@
+#pragma once
+// Surface contact by virtual degrees of freedom (seed 001): a rigid frictionless plane
+// (floor, wall) against the grounded body, at run time, from the model 'irdm precompute-vdof'
+// writes (docs/model-format.md). Units SI.
+//
+// The wall is given in the object's frame by a unit direction d (from the object toward the
+// wall) and a position w (m): it occupies {x : d . x > w} and pushes along -d. Its orientation
+// maps to the dome's virtual DOFs k_i with weights w_i (the nearest one, or barycentric in the
+// dome triangle around d). Per step, with the wall force F (N, >= 0) split as f_{k_i} = w_i F:
+//   y(d)[n] = sum_i w_i y_{k_i}[n] = h(d)[n] + c(d) F,   c(d) = sum_il w_i w_l Y_{k_i k_l}[0],
+// where h is the history part (s >= 1) and c the feed-through (m/N). The wall is rigid: the
+// surface's extent along d, support(d) - y(d) (support(d) = max over the undeformed surface
+// vertices of d . X), may not pass w, so F = max(0, (support(d) - h(d) - w) / c(d)).
+// The surface follows by convolution: u[n] = sum_k sum_s S_k[s] f_k[n - s].
+#include <array>
+#include <string>
+#include <vector>
+
+namespace irdm
+{
+  struct VirtualDofModel
+  {
+    double   time_step = 0; // s
+    unsigned length = 0, n_orientations = 0, n_surface = 0;
+    std::vector<std::array<double, 3>>   directions;     // unit, per virtual DOF
+    std::vector<std::array<unsigned, 3>> dome_triangles; // of directions
+    std::vector<double>                  first_contact;  // m, support along each direction
+    std::vector<double>                  impulse_force;  // N, F_k of the precompute
+    std::vector<float>                   surface_response; // [k][s][3 * vertex + axis], m/N
+    std::vector<double>                  dof_response;     // [k][s][j], m/N
+    std::vector<long long>               node_tags;
+    std::vector<std::array<double, 3>>   coordinates; // m, undeformed surface vertices
+    std::vector<std::array<unsigned, 3>> triangles;
+    std::string                          mesh_hash, integrator;
+
+    double
+    Y(unsigned k, unsigned s, unsigned j) const
+    {
+      return dof_response[(static_cast<size_t>(k) * length + s) * n_orientations + j];
+    }
+  };
+
+  /// InputError for a missing file, a wrong format, bad shapes, non-finite data, or a time step
+  /// different from expected_time_step (relative 1e-12) when one is given (> 0).
+  VirtualDofModel
+  load_virtual_dof_model(const std::string &path, double expected_time_step = 0);
+
+  enum class OrientationMapping
+  {
+    nearest,     // the closest dome direction only
+    interpolated // barycentric among the three directions of the dome triangle around d
+  };
+
+  struct OrientationWeights
+  {
+    unsigned                n = 0;
+    std::array<unsigned, 3> k{};
+    std::array<double, 3>   w{}; // >= 0, sum 1
+  };
+
+  OrientationWeights
+  orientation_weights(const VirtualDofModel &m, const std::array<double, 3> &d,
+                      OrientationMapping mapping);
+
+  /// The force loop and the surface update of one wall against the model. No allocation after
+  /// construction.
+  class PlaneInteraction
+  {
+  public:
+    PlaneInteraction(const VirtualDofModel &model, OrientationMapping mapping);
+
+    /// One step: the wall at direction d (unit) and position w (m) during this step. Returns
+    /// the wall's force (N) along -d; penetration() is how far the undeformed surface would
+    /// pass the wall (m, negative: a gap).
+    double
+    step(const std::array<double, 3> &d, double w);
+
+    /// Surface displacement (m, [3 * vertex + axis]) at the latest step.
+    const std::vector<double> &
+    update_surface();
+
+    double
+    penetration() const
+    {
+      return penetration_;
+    }
+    /// y(d) at the latest step: how far the surface at the wall has receded (m).
+    double
+    virtual_dof_displacement() const
+    {
+      return y_;
+    }
+    unsigned
+    steps() const
+    {
+      return n_;
+    }
+
+  private:
+    const VirtualDofModel &m_;
+    OrientationMapping     mapping_;
+    unsigned               n_ = 0; // steps taken
+    // Force history per virtual DOF in a ring stored twice (index n mod T and n mod T + T), so
+    // that the T latest samples are contiguous: f_k[n - s] = ring[k][(n mod T) + T - s].
+    std::vector<double>   ring_;
+    std::vector<unsigned> last_active_; // last step + 1 with f_k != 0 (0: never)
+    std::vector<double>   surface_;
+    double                penetration_ = 0, y_ = 0;
+
+    double
+    history(unsigned j) const; // sum_{k, s >= 1} Y_jk[s] f_k[n - s], n the step being taken
+  };
+} // namespace irdm

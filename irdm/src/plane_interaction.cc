@@ -1,0 +1,206 @@
+// Virtual-DOF plane contact: model loader, orientation mapping, force loop, surface update.
+#include <irdm/plane_interaction.h>
+#include <irdm_common/error.h>
+#include <irdm_common/h5.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace irdm
+{
+  VirtualDofModel
+  load_virtual_dof_model(const std::string &path, const double expected_time_step)
+  {
+    const h5::Reader r(path);
+    if (r.string_attribute("/", "format") != "irdm-virtual-dof-model")
+      throw InputError("'" + path + "' is not a virtual-DOF model (format '" +
+                       r.string_attribute("/", "format") + "'); make one with irdm precompute-vdof");
+    VirtualDofModel m;
+    m.time_step  = r.double_attribute("/", "time_step_s");
+    m.mesh_hash  = r.string_attribute("/", "mesh_hash");
+    m.integrator = r.string_attribute("/", "integrator");
+    if (!(m.time_step > 0))
+      throw InputError("'" + path + "': time_step_s must be > 0");
+    if (expected_time_step > 0 &&
+        std::abs(m.time_step - expected_time_step) > 1e-12 * expected_time_step)
+      throw InputError("'" + path + "' was made for a step of " + std::to_string(m.time_step) +
+                       " s, not " + std::to_string(expected_time_step) + " s");
+    const auto shape = r.shape("/virtual_dofs/surface_response");
+    if (shape.size() != 3 || shape[2] % 3 != 0)
+      throw InputError("'" + path + "': /virtual_dofs/surface_response must be K x T x 3n");
+    m.n_orientations = shape[0];
+    m.length         = shape[1];
+    m.n_surface      = shape[2] / 3;
+    const hsize_t K = m.n_orientations, T = m.length, n = m.n_surface;
+    const auto dirs = r.read_double("/virtual_dofs/directions", {K, 3});
+    for (hsize_t k = 0; k < K; ++k)
+      m.directions.push_back({dirs[3 * k], dirs[3 * k + 1], dirs[3 * k + 2]});
+    const auto dome = r.read_int("/virtual_dofs/dome_triangles",
+                                 {r.shape("/virtual_dofs/dome_triangles").at(0), 3});
+    for (size_t t = 0; t < dome.size(); t += 3)
+      {
+        for (int c = 0; c < 3; ++c)
+          if (dome[t + c] < 0 || dome[t + c] >= static_cast<long long>(K))
+            throw InputError("'" + path + "': dome triangle index out of range");
+        m.dome_triangles.push_back({static_cast<unsigned>(dome[t]), static_cast<unsigned>(dome[t + 1]),
+                                    static_cast<unsigned>(dome[t + 2])});
+      }
+    m.first_contact    = r.read_double("/virtual_dofs/first_contact", {K});
+    m.impulse_force    = r.read_double("/virtual_dofs/impulse_force", {K});
+    m.surface_response = r.read_float("/virtual_dofs/surface_response", {K, T, 3 * n});
+    m.dof_response     = r.read_double("/virtual_dofs/dof_response", {K, T, K});
+    m.node_tags        = r.read_int("/outputs/node_tags", {n});
+    const auto xyz     = r.read_double("/outputs/coordinates", {n, 3});
+    for (hsize_t i = 0; i < n; ++i)
+      m.coordinates.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
+    const auto tris = r.read_int("/surface/triangles", {r.shape("/surface/triangles").at(0), 3});
+    for (size_t t = 0; t < tris.size(); t += 3)
+      {
+        for (int c = 0; c < 3; ++c)
+          if (tris[t + c] < 0 || tris[t + c] >= static_cast<long long>(n))
+            throw InputError("'" + path + "': surface triangle index out of range");
+        m.triangles.push_back({static_cast<unsigned>(tris[t]), static_cast<unsigned>(tris[t + 1]),
+                               static_cast<unsigned>(tris[t + 2])});
+      }
+    for (const float x : m.surface_response)
+      if (!std::isfinite(x))
+        throw InputError("'" + path + "': non-finite surface response");
+    for (const double x : m.dof_response)
+      if (!std::isfinite(x))
+        throw InputError("'" + path + "': non-finite virtual-DOF response");
+    return m;
+  }
+
+  OrientationWeights
+  orientation_weights(const VirtualDofModel &m, const std::array<double, 3> &d,
+                      const OrientationMapping mapping)
+  {
+    OrientationWeights out;
+    const auto dot = [](const std::array<double, 3> &a, const std::array<double, 3> &b) {
+      return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    };
+    if (mapping == OrientationMapping::nearest)
+      {
+        unsigned best = 0;
+        for (unsigned k = 1; k < m.n_orientations; ++k)
+          if (dot(m.directions[k], d) > dot(m.directions[best], d))
+            best = k;
+        out.n    = 1;
+        out.k[0] = best;
+        out.w[0] = 1;
+        return out;
+      }
+    // The dome triangle the ray along d passes through: d = a A + b B + c C with a, b, c >= 0
+    // (Cramer's rule); the weights are a, b, c normalized.
+    for (const auto &t : m.dome_triangles)
+      {
+        const auto &A = m.directions[t[0]], &B = m.directions[t[1]], &C = m.directions[t[2]];
+        const auto det3 = [](const std::array<double, 3> &x, const std::array<double, 3> &y,
+                             const std::array<double, 3> &z) {
+          return x[0] * (y[1] * z[2] - y[2] * z[1]) - x[1] * (y[0] * z[2] - y[2] * z[0]) +
+                 x[2] * (y[0] * z[1] - y[1] * z[0]);
+        };
+        const double D = det3(A, B, C);
+        const double a = det3(d, B, C) / D, b = det3(A, d, C) / D, c = det3(A, B, d) / D;
+        const double eps = -1e-12;
+        if (a >= eps && b >= eps && c >= eps && a + b + c > 0)
+          {
+            const double s = std::max(a, 0.0) + std::max(b, 0.0) + std::max(c, 0.0);
+            out.n = 3;
+            out.k = t;
+            out.w = {std::max(a, 0.0) / s, std::max(b, 0.0) / s, std::max(c, 0.0) / s};
+            return out;
+          }
+      }
+    throw InputError("orientation_weights: no dome triangle contains the direction");
+  }
+
+  PlaneInteraction::PlaneInteraction(const VirtualDofModel &model, const OrientationMapping mapping)
+    : m_(model)
+    , mapping_(mapping)
+    , ring_(static_cast<size_t>(model.n_orientations) * 2 * model.length, 0.0)
+    , last_active_(model.n_orientations, 0)
+    , surface_(3 * model.n_surface, 0.0)
+  {}
+
+  double
+  PlaneInteraction::history(const unsigned j) const
+  {
+    const unsigned T = m_.length, pos = n_ % T;
+    double         h = 0;
+    for (unsigned k = 0; k < m_.n_orientations; ++k)
+      {
+        if (last_active_[k] == 0 || n_ >= last_active_[k] + T - 1) // nothing in the window
+          continue;
+        const double *f = &ring_[static_cast<size_t>(k) * 2 * T + pos + T]; // f[n - s] = f[-s]
+        for (unsigned s = 1; s < T; ++s)
+          h += m_.Y(k, s, j) * f[-static_cast<int>(s)];
+      }
+    return h;
+  }
+
+  double
+  PlaneInteraction::step(const std::array<double, 3> &d, const double w)
+  {
+    const OrientationWeights ow = orientation_weights(m_, d, mapping_);
+    double support = -1e300;
+    for (const auto &x : m_.coordinates)
+      support = std::max(support, d[0] * x[0] + d[1] * x[1] + d[2] * x[2]);
+    double h = 0, c = 0;
+    for (unsigned i = 0; i < ow.n; ++i)
+      {
+        h += ow.w[i] * history(ow.k[i]);
+        for (unsigned l = 0; l < ow.n; ++l)
+          c += ow.w[i] * ow.w[l] * m_.Y(ow.k[l], 0, ow.k[i]);
+      }
+    penetration_ = support - w;
+    double F     = 0;
+    if (support - h - w > 0 && c > 0)
+      F = (support - h - w) / c;
+    y_ = h + c * F;
+    // Record this step's forces (zero for the others) in both copies of the ring.
+    const unsigned T = m_.length, pos = n_ % T;
+    for (unsigned k = 0; k < m_.n_orientations; ++k)
+      if (last_active_[k] != 0)
+        {
+          ring_[static_cast<size_t>(k) * 2 * T + pos]     = 0;
+          ring_[static_cast<size_t>(k) * 2 * T + pos + T] = 0;
+        }
+    if (F > 0)
+      for (unsigned i = 0; i < ow.n; ++i)
+        {
+          const unsigned k = ow.k[i];
+          ring_[static_cast<size_t>(k) * 2 * T + pos]     = ow.w[i] * F;
+          ring_[static_cast<size_t>(k) * 2 * T + pos + T] = ow.w[i] * F;
+          if (ow.w[i] > 0)
+            last_active_[k] = n_ + 1;
+        }
+    ++n_;
+    return F;
+  }
+
+  const std::vector<double> &
+  PlaneInteraction::update_surface()
+  {
+    std::fill(surface_.begin(), surface_.end(), 0.0);
+    if (n_ == 0)
+      return surface_;
+    const unsigned T = m_.length, n3 = 3 * m_.n_surface, latest = n_ - 1, pos = latest % T;
+    for (unsigned k = 0; k < m_.n_orientations; ++k)
+      {
+        if (last_active_[k] == 0 || latest >= last_active_[k] - 1 + T)
+          continue;
+        const double *f = &ring_[static_cast<size_t>(k) * 2 * T + pos + T];
+        for (unsigned s = 0; s < T && s <= latest; ++s)
+          {
+            const double fs = f[-static_cast<int>(s)];
+            if (fs == 0)
+              continue;
+            const float *S = &m_.surface_response[(static_cast<size_t>(k) * T + s) * n3];
+            for (unsigned i = 0; i < n3; ++i)
+              surface_[i] += S[i] * fs;
+          }
+      }
+    return surface_;
+  }
+} // namespace irdm
