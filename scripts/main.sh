@@ -7,4 +7,9 @@ scripts/build.sh
 build/apps/irdm validate --scenes validation/scenes --out reports --models out/models
 scripts/benchmark.sh
 build/apps/irdm verify-fem --meshes meshes --out reports/fem-verification
-echo "reports: reports/validation.md, reports/<scene>/report.md, reports/benchmarks.md, reports/fem-verification/report.md"
+# Virtual DOFs: the model in parallel over orientations, then the plane scenes against the
+# nonlinear FEM (validate-planes reuses the model made from the same scene and length).
+mpirun --allow-run-as-root --oversubscribe -np 2 build/apps/irdm precompute-vdof \
+  validation/scenes/press.json --out out/models/cat_vdof.h5 --length 250
+build/apps/irdm validate-planes --model out/models/cat_vdof.h5 --length 250 --out reports
+echo "reports: reports/validation.md, reports/<scene>/report.md, reports/benchmarks.md, reports/fem-verification/report.md, reports/planes/planes.md"
