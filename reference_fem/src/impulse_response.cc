@@ -408,6 +408,7 @@ namespace irdm::fem
               f.attribute("/", "format", std::string("irdm-impulse-response"));
               f.attribute("/", "format_version", 1LL);
               write_provenance(f, scene, coef);
+              f.attribute("/", "spec_id", spec_id);
               f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; H in m/N"));
               f.attribute("/", "convention",
                           std::string("u[n] = sum_s H[s] f[n-s]; f[n] is the force held during "
