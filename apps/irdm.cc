@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -219,6 +220,29 @@ Lowest natural frequencies (Hz) of the scene's body with its fixed surfaces, und
     return 0;
   }
 
+  double
+  real_in(const std::string &option, const std::string &value, const double lo, const double hi)
+  {
+    char        *end = nullptr;
+    const double v   = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || !(v >= lo && v <= hi))
+      throw irdm::InputError("option " + option + " needs a number in [" + std::to_string(lo) +
+                             ", " + std::to_string(hi) + "], got '" + value + "'");
+    return v;
+  }
+
+  /// --storage float|double, if given.
+  std::optional<bool>
+  storage_option(const Args &a)
+  {
+    if (!a.options.count("--storage"))
+      return std::nullopt;
+    const std::string st = a.options.at("--storage");
+    if (st != "float" && st != "double")
+      throw irdm::InputError("--storage must be float or double, got '" + st + "'");
+    return st == "double";
+  }
+
   int
   cmd_precompute(const int argc, char **argv)
   {
@@ -254,13 +278,7 @@ and the next run with the same spec resumes it.
       o.length = positive_integer("--length", a.options.at("--length"));
     if (a.options.count("--chunk"))
       o.inputs_per_chunk = positive_integer("--chunk", a.options.at("--chunk"));
-    if (a.options.count("--storage"))
-      {
-        const std::string st = a.options.at("--storage");
-        if (st != "float" && st != "double")
-          throw irdm::InputError("--storage must be float or double, got '" + st + "'");
-        o.double_storage = st == "double";
-      }
+    o.double_storage = storage_option(a);
     o.restart = a.options.count("--restart") > 0;
     if (!a.options.count("--quiet"))
       o.log = [](const std::string &s) { std::fprintf(stderr, "  %s\n", s.c_str()); };
@@ -278,9 +296,6 @@ and the next run with the same spec resumes it.
                   r.energy_left_mean, r.energy_left_max, r.static_left_mean, r.static_left_max);
     return 0;
   }
-
-  double
-  real_in(const std::string &option, const std::string &value, double lo, double hi);
 
   int
   cmd_precompute_vdof(const int argc, char **argv)
@@ -325,13 +340,7 @@ writes. The time of every orientation is printed and stored.
       o.band = real_in("--band", a.options.at("--band"), 1e-7, 0.05);
     if (a.options.count("--length"))
       o.length = positive_integer("--length", a.options.at("--length"));
-    if (a.options.count("--storage"))
-      {
-        const std::string st = a.options.at("--storage");
-        if (st != "float" && st != "double")
-          throw irdm::InputError("--storage must be float or double, got '" + st + "'");
-        o.double_storage = st == "double";
-      }
+    o.double_storage = storage_option(a);
     if (!a.options.count("--quiet"))
       o.log = [](const std::string &s) { std::fprintf(stderr, "  %s\n", s.c_str()); };
     const auto r = irdm::fem::precompute_virtual_dofs(scene, o);
@@ -345,17 +354,6 @@ writes. The time of every orientation is printed and stored.
                   r.seconds_total, r.seconds_per_orientation_mean, r.seconds_per_orientation_max,
                   r.newton_iterations, r.impulse_force_min, r.impulse_force_max);
     return 0;
-  }
-
-  double
-  real_in(const std::string &option, const std::string &value, const double lo, const double hi)
-  {
-    char        *end = nullptr;
-    const double v   = std::strtod(value.c_str(), &end);
-    if (value.empty() || *end != '\0' || !(v >= lo && v <= hi))
-      throw irdm::InputError("option " + option + " needs a number in [" + std::to_string(lo) +
-                             ", " + std::to_string(hi) + "], got '" + value + "'");
-    return v;
   }
 
   int
