@@ -52,7 +52,7 @@ namespace irdm::fem
         const auto   depth = [&](const Point<3> &x) { return n * (x0 - x); };
         for (const unsigned v : boundary_vertices)
           s.penetration[p] = std::max(s.penetration[p], depth(position(v)));
-        if (s.penetration[p] <= -1e-3 * L.scene.time_step) // clearly apart: no face can touch
+        if (L.scene.fe_degree == 1 && s.penetration[p] <= 0) // flat P1 faces touch via a vertex
           continue;
         for (const auto &[cell, f] : boundary_faces)
           {
