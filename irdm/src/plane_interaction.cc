@@ -142,10 +142,16 @@ namespace irdm
   double
   PlaneInteraction::step(const std::array<double, 3> &d, const double w)
   {
-    const OrientationWeights ow = orientation_weights(m_, d, mapping_);
-    double support = -1e300;
-    for (const auto &x : m_.coordinates)
-      support = std::max(support, d[0] * x[0] + d[1] * x[1] + d[2] * x[2]);
+    if (weights_.n == 0 || d != direction_)
+      {
+        weights_   = orientation_weights(m_, d, mapping_);
+        direction_ = d;
+        support_   = -1e300;
+        for (const auto &x : m_.coordinates)
+          support_ = std::max(support_, d[0] * x[0] + d[1] * x[1] + d[2] * x[2]);
+      }
+    const OrientationWeights &ow      = weights_;
+    const double              support = support_;
     double h = 0, c = 0;
     for (unsigned i = 0; i < ow.n; ++i)
       {

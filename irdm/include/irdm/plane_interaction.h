@@ -106,6 +106,11 @@ namespace irdm
     std::vector<unsigned> last_active_; // last step + 1 with f_k != 0 (0: never)
     std::vector<double>   surface_;
     double                penetration_ = 0, y_ = 0;
+    // The wall's mapping and the surface's support along its direction, kept while the
+    // direction does not change (a floor or a wall moving along its normal).
+    std::array<double, 3> direction_{};
+    OrientationWeights    weights_;
+    double                support_ = 0;
 
     double
     history(unsigned j) const; // sum_{k, s >= 1} Y_jk[s] f_k[n - s], n the step being taken
