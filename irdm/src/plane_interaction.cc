@@ -45,7 +45,11 @@ namespace irdm
         m.dome_triangles.push_back({static_cast<unsigned>(dome[t]), static_cast<unsigned>(dome[t + 1]),
                                     static_cast<unsigned>(dome[t + 2])});
       }
+    if (!r.exists("/virtual_dofs/rest_position") || !r.exists("/outputs/fixed"))
+      throw InputError("'" + path + "' has no /virtual_dofs/rest_position or /outputs/fixed (format 1); "
+                       "make it again with irdm precompute-vdof");
     m.first_contact    = r.read_double("/virtual_dofs/first_contact", {K});
+    m.rest_position    = r.read_double("/virtual_dofs/rest_position", {K});
     m.impulse_force    = r.read_double("/virtual_dofs/impulse_force", {K});
     m.surface_response = r.read_float("/virtual_dofs/surface_response", {K, T, 3 * n});
     m.dof_response     = r.read_double("/virtual_dofs/dof_response", {K, T, K});
@@ -53,6 +57,10 @@ namespace irdm
     const auto xyz     = r.read_double("/outputs/coordinates", {n, 3});
     for (hsize_t i = 0; i < n; ++i)
       m.coordinates.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
+    for (const long long f : r.read_int("/outputs/fixed", {n}))
+      m.fixed.push_back(f != 0);
+    if (std::count(m.fixed.begin(), m.fixed.end(), 0) == 0)
+      throw InputError("'" + path + "': every surface vertex is fixed");
     const auto tris = r.read_int("/surface/triangles", {r.shape("/surface/triangles").at(0), 3});
     for (size_t t = 0; t < tris.size(); t += 3)
       {
@@ -139,32 +147,29 @@ namespace irdm
     return h;
   }
 
-  double
-  PlaneInteraction::step(const std::array<double, 3> &d, const double w)
+  void
+  PlaneInteraction::map_direction(const std::array<double, 3> &d)
   {
-    if (weights_.n == 0 || d != direction_)
-      {
-        weights_   = orientation_weights(m_, d, mapping_);
-        direction_ = d;
-        support_   = -1e300;
-        for (const auto &x : m_.coordinates)
-          support_ = std::max(support_, d[0] * x[0] + d[1] * x[1] + d[2] * x[2]);
-      }
-    const OrientationWeights &ow      = weights_;
-    const double              support = support_;
-    double h = 0, c = 0;
-    for (unsigned i = 0; i < ow.n; ++i)
-      {
-        h += ow.w[i] * history(ow.k[i]);
-        for (unsigned l = 0; l < ow.n; ++l)
-          c += ow.w[i] * ow.w[l] * m_.Y(ow.k[l], 0, ow.k[i]);
-      }
-    penetration_ = support - w;
-    double F     = 0;
-    if (support - h - w > 0 && c > 0)
-      F = (support - h - w) / c;
-    y_ = h + c * F;
-    // Record this step's forces (zero for the others) in both copies of the ring.
+    if (weights_.n != 0 && d == direction_)
+      return;
+    weights_   = orientation_weights(m_, d, mapping_);
+    direction_ = d;
+    support_   = -1e300;
+    for (unsigned i = 0; i < m_.n_surface; ++i)
+      if (!m_.fixed[i])
+        {
+          const auto &x = m_.coordinates[i];
+          support_      = std::max(support_, d[0] * x[0] + d[1] * x[1] + d[2] * x[2]);
+        }
+    rest_ = support_;
+    for (unsigned i = 0; i < weights_.n; ++i)
+      rest_ -= weights_.w[i] * (m_.first_contact[weights_.k[i]] - m_.rest_position[weights_.k[i]]);
+  }
+
+  void
+  PlaneInteraction::record(const double F)
+  {
+    // This step's forces (zero for the others) in both copies of the ring.
     const unsigned T = m_.length, pos = n_ % T;
     for (unsigned k = 0; k < m_.n_orientations; ++k)
       if (last_active_[k] != 0)
@@ -172,17 +177,53 @@ namespace irdm
           ring_[static_cast<size_t>(k) * 2 * T + pos]     = 0;
           ring_[static_cast<size_t>(k) * 2 * T + pos + T] = 0;
         }
-    if (F > 0)
-      for (unsigned i = 0; i < ow.n; ++i)
+    if (F != 0)
+      for (unsigned i = 0; i < weights_.n; ++i)
         {
-          const unsigned k = ow.k[i];
-          ring_[static_cast<size_t>(k) * 2 * T + pos]     = ow.w[i] * F;
-          ring_[static_cast<size_t>(k) * 2 * T + pos + T] = ow.w[i] * F;
-          if (ow.w[i] > 0)
+          const unsigned k = weights_.k[i];
+          ring_[static_cast<size_t>(k) * 2 * T + pos]     = weights_.w[i] * F;
+          ring_[static_cast<size_t>(k) * 2 * T + pos + T] = weights_.w[i] * F;
+          if (weights_.w[i] > 0)
             last_active_[k] = n_ + 1;
         }
     ++n_;
+  }
+
+  double
+  PlaneInteraction::step(const std::array<double, 3> &d, const double w)
+  {
+    map_direction(d);
+    const OrientationWeights &ow = weights_;
+    double h = 0, c = 0;
+    for (unsigned i = 0; i < ow.n; ++i)
+      {
+        h += ow.w[i] * history(ow.k[i]);
+        for (unsigned l = 0; l < ow.n; ++l)
+          c += ow.w[i] * ow.w[l] * m_.Y(ow.k[l], 0, ow.k[i]);
+      }
+    penetration_ = support_ - w;
+    double F     = 0;
+    if (rest_ - h - w > 0 && c > 0)
+      F = (rest_ - h - w) / c;
+    y_ = h + c * F;
+    record(F);
     return F;
+  }
+
+  void
+  PlaneInteraction::apply(const std::array<double, 3> &d, const double F)
+  {
+    map_direction(d);
+    double h = 0, c = 0;
+    for (unsigned i = 0; i < weights_.n; ++i)
+      {
+        h += weights_.w[i] * history(weights_.k[i]);
+        for (unsigned l = 0; l < weights_.n; ++l)
+          c += weights_.w[i] * weights_.w[l] * m_.Y(weights_.k[l], 0, weights_.k[i]);
+      }
+    penetration_ = 0;
+    y_           = h + c * F;
+    record(F);
   }
 
   const std::vector<double> &

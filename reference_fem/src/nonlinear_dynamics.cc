@@ -50,9 +50,10 @@ namespace irdm::fem
           }
         const double k     = penalty[p];
         const auto   depth = [&](const Point<3> &x) { return n * (x0 - x); };
-        for (const unsigned v : boundary_vertices)
+        for (const unsigned v : free_boundary_vertices)
           s.penetration[p] = std::max(s.penetration[p], depth(position(v)));
-        if (L.scene.fe_degree == 1 && s.penetration[p] <= 0) // flat P1 faces touch via a vertex
+        // P1 faces are flat and touch via a vertex; a fixed vertex's contact moves nothing.
+        if (L.scene.fe_degree == 1 && s.penetration[p] <= 0)
           continue;
         for (const auto &[cell, f] : boundary_faces)
           {
@@ -83,8 +84,6 @@ namespace irdm::fem
                 const double dA = fv.JxW(q);
                 ++s.active_points;
                 s.energy += 0.5 * k * g * g * dA;
-                for (unsigned d = 0; d < 3; ++d)
-                  s.force[p][d] += k * g * n[d] * dA;
                 for (unsigned i = 0; i < n_dofs; ++i)
                   n_phi[i] = n * fv[displacement].value(i, q);
                 for (unsigned i = 0; i < n_dofs; ++i)
@@ -98,7 +97,12 @@ namespace irdm::fem
             if (!touched)
               continue;
             for (unsigned i = 0; i < n_dofs; ++i)
-              f_c(dofs[i]) += cell_f(i);
+              {
+                f_c(dofs[i]) += cell_f(i);
+                // The resultant on the body: what the fixed DoFs take goes into the support.
+                if (!L.constraints.is_constrained(dofs[i]))
+                  s.force[p][L.fe.system_to_component_index(i).first] += cell_f(i);
+              }
             if (K)
               K->add(dofs, cell_K);
           }

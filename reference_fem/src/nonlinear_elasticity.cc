@@ -41,7 +41,13 @@ namespace irdm::fem
           }
     for (unsigned v = 0; v < on_boundary.size(); ++v)
       if (on_boundary[v])
-        boundary_vertices.push_back(v);
+        {
+          const auto &dv = linear.dofs_of_vertex[v];
+          if (!(linear.constraints.is_constrained(dv[0]) &&
+                linear.constraints.is_constrained(dv[1]) &&
+                linear.constraints.is_constrained(dv[2])))
+            free_boundary_vertices.push_back(v);
+        }
     const double h = edge_sum / std::max(1u, n_edges);
     for (const auto &p : scene.planes)
       penalty.push_back(p.penalty > 0 ? p.penalty : 100 * E / h);

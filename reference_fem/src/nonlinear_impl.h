@@ -12,8 +12,10 @@ namespace irdm::fem
   /// What the rigid planes do to the body in one configuration.
   struct PlaneContactState
   {
-    std::vector<Vec3>   force;       // N, per plane, on the body
-    std::vector<double> penetration; // m, per plane, deepest surface vertex (negative: gap)
+    // N, per plane, on the body's free DoFs: on a grounded body, what the plane pushes into
+    // fixed (Dirichlet) nodes goes straight into the support and is not counted.
+    std::vector<Vec3>   force;
+    std::vector<double> penetration; // m, per plane, deepest free surface vertex (negative: gap)
     double              energy = 0;  // J, penalty energy
     unsigned            active_points = 0; // face quadrature points in contact
   };
@@ -47,8 +49,9 @@ namespace irdm::fem
     // P2: Gauss points (lumping P2 faces gives zero vertex weights).
     const Quadrature<2> contact_quadrature;
     std::vector<double>    penalty;            // Pa/m, per plane (the scene's or the default)
-    // Boundary faces (cell, face), and the mesh vertices on the boundary, for contact.
+    // Boundary faces (cell, face), and the boundary's mesh vertices that are not fixed in all
+    // three directions, for contact.
     std::vector<std::pair<DoFHandler<3>::active_cell_iterator, unsigned>> boundary_faces;
-    std::vector<unsigned> boundary_vertices;
+    std::vector<unsigned> free_boundary_vertices;
   };
 } // namespace irdm::fem

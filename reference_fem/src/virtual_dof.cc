@@ -115,15 +115,34 @@ namespace irdm::fem
     const bool         dbl  = options.double_storage.value_or(scene.model.double_storage);
     const double       dt   = scene.time_step;
 
-    // First contact per orientation, from the undeformed surface.
-    std::vector<double> first_contact(K, -1e300);
-    {
-      const ElasticDynamics fem(scene);
-      const SurfaceMesh     b = fem.boundary();
-      for (unsigned k = 0; k < K; ++k)
-        for (const auto &x : b.coordinates)
-          first_contact[k] = std::max(first_contact[k], dot(dome.directions[k], x));
-    }
+    // The undeformed surface and its fixed vertices (on a fixed surface: the wall's contact
+    // there goes into the support and moves nothing, see NonlinearElasticity).
+    const SurfaceMesh surface = ElasticDynamics(scene).boundary();
+    const unsigned    n_surface = surface.coordinates.size();
+    std::vector<long long> fixed(n_surface, 0);
+    for (unsigned t = 0; t < surface.triangles.size(); ++t)
+      if (std::find(scene.fixed_surfaces.begin(), scene.fixed_surfaces.end(),
+                    surface.triangle_surface[t]) != scene.fixed_surfaces.end())
+        for (const unsigned i : surface.triangles[t])
+          fixed[i] = 1;
+    // Per orientation, over the free vertices: first contact (the support along d_k), the band
+    // (the vertices within options.band of the plane at first contact) and its rest position
+    // (the mean of d_k . X over the band, where the virtual DOF sits when y_k = 0).
+    std::vector<double>                first_contact(K, -1e300), rest_position(K, 0);
+    std::vector<std::vector<unsigned>> band(K);
+    for (unsigned k = 0; k < K; ++k)
+      {
+        for (unsigned i = 0; i < n_surface; ++i)
+          if (!fixed[i])
+            first_contact[k] = std::max(first_contact[k], dot(dome.directions[k], surface.coordinates[i]));
+        for (unsigned i = 0; i < n_surface; ++i)
+          if (!fixed[i] && dot(dome.directions[k], surface.coordinates[i]) >= first_contact[k] - options.band)
+            {
+              band[k].push_back(i);
+              rest_position[k] += dot(dome.directions[k], surface.coordinates[i]);
+            }
+        rest_position[k] /= band[k].size();
+      }
 
     // The scene of orientation k: the body alone, hit once by the wall.
     const auto hit_scene = [&](const unsigned k) {
@@ -160,8 +179,6 @@ namespace irdm::fem
       double force = 0, seconds = 0, band_size = 0, newton = 0;
     };
     std::map<unsigned, Rows> mine;
-    SurfaceMesh              surface;
-    std::vector<std::vector<unsigned>> band(K); // surface vertices of each virtual DOF
     unsigned n_done = 0, n_mine = 0;
     for (unsigned k = rank; k < K; k += size)
       ++n_mine;
@@ -173,15 +190,9 @@ namespace irdm::fem
         const Scene         s  = hit_scene(k);
         NonlinearElasticity fem(s);
         const RunResult     r = fem.run();
-        if (surface.node_tags.empty())
-          {
-            surface = r.surface;
-            for (unsigned j = 0; j < K; ++j)
-              for (unsigned i = 0; i < surface.coordinates.size(); ++i)
-                if (dot(dome.directions[j], surface.coordinates[i]) >=
-                    first_contact[j] - options.band)
-                  band[j].push_back(i);
-          }
+        if (r.surface.node_tags != surface.node_tags)
+          throw std::logic_error("virtual DOFs: the nonlinear FEM's surface differs from the "
+                                 "linear one's");
         const Vec3  &d = dome.directions[k];
         const double F = -dot(r.plane_force.at("wall")[1], d); // along -d_k, at step 1
         if (!(F > 0))
@@ -230,9 +241,8 @@ namespace irdm::fem
     rep.n_orientations = K;
     rep.length         = T;
     rep.ranks          = size;
-    unsigned long long n3 = 3 * surface.node_tags.size();
-    MPI_Bcast(&n3, 1, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
-    rep.n_surface = n3 / 3;
+    const unsigned long long n3 = 3 * n_surface;
+    rep.n_surface = n_surface;
     std::unique_ptr<h5::Writer> w;
     std::vector<double> force(K), seconds(K), band_size(K), newton(K);
     if (rank == 0)
@@ -240,7 +250,7 @@ namespace irdm::fem
         w = std::make_unique<h5::Writer>(options.output);
         auto &f = *w;
         f.attribute("/", "format", std::string("irdm-virtual-dof-model"));
-        f.attribute("/", "format_version", 1LL);
+        f.attribute("/", "format_version", 2LL);
         write_provenance(f, scene, IntegratorCoefficients::from_scene(scene));
         f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; responses in m/N"));
         f.attribute("/", "convention",
@@ -265,6 +275,10 @@ namespace irdm::fem
         for (const auto &x : surface.coordinates)
           xyz.insert(xyz.end(), x.begin(), x.end());
         f.write("/outputs/coordinates", {surface.coordinates.size(), 3}, xyz.data());
+        f.write("/outputs/fixed", {n_surface}, fixed.data());
+        f.attribute("/outputs/fixed", "meaning",
+                    std::string("1: the vertex lies on a fixed surface (zero displacement; a "
+                                "wall's contact there goes into the support)"));
         f.create_group("/surface");
         std::vector<long long> tris;
         for (const auto &t : surface.triangles)
@@ -282,7 +296,12 @@ namespace irdm::fem
         f.write("/virtual_dofs/first_contact", {K}, first_contact.data());
         f.attribute("/virtual_dofs/first_contact", "meaning",
                     std::string("m: the wall of orientation k first touches the undeformed "
-                                "body at the plane d_k . x = first_contact[k]"));
+                                "body's free vertices at the plane d_k . x = first_contact[k]"));
+        f.write("/virtual_dofs/rest_position", {K}, rest_position.data());
+        f.attribute("/virtual_dofs/rest_position", "meaning",
+                    std::string("m: the mean of d_k . X over the band of virtual DOF k (its "
+                                "position at y_k = 0); a rigid wall at w holds the band at "
+                                "rest_position[k] - y_k = w"));
         f.create_dataset("/virtual_dofs/surface_response", {K, T, n3}, dbl, 1);
         f.attribute("/virtual_dofs/surface_response", "layout",
                     std::string("[orientation k][step s][3 * surface vertex + axis], m/N"));

@@ -8,9 +8,14 @@
 // maps to the dome's virtual DOFs k_i with weights w_i (the nearest one, or barycentric in the
 // dome triangle around d). Per step, with the wall force F (N, >= 0) split as f_{k_i} = w_i F:
 //   y(d)[n] = sum_i w_i y_{k_i}[n] = h(d)[n] + c(d) F,   c(d) = sum_il w_i w_l Y_{k_i k_l}[0],
-// where h is the history part (s >= 1) and c the feed-through (m/N). The wall is rigid: the
-// surface's extent along d, support(d) - y(d) (support(d) = max over the undeformed surface
-// vertices of d . X), may not pass w, so F = max(0, (support(d) - h(d) - w) / c(d)).
+// where h is the history part (s >= 1) and c the feed-through (m/N). y_k is the mean recession
+// of virtual DOF k's band (the free surface vertices within band_m of its plane at first
+// contact), which rests at r_k = mean over the band of d_k . X. The wall is rigid and holds the
+// band: r(d) - y(d) may not pass w, so F = max(0, (r(d) - h(d) - w) / c(d)). For a direction
+// between the dome's, r(d) = support(d) - sum_i w_i (first_contact_k_i - r_k_i), support(d) the
+// largest d . X over the free surface vertices: the exact support, less the band's interpolated
+// depth. This is what the precompute did: its wall at first_contact_k - depth met a band resting
+// at r_k (docs/model-format.md).
 // The surface follows by convolution: u[n] = sum_k sum_s S_k[s] f_k[n - s].
 #include <array>
 #include <string>
@@ -25,11 +30,13 @@ namespace irdm
     std::vector<std::array<double, 3>>   directions;     // unit, per virtual DOF
     std::vector<std::array<unsigned, 3>> dome_triangles; // of directions
     std::vector<double>                  first_contact;  // m, support along each direction
+    std::vector<double>                  rest_position;  // m, band mean of d_k . X
     std::vector<double>                  impulse_force;  // N, F_k of the precompute
     std::vector<float>                   surface_response; // [k][s][3 * vertex + axis], m/N
     std::vector<double>                  dof_response;     // [k][s][j], m/N
     std::vector<long long>               node_tags;
     std::vector<std::array<double, 3>>   coordinates; // m, undeformed surface vertices
+    std::vector<char>                    fixed;       // per surface vertex: on a fixed surface
     std::vector<std::array<unsigned, 3>> triangles;
     std::string                          mesh_hash, integrator;
 
@@ -75,6 +82,11 @@ namespace irdm
     double
     step(const std::array<double, 3> &d, double w);
 
+    /// One step with a known wall force F (N, along -d) instead of a wall position: the force
+    /// history and the surface follow it (open loop; to drive the model by a measured force).
+    void
+    apply(const std::array<double, 3> &d, double F);
+
     /// Surface displacement (m, [3 * vertex + axis]) at the latest step.
     const std::vector<double> &
     update_surface();
@@ -83,6 +95,12 @@ namespace irdm
     penetration() const
     {
       return penetration_;
+    }
+    /// r(d) for the latest step's direction: where the band rests along d (m).
+    double
+    rest_position() const
+    {
+      return rest_;
     }
     /// y(d) at the latest step: how far the surface at the wall has receded (m).
     double
@@ -110,9 +128,13 @@ namespace irdm
     // direction does not change (a floor or a wall moving along its normal).
     std::array<double, 3> direction_{};
     OrientationWeights    weights_;
-    double                support_ = 0;
+    double                support_ = 0, rest_ = 0;
 
+    void
+    map_direction(const std::array<double, 3> &d); // weights_, support_ and rest_ for d
     double
     history(unsigned j) const; // sum_{k, s >= 1} Y_jk[s] f_k[n - s], n the step being taken
+    void
+    record(double F); // this step's force into the history, split by weights_; ++n_
   };
 } // namespace irdm
