@@ -423,17 +423,19 @@ with the source's metadata plus theta and the statistics (docs/model-format.md).
     const char *help = R"(Usage: irdm validate-planes [--scene FILE] [--out DIR] [--model FILE] [--subdivisions S] [--length T]
 
 Plane contact by virtual DOFs (seed 001) against the nonlinear reference FEM on the grounded
-cat: a rigid wall pressing from the side and from the top at depths 2, 5, 10 and 20 mm, and
-hitting the side at 0.05 to 0.5 m/s. Precomputes the virtual-DOF model first (or reuses
+cat: a rigid wall pressing from the side, from the top, and from two directions between the
+dome's (at a dome triangle's centre) at depths 2 to 20 mm, and hitting the side at 0.05 to
+0.5 m/s (2 mm deep). Precomputes the virtual-DOF model first (or reuses
 --model when it was made from the same scene, S and T; run 'mpirun -np N irdm
 precompute-vdof' to make it in parallel). Writes DIR/planes/planes.md, planes.csv and
-planes.png: force and surface-displacement errors, nearest against interpolated orientation
-mapping, time per step of both methods in the same run.
+planes.png, forces.csv: force and surface-displacement errors, nearest against interpolated
+orientation mapping, the surface error when driven by the FEM's force (open loop), time per
+step of both methods in the same run.
   --scene FILE        the body (default validation/scenes/press.json; its probes are ignored)
   --out DIR           report directory (default reports)
   --model FILE        virtual-DOF model (default out/models/cat_vdof.h5)
   --subdivisions S    dome subdivisions (default 2: 162 orientations)
-  --length T          samples per response (default 250)
+  --length T          samples per response (default 300: the longest case, 0.6 s)
 )";
     const Args a = parse(argc, argv, 2, {"--scene", "--out", "--model", "--subdivisions", "--length"},
                          {"--help"});
@@ -507,10 +509,13 @@ double model differs from the FEM by more than 1e-9.
 
 Runs the reference-FEM verification suite (cantilever frequency and convergence, static tip
 deflection, energy conservation and dissipation, gravity reaction, damping, prescribed
-displacement reaction) and writes a Markdown report with CSV data under --out.
+displacement reaction; nonlinear mode: a ball's peak contact force against Hertz over impact
+speed, mesh and penalty) and writes a Markdown report with CSV data under --out. Exit code 0:
+every check passed; 3: some check failed (the report says which); other: an error.
   --meshes DIR  folder with the project's meshes (default: meshes)
   --out DIR     report folder (default: reports/fem-verification)
-  --quick       skip the finest beam mesh (for a fast look; the report says so)
+  --quick       skip the finest beam and ball meshes and most impact speeds (for a fast look;
+                the report says so)
 )";
     const Args a = parse(argc, argv, 2, {"--meshes", "--out"}, {"--help", "--quick"});
     if (a.options.count("--help"))
