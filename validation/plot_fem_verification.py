@@ -63,6 +63,23 @@ def main(out):
     ax.legend()
     save(fig, os.path.join(out, "beam_convergence.png"))
 
+    h = load(os.path.join(out, "hertz.csv"))
+    sweep = h[h["series_0speed_1mesh_2penalty"] == 0]
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.4))
+    v = np.geomspace(sweep["speed_m_s"].min(), sweep["speed_m_s"].max(), 50)
+    # Hertz: F_max is proportional to v^(6/5); scaled through the first theory point.
+    f0, v0 = sweep["hertz_peak_N"][0], sweep["speed_m_s"][0]
+    ax[0].loglog(v, f0 * (v / v0) ** 1.2, "k-", label="Hertz")
+    ax[0].loglog(sweep["speed_m_s"], sweep["fem_peak_N"], "o", label="nonlinear FEM (2 mm pole)")
+    ax[0].set_xlabel("impact speed (m/s)")
+    ax[0].set_ylabel("peak contact force (N)")
+    ax[0].legend()
+    ax[1].semilogx(sweep["speed_m_s"], 100 * (sweep["fem_peak_N"] / sweep["hertz_peak_N"] - 1), "o-")
+    ax[1].axhline(0, color="k", lw=0.5)
+    ax[1].set_xlabel("impact speed (m/s)")
+    ax[1].set_ylabel("FEM / Hertz - 1 (%)")
+    save(fig, os.path.join(out, "hertz.png"))
+
 
 if __name__ == "__main__":
     if len(sys.argv) != 2:

@@ -3,6 +3,7 @@
 #include <irdm_common/csv.h>
 #include <irdm_common/error.h>
 #include <reference_fem/elastodynamics.h>
+#include <reference_fem/nonlinear_elasticity.h>
 #include <validation/fem_verification.h>
 
 #include <algorithm>
@@ -90,6 +91,57 @@ namespace irdm::validation
       << beam.youngs_modulus << R"(, "poisson_ratio": )" << beam.poisson_ratio
       << R"(, "density_kg_m3": )" << beam.density << R"(}, "fixed_surfaces": ["clamp"])"
       << extra_keys << "}";
+    return s.str();
+  }
+
+  double
+  HertzBall::mass() const
+  {
+    return density * 4.0 / 3.0 * M_PI * std::pow(radius, 3);
+  }
+
+  double
+  HertzBall::effective_modulus() const
+  {
+    return youngs_modulus / (1 - poisson_ratio * poisson_ratio);
+  }
+
+  double
+  HertzBall::max_indentation(const double v) const
+  {
+    return std::pow(15 * mass() * v * v / (16 * effective_modulus() * std::sqrt(radius)), 0.4);
+  }
+
+  double
+  HertzBall::peak_force(const double v) const
+  {
+    return 4.0 / 3.0 * effective_modulus() * std::sqrt(radius) * std::pow(max_indentation(v), 1.5);
+  }
+
+  double
+  HertzBall::contact_time(const double v) const
+  {
+    const double Es = effective_modulus();
+    return 2.87 * std::pow(mass() * mass() / (radius * Es * Es * v), 0.2);
+  }
+
+  std::string
+  ball_scene_json(const std::string &mesh_file, const HertzBall &ball, const double speed,
+                  const double time_step, const double duration, const double penalty)
+  {
+    std::ostringstream s;
+    s.precision(17);
+    s << R"({"format": "irdm-scene/1", "name": "ball", "mesh": {"file": ")" << mesh_file
+      << R"("}, "fe_degree": 1, "material": {"youngs_modulus_Pa": )" << ball.youngs_modulus
+      << R"(, "poisson_ratio": )" << ball.poisson_ratio << R"(, "density_kg_m3": )"
+      << ball.density << R"(}, "integrator": {"type": "newmark"}, "time": {"step_s": )"
+      << time_step << R"(, "duration_s": )" << duration
+      << R"(}, "kinematics": "nonlinear", "initial_velocity_m_s": [0, 0, )" << -speed
+      << R"(], "planes": [{"name": "floor", "normal": [0, 0, 1], "position": {"times_s": [0], )"
+      << R"("points_m": [[0, 0, -1e-4]]})";
+    if (penalty > 0)
+      s << R"(, "penalty_Pa_m": )" << penalty;
+    s << "}]}";
     return s.str();
   }
 
@@ -491,6 +543,154 @@ namespace irdm::validation
                fmt("%.3e", worst) + " relative (ear " + fmt("%.2e", worst_other) + ")",
                "<= 1e-8", worst <= 1e-8 && worst_other <= 1e-8});
     }
+
+    // 6. Ball on a rigid floor: the nonlinear FEM's peak contact force against Hertz, over
+    // impact speed, and its convergence with the mesh at the pole and with the penalty.
+    void
+    check_hertz(const FemVerificationOptions &o, Report &rep)
+    {
+      const HertzBall ball;
+      struct Run
+      {
+        std::string mesh;
+        double      speed = 0, penalty = 0, peak = 0, penetration = 0, seconds = 0;
+        unsigned    steps = 0, newton = 0;
+      };
+      // 50 steps per Hertz contact time; run until 0.6 of it past touching (the peak is at
+      // half of it).
+      const auto run = [&](const std::string &mesh, const double v, const double penalty) {
+        Run          r{mesh, v, penalty};
+        const double tc = ball.contact_time(v), dt = tc / 50;
+        const double steps = std::ceil((1e-4 / v + 0.6 * tc) / dt);
+        const auto   t0 = std::chrono::steady_clock::now();
+        const auto   res = fem::NonlinearElasticity(
+                           scene_from(ball_scene_json((fs::path(o.mesh_dir) / mesh).string(),
+                                                      ball, v, dt, steps * dt, penalty)))
+                           .run();
+        r.seconds = seconds_since(t0);
+        r.penalty = res.plane_penalty.at("floor");
+        r.steps   = res.time.size() - 1;
+        r.newton  = res.newton_iterations;
+        for (std::size_t k = 0; k < res.time.size(); ++k)
+          {
+            r.peak        = std::max(r.peak, res.plane_force.at("floor")[k][2]);
+            r.penetration = std::max(r.penetration, res.plane_penetration.at("floor")[k]);
+          }
+        rep.log << "  ball " << mesh << " at " << v << " m/s, penalty " << fmt("%.3g", r.penalty)
+                << " Pa/m: peak " << fmt("%.4g", r.peak) << " N (Hertz "
+                << fmt("%.4g", ball.peak_force(v)) << " N), " << fmt("%.1f", r.seconds) << " s\n";
+        return r;
+      };
+      const double      v0     = 0.02; // m/s: delta_max / R = 2 %
+      const std::string middle = "ball_pole_2.msh";
+      std::vector<std::string> meshes = {"ball_pole_4.msh", middle, "ball_pole_1.msh"};
+      std::vector<double> speeds = {0.005, 0.01, 0.02, 0.05, 0.1, 0.2};
+      if (o.quick)
+        {
+          meshes.pop_back();
+          speeds = {0.01, 0.02, 0.1};
+        }
+      std::vector<Run> by_speed, by_mesh, by_penalty;
+      for (const double v : speeds)
+        by_speed.push_back(run(middle, v, 0));
+      const Run base = *std::find_if(by_speed.begin(), by_speed.end(),
+                                     [&](const Run &r) { return r.speed == v0; });
+      for (const auto &m : meshes)
+        by_mesh.push_back(m == middle ? base : run(m, v0, 0));
+      for (const double factor : {0.1, 1.0, 10.0})
+        by_penalty.push_back(factor == 1.0 ? base : run(middle, v0, factor * base.penalty));
+
+      const auto err = [&](const Run &r) { return r.peak / ball.peak_force(r.speed) - 1; };
+      std::vector<double> col[8];
+      const auto          add_rows = [&](const std::vector<Run> &runs, const double series) {
+        for (const auto &r : runs)
+          {
+            col[0].push_back(series);
+            col[1].push_back(r.speed);
+            col[2].push_back(r.penalty);
+            col[3].push_back(r.peak);
+            col[4].push_back(ball.peak_force(r.speed));
+            col[5].push_back(r.penetration);
+            col[6].push_back(ball.max_indentation(r.speed));
+            col[7].push_back(r.seconds);
+          }
+      };
+      add_rows(by_speed, 0);
+      add_rows(by_mesh, 1);
+      add_rows(by_penalty, 2);
+      write_csv(rep.path("hertz.csv"),
+                {"series_0speed_1mesh_2penalty", "speed_m_s", "penalty_Pa_m", "fem_peak_N",
+                 "hertz_peak_N", "fem_max_penetration_m", "hertz_max_indentation_m", "seconds"},
+                {col[0], col[1], col[2], col[3], col[4], col[5], col[6], col[7]});
+
+      auto &b = rep.body;
+      b << "## 6. Ball on a rigid floor: Hertz\n\n"
+        << "An elastic ball (R = " << ball.radius << " m, E = " << ball.youngs_modulus
+        << " Pa, nu = " << ball.poisson_ratio << ", rho = " << ball.density
+        << " kg/m^3, m = " << fmt("%.4f", ball.mass())
+        << " kg; P1, meshes refined at the pole that hits: meshes/ball_pole.geo) moving down "
+           "at speed v onto a rigid frictionless floor (penalty contact, lumped at the face "
+           "vertices), nonlinear FEM (neo-Hookean), Newmark, no damping, no gravity; 50 steps "
+           "per Hertz contact time t_c. Hertz (quasi-static, small strain): F_max = 4/3 E* "
+           "sqrt(R) delta_max^(3/2), delta_max = (15 m v^2 / (16 E* sqrt R))^(2/5), E* = E / "
+           "(1 - nu^2).\n\n"
+        << "| v (m/s) | delta_max / R | FEM peak (N) | Hertz (N) | error | FEM s |\n"
+           "|---|---|---|---|---|---|\n";
+      for (const auto &r : by_speed)
+        b << "| " << r.speed << " | " << fmt("%.2f %%", 100 * ball.max_indentation(r.speed) / ball.radius)
+          << " | " << fmt("%.4g", r.peak) << " | " << fmt("%.4g", ball.peak_force(r.speed))
+          << " | " << fmt("%+.1f %%", 100 * err(r)) << " | " << fmt("%.1f", r.seconds) << " |\n";
+      b << "\nConvergence at v = " << v0 << " m/s, with the mesh (pole element size; default "
+           "penalty 100 E / h, h the mean boundary edge) and with the penalty (on "
+        << middle << "):\n\n"
+        << "| run | penalty (Pa/m) | FEM peak (N) | error vs Hertz | deepest penetration / "
+           "Hertz delta_max | FEM s |\n|---|---|---|---|---|---|\n";
+      const auto conv_row = [&](const std::string &name, const Run &r) {
+        b << "| " << name << " | " << fmt("%.3g", r.penalty) << " | " << fmt("%.4g", r.peak)
+          << " | " << fmt("%+.2f %%", 100 * err(r)) << " | "
+          << fmt("%.3f", r.penetration / ball.max_indentation(r.speed)) << " | "
+          << fmt("%.1f", r.seconds) << " |\n";
+      };
+      for (const auto &r : by_mesh)
+        conv_row(r.mesh, r);
+      for (std::size_t i = 0; i < by_penalty.size(); ++i)
+        conv_row(middle + ", penalty x " + fmt("%g", std::vector<double>{0.1, 1, 10}[i]),
+                 by_penalty[i]);
+      b << "\n![Hertz](hertz.png)\n\n";
+
+      // Hertz's law F_max ~ v^(6/5): least-squares slope of log F against log v over the
+      // low speeds (v <= v0).
+      double sx = 0, sy = 0, sxx = 0, sxy = 0, n_low = 0;
+      for (const auto &r : by_speed)
+        if (r.speed <= v0 * (1 + 1e-12))
+          {
+            const double x = std::log(r.speed), y = std::log(r.peak);
+            sx += x, sy += y, sxx += x * x, sxy += x * y, n_low += 1;
+          }
+      const double exponent = (n_low * sxy - sx * sy) / (n_low * sxx - sx * sx);
+      b << "Low-speed power law (v <= " << v0 << " m/s, " << n_low
+        << " speeds): F_max ~ v^" << fmt("%.3f", exponent) << " (Hertz: 6/5).\n\n";
+      rep.add({"peak force against speed follows Hertz's v^(6/5) at low speed",
+               "exponent " + fmt("%.3f", exponent), "1.2 +- 0.05",
+               std::abs(exponent - 1.2) <= 0.05});
+      const Run &finest = by_mesh.back();
+      rep.add({"Hertz peak force at " + fmt("%g", v0) + " m/s, finest mesh (" + finest.mesh + ")",
+               fmt("%+.2f %%", 100 * err(finest)), "within 5 %", std::abs(err(finest)) <= 0.05});
+      const double dm_coarse = std::abs(by_mesh[1].peak - by_mesh[0].peak),
+                   dm_fine   = std::abs(by_mesh.back().peak - by_mesh[by_mesh.size() - 2].peak);
+      if (by_mesh.size() == 3)
+        rep.add({"peak force converges with the mesh (4 -> 2 -> 1 mm at the pole)",
+                 "successive changes " + fmt("%.3g", dm_coarse) + " N, " + fmt("%.3g", dm_fine) +
+                   " N",
+                 "the second smaller", dm_fine < dm_coarse});
+      const double dp_soft  = std::abs(by_penalty[1].peak - by_penalty[0].peak),
+                   dp_stiff = std::abs(by_penalty[2].peak - by_penalty[1].peak);
+      rep.add({"peak force converges with the penalty (x 0.1 -> 1 -> 10)",
+               "successive changes " + fmt("%.3g", dp_soft) + " N, " + fmt("%.3g", dp_stiff) +
+                 " N (" + fmt("%.2f %%", 100 * dp_stiff / by_penalty[2].peak) + ")",
+               "the second smaller, and below 1 %",
+               dp_stiff < dp_soft && dp_stiff < 0.01 * by_penalty[2].peak});
+    }
   } // namespace
 
   bool
@@ -510,6 +710,7 @@ namespace irdm::validation
     check_gravity(o, rep);
     check_damping(o, rep);
     check_prescribed(o, rep);
+    check_hertz(o, rep);
     const double total = seconds_since(t0);
 
     bool all = true;

@@ -37,6 +37,26 @@ namespace irdm::validation
   beam_scene_json(const std::string &mesh_file, unsigned degree, const BeamModel &beam,
                   const std::string &extra_keys = "");
 
+  /// Hertz: an elastic sphere (radius R) hitting a rigid frictionless plane at speed v, in
+  /// the quasi-static small-strain limit (K. L. Johnson, Contact Mechanics, 1985, sec. 11.4).
+  /// The defaults match meshes/ball_pole.geo and the soft material of the tests.
+  struct HertzBall
+  {
+    double radius = 0.05, youngs_modulus = 2.0e4, poisson_ratio = 0.4, density = 1100;
+    double mass() const;                    // kg
+    double effective_modulus() const;       // Pa, E / (1 - nu^2) against a rigid plane
+    double max_indentation(double v) const; // m, (15 m v^2 / (16 E* sqrt R))^(2/5)
+    double peak_force(double v) const;      // N, 4/3 E* sqrt(R) delta_max^(3/2)
+    double contact_time(double v) const;    // s, 2.87 (m^2 / (R E*^2 v))^(1/5)
+  };
+
+  /// Scene JSON: the ball on mesh_file (P1, nonlinear, no gravity, no damping, Newmark)
+  /// moving down at speed v (m/s) 0.1 mm above a floor at z = -1e-4 m with the given penalty
+  /// (Pa/m; 0: the default 100 E / h).
+  std::string
+  ball_scene_json(const std::string &mesh_file, const HertzBall &ball, double speed,
+                  double time_step, double duration, double penalty = 0);
+
   /// Runs every check, writes the report, prints a summary; true if all pass.
   bool
   run_fem_verification(const FemVerificationOptions &options, std::ostream &log);
