@@ -189,18 +189,24 @@ namespace irdm
     ++n_;
   }
 
+  void
+  PlaneInteraction::wall_terms(double &h, double &c) const
+  {
+    h = c = 0;
+    for (unsigned i = 0; i < weights_.n; ++i)
+      {
+        h += weights_.w[i] * history(weights_.k[i]);
+        for (unsigned l = 0; l < weights_.n; ++l)
+          c += weights_.w[i] * weights_.w[l] * m_.Y(weights_.k[l], 0, weights_.k[i]);
+      }
+  }
+
   double
   PlaneInteraction::step(const std::array<double, 3> &d, const double w)
   {
     map_direction(d);
-    const OrientationWeights &ow = weights_;
     double h = 0, c = 0;
-    for (unsigned i = 0; i < ow.n; ++i)
-      {
-        h += ow.w[i] * history(ow.k[i]);
-        for (unsigned l = 0; l < ow.n; ++l)
-          c += ow.w[i] * ow.w[l] * m_.Y(ow.k[l], 0, ow.k[i]);
-      }
+    wall_terms(h, c);
     penetration_ = support_ - w;
     double F     = 0;
     if (rest_ - h - w > 0 && c > 0)
@@ -215,12 +221,7 @@ namespace irdm
   {
     map_direction(d);
     double h = 0, c = 0;
-    for (unsigned i = 0; i < weights_.n; ++i)
-      {
-        h += weights_.w[i] * history(weights_.k[i]);
-        for (unsigned l = 0; l < weights_.n; ++l)
-          c += weights_.w[i] * weights_.w[l] * m_.Y(weights_.k[l], 0, weights_.k[i]);
-      }
+    wall_terms(h, c);
     penetration_ = 0;
     y_           = h + c * F;
     record(F);

@@ -136,5 +136,7 @@ namespace irdm
     history(unsigned j) const; // sum_{k, s >= 1} Y_jk[s] f_k[n - s], n the step being taken
     void
     record(double F); // this step's force into the history, split by weights_; ++n_
+    void
+    wall_terms(double &h, double &c) const; // h(d) and c(d) of the mapped wall, this step
   };
 } // namespace irdm
