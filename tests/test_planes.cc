@@ -23,16 +23,28 @@ TEST(Planes, GeodesicDomeHas162UnitDirectionsWithOneAtTheTop)
   EXPECT_EQ(fem::geodesic_dome(0).directions.size(), 12u);
 }
 
+namespace
+{
+  // The test beam's virtual-DOF model: 12 orientations (no subdivision), impulse 0.5 mm deep.
+  const double beam_impulse_depth = 5e-4;
+
+  VirtualDofModel
+  beam_vdof_model(const std::string &file, const unsigned length)
+  {
+    const fem::Scene       s = fem::parse_scene(irdm_test::beam_scene(""), ".");
+    fem::VirtualDofOptions o;
+    o.output        = irdm_test::tmp(file);
+    o.subdivisions  = 0;
+    o.length        = length;
+    o.impulse_depth = beam_impulse_depth;
+    fem::precompute_virtual_dofs(s, o);
+    return load_virtual_dof_model(o.output, s.time_step);
+  }
+} // namespace
+
 TEST(Planes, RigidWallIsMetExactlyAndNeverPulls)
 {
-  const fem::Scene s = fem::parse_scene(irdm_test::beam_scene(""), ".");
-  fem::VirtualDofOptions o;
-  o.output       = irdm_test::tmp("beam_vdof.h5");
-  o.subdivisions = 0;
-  o.length       = 20;
-  o.impulse_depth = 5e-4;
-  fem::precompute_virtual_dofs(s, o);
-  const VirtualDofModel m = load_virtual_dof_model(o.output, s.time_step);
+  const VirtualDofModel m = beam_vdof_model("beam_vdof.h5", 20);
   ASSERT_EQ(m.n_orientations, 12u);
   // A direction between dome vertices: interpolation weights reproduce it.
   const std::array<double, 3> d = {0.6, 0.0, 0.8};
@@ -82,19 +94,12 @@ TEST(Planes, RuntimeReproducesThePrecomputedImpulse)
   // step, then away), must give back the precompute's force F_k and surface response: the
   // discrete definition of the impulse and the runtime agree. What remains is the FEM
   // penalty wall's penetration (it is not quite rigid), a small fraction of the depth.
-  const fem::Scene s = fem::parse_scene(irdm_test::beam_scene(""), ".");
-  fem::VirtualDofOptions o;
-  o.output        = irdm_test::tmp("beam_vdof_impulse.h5");
-  o.subdivisions  = 0;
-  o.length        = 12;
-  o.impulse_depth = 5e-4;
-  fem::precompute_virtual_dofs(s, o);
-  const VirtualDofModel m = load_virtual_dof_model(o.output, s.time_step);
+  const VirtualDofModel m = beam_vdof_model("beam_vdof_impulse.h5", 12);
   double worst = 0;
   for (unsigned k = 0; k < m.n_orientations; ++k)
     {
       PlaneInteraction run(m, OrientationMapping::nearest);
-      const double     F = run.step(m.directions[k], m.first_contact[k] - o.impulse_depth);
+      const double     F = run.step(m.directions[k], m.first_contact[k] - beam_impulse_depth);
       worst              = std::max(worst, std::abs(F / m.impulse_force[k] - 1));
       EXPECT_NEAR(F, m.impulse_force[k], 0.025 * m.impulse_force[k]) << "orientation " << k;
       for (unsigned n = 1; n < m.length; ++n)

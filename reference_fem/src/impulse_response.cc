@@ -7,6 +7,7 @@
 #include <reference_fem/mesh.h>
 
 #include "integrator.h"
+#include "mpi_rank.h"
 #include "provenance.h"
 
 #include <mpi.h>
@@ -199,13 +200,9 @@ namespace irdm::fem
   precompute_impulse_responses(const Scene &scene, const PrecomputeOptions &options)
   {
     const auto t_start = Clock::now();
-    int        rank = 0, size = 1;
-    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-    MPI_Comm_size(MPI_COMM_WORLD, &size);
-    const auto log = [&](const std::string &s) {
-      if (rank == 0 && options.log)
-        options.log(s);
-    };
+    const MpiRank mpi;
+    const int     rank = mpi.rank, size = mpi.size;
+    const auto    log  = mpi.rank0(options.log);
     if (options.output.empty())
       throw InputError("precompute: no output file given");
     if (scene.fixed_surfaces.empty())

@@ -7,6 +7,7 @@
 #include <reference_fem/virtual_dof.h>
 
 #include "integrator.h"
+#include "mpi_rank.h"
 #include "provenance.h"
 
 #include <mpi.h>
@@ -94,13 +95,9 @@ namespace irdm::fem
   precompute_virtual_dofs(const Scene &scene, const VirtualDofOptions &options)
   {
     const auto t_start = std::chrono::steady_clock::now();
-    int        rank = 0, size = 1;
-    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-    MPI_Comm_size(MPI_COMM_WORLD, &size);
-    const auto log = [&](const std::string &s) {
-      if (rank == 0 && options.log)
-        options.log(s);
-    };
+    const MpiRank mpi;
+    const int     rank = mpi.rank, size = mpi.size;
+    const auto    log  = mpi.rank0(options.log);
     if (options.output.empty())
       throw InputError("virtual DOFs: no output file given");
     if (scene.fixed_surfaces.empty())

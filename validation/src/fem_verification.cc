@@ -597,7 +597,8 @@ namespace irdm::validation
                                      [&](const Run &r) { return r.speed == v0; });
       for (const auto &m : meshes)
         by_mesh.push_back(m == middle ? base : run(m, v0, 0));
-      for (const double factor : {0.1, 1.0, 10.0})
+      const std::vector<double> penalty_factors = {0.1, 1.0, 10.0}; // of the default
+      for (const double factor : penalty_factors)
         by_penalty.push_back(factor == 1.0 ? base : run(middle, v0, factor * base.penalty));
 
       const auto err = [&](const Run &r) { return r.peak / ball.peak_force(r.speed) - 1; };
@@ -654,7 +655,7 @@ namespace irdm::validation
       for (const auto &r : by_mesh)
         conv_row(r.mesh, r);
       for (std::size_t i = 0; i < by_penalty.size(); ++i)
-        conv_row(middle + ", penalty x " + fmt("%g", std::vector<double>{0.1, 1, 10}[i]),
+        conv_row(middle + ", penalty x " + fmt("%g", penalty_factors[i]),
                  by_penalty[i]);
       b << "\n![Hertz](hertz.png)\n\n";
 

@@ -229,16 +229,23 @@ namespace irdm::validation
     for (const double speed : {0.05, 0.1, 0.2, 0.5})
       cases.push_back(impact(side, speed, 0.002));
 
+    // Adds sum_i (u_i - u_fem_i)^2 to e and sum_i u_fem_i^2 to n.
+    const auto add_surface_error = [](const std::vector<double> &u, const std::vector<double> &uf,
+                                      double &e, double &n) {
+      for (size_t i = 0; i < u.size(); ++i)
+        {
+          e += (u[i] - uf[i]) * (u[i] - uf[i]);
+          n += uf[i] * uf[i];
+        }
+    };
     std::vector<Row> rows;
     for (const auto &c : cases)
       {
         Row row;
         row.c = c;
         // The wall's position from the free vertices' support (the fixed base is the ground's).
-        double support = -1e300, best_dot = -1;
-        for (unsigned i = 0; i < model.n_surface; ++i)
-          if (!model.fixed[i])
-            support = std::max(support, dot(c.d, model.coordinates[i]));
+        const double support = dot(c.d, model.coordinates[support_vertex(c.d)]);
+        double       best_dot = -1;
         for (const auto &dk : model.directions)
           best_dot = std::max(best_dot, dot(dk, c.d));
         row.on_dome = best_dot > 1 - 1e-12;
@@ -282,6 +289,7 @@ namespace irdm::validation
             PlaneInteraction run(model, mapping == 0 ? OrientationMapping::nearest
                                                      : OrientationMapping::interpolated);
             double ef = 0, nf = 0, eu = 0, nu = 0, t_force = 0, t_surface = 0;
+            double sum_irdm = 0, sum_fem = 0;
             for (unsigned k = 1; k <= N; ++k)
               {
                 const auto   t1 = Clock::now();
@@ -293,20 +301,11 @@ namespace irdm::validation
                 t_surface += since(t2);
                 ef += (F - F_fem[k]) * (F - F_fem[k]);
                 nf += F_fem[k] * F_fem[k];
-                const auto &uf = fem_r.surface_displacement[k];
-                for (size_t i = 0; i < u.size(); ++i)
-                  {
-                    eu += (u[i] - uf[i]) * (u[i] - uf[i]);
-                    nu += uf[i] * uf[i];
-                  }
+                sum_irdm += F;
+                sum_fem += F_fem[k];
+                add_surface_error(u, fem_r.surface_displacement[k], eu, nu);
               }
             row.force_error[mapping]        = std::sqrt(ef / std::max(nf, 1e-300));
-            double sum_irdm = 0, sum_fem = 0;
-            for (unsigned k = 1; k <= N; ++k)
-              {
-                sum_irdm += row.F_irdm[mapping][k - 1];
-                sum_fem += F_fem[k];
-              }
             row.impulse_error[mapping] = std::abs(sum_irdm - sum_fem) / std::max(sum_fem, 1e-300);
             row.displacement_error[mapping] = std::sqrt(eu / std::max(nu, 1e-300));
             if (mapping == 1)
@@ -321,13 +320,7 @@ namespace irdm::validation
           for (unsigned k = 1; k <= N; ++k)
             {
               run.apply(c.d, F_fem[k]);
-              const auto &u  = run.update_surface();
-              const auto &uf = fem_r.surface_displacement[k];
-              for (size_t i = 0; i < u.size(); ++i)
-                {
-                  eu += (u[i] - uf[i]) * (u[i] - uf[i]);
-                  nu += uf[i] * uf[i];
-                }
+              add_surface_error(run.update_surface(), fem_r.surface_displacement[k], eu, nu);
             }
           row.open_loop_displacement_error = std::sqrt(eu / std::max(nu, 1e-300));
         }
