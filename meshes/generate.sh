@@ -19,3 +19,22 @@ mesh ball.geo ball.msh      lc 0.01
 mesh ball_pole.geo ball_pole_4.msh lc 0.01 lc_pole 0.004
 mesh ball_pole.geo ball_pole_2.msh lc 0.01 lc_pole 0.002
 mesh ball_pole.geo ball_pole_1.msh lc 0.01 lc_pole 0.001
+# The Hertz speed sweep: at each impact speed v (mm/s) a ball whose pole mesh scales with
+# Hertz's contact radius a(v) (ball R 5 cm, E 20 kPa, nu 0.4, rho 1100: validation's HertzBall),
+# so that the sweep compares like with like: coarse h = 0.27 a, fine h = 0.135 a, refined out to
+# 1.6 a. At 20 mm/s these are ball_pole_2 and ball_pole_1 (a = 7.4 mm).
+contact_radius() { # v in mm/s -> a in m: a = sqrt(R delta), delta = (15 m v^2 / (16 E* sqrt R))^(2/5)
+  awk -v v="$1" 'BEGIN { R = 0.05; E = 2e4; nu = 0.4; rho = 1100; pi = atan2(0, -1);
+    m = rho * 4 / 3 * pi * R^3; Es = E / (1 - nu^2); s = v / 1000;
+    d = (15 * m * s^2 / (16 * Es * sqrt(R)))^0.4; printf "%.6g", sqrt(R * d) }'
+}
+for v in 1.25 2.5 5 10 50 100 200; do
+  a=$(contact_radius $v)
+  sizes=(coarse 0.27)
+  case $v in 1.25|2.5|5|10) sizes+=(fine 0.135);; esac
+  for ((i = 0; i < ${#sizes[@]}; i += 2)); do
+    mesh ball_pole.geo "ball_hertz_${v}mms_${sizes[i]}.msh" lc 0.01 \
+      lc_pole "$(awk -v a="$a" -v r="${sizes[i+1]}" 'BEGIN { printf "%.6g", r * a }')" \
+      dist_min "$(awk -v a="$a" 'BEGIN { printf "%.6g", 1.6 * a }')"
+  done
+done

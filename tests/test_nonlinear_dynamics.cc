@@ -128,24 +128,56 @@ TEST(NonlinearDynamics, BallPeakForceFollowsHertzAtLowSpeed)
   EXPECT_NEAR(peak / F_h, 1, 0.15); // coarse pole mesh (4 mm); the report's study refines it
 }
 
+TEST(NonlinearDynamics, FiniteBallEstimateTendsToHertzLinearlyInContactRadius)
+{
+  // The finite-ball estimate solves 1/2 m v^2 = 2/5 k^(-2/3) F^(5/3) - c F^2 / 2; expanding
+  // about Hertz, F / F_Hertz - 1 = 3/4 c F_Hertz / delta_max = (3 - 2 nu) / (2 pi (1 - nu)) a / R
+  // to first order in a / R.
+  irdm::validation::HertzBall ball;
+  const double nu = ball.poisson_ratio, slope = (3 - 2 * nu) / (2 * M_PI * (1 - nu));
+  for (const double v : {1e-6, 1e-5, 1e-4})
+    {
+      const double F = ball.peak_force_finite_ball(v), a_over_R = ball.contact_radius(v) / ball.radius;
+      const double k = 4.0 / 3.0 * ball.effective_modulus() * std::sqrt(ball.radius);
+      const double work = 0.4 * std::pow(k, -2.0 / 3.0) * std::pow(F, 5.0 / 3.0) -
+                          0.5 * ball.centre_compliance() * F * F;
+      EXPECT_NEAR(work / (0.5 * ball.mass() * v * v), 1, 1e-10) << v;
+      const double excess = F / ball.peak_force(v) - 1;
+      EXPECT_GT(excess, 0);
+      // The second-order term is O((a/R)^2): relative to the first, O(a/R) ~ 1e-2.
+      EXPECT_NEAR(excess / a_over_R / slope, 1, 2 * a_over_R) << v;
+    }
+  // Hertz for a given body mass: F_max ~ m^(3/5).
+  irdm::validation::HertzBall lighter;
+  lighter.body_mass = 0.5 * ball.mass();
+  EXPECT_NEAR(lighter.peak_force(0.01) / ball.peak_force(0.01), std::pow(0.5, 0.6), 1e-12);
+}
+
 TEST(NonlinearDynamics, PlaneOnTheFixedSurfaceOnlyPushesNothing)
 {
-  // A plane 1 mm into the clamped end of the beam touches only fixed vertices: that goes into
-  // the support, so the body stays at rest and the reported force on it is zero; the free
-  // vertices are still clear of the plane (negative penetration).
-  const Scene s = parse_scene(
-    beam_scene_json(IRDM_MESH_DIR "/beam_2.msh", 1, BeamModel(),
-                    R"(, "kinematics": "nonlinear", "time": {"step_s": 0.002, "duration_s": 0.006},
-       "planes": [{"name": "wall", "normal": [1, 0, 0],
-                   "position": {"times_s": [0], "points_m": [[0.001, 0, 0]]}}],
-       "outputs": {"surface": true})"),
-    ".");
-  const auto r = NonlinearElasticity(s).run();
-  for (std::size_t k = 0; k < r.time.size(); ++k)
+  // A plane into the clamped end of the beam touches only fixed DoFs: that goes into the
+  // support, so the body stays at rest and the reported force on it and the penalty energy
+  // are zero; the free vertices are still clear of the plane (negative penetration).
+  // P1: 1 mm deep. P2 faces are checked at their quadrature points, and 1 mm would reach
+  // those of the side faces next to the clamp (a true contact with free DoFs); 1 um does not.
+  for (const unsigned degree : {1u, 2u})
     {
-      EXPECT_EQ(r.plane_force.at("wall")[k], (Vec3{0, 0, 0}));
-      EXPECT_LT(r.plane_penetration.at("wall")[k], 0);
-      for (const double u : r.surface_displacement[k])
-        EXPECT_EQ(u, 0);
+      const std::string depth = degree == 1 ? "0.001" : "1e-6";
+      const Scene       s     = parse_scene(
+        beam_scene_json(IRDM_MESH_DIR "/beam_2.msh", degree, BeamModel(),
+                        R"(, "kinematics": "nonlinear", "time": {"step_s": 0.002, "duration_s": 0.006},
+           "planes": [{"name": "wall", "normal": [1, 0, 0],
+                       "position": {"times_s": [0], "points_m": [[)" + depth + R"(, 0, 0]]}}],
+           "outputs": {"surface": true})"),
+        ".");
+      const auto r = NonlinearElasticity(s).run();
+      for (std::size_t k = 0; k < r.time.size(); ++k)
+        {
+          EXPECT_EQ(r.plane_force.at("wall")[k], (Vec3{0, 0, 0})) << "P" << degree;
+          EXPECT_EQ(r.contact_energy[k], 0) << "P" << degree << ": the support's, not the body's";
+          EXPECT_LT(r.plane_penetration.at("wall")[k], 0) << "P" << degree;
+          for (const double u : r.surface_displacement[k])
+            EXPECT_EQ(u, 0) << "P" << degree;
+        }
     }
 }

@@ -74,7 +74,8 @@ namespace irdm::fem
             cell->get_dof_indices(dofs);
             cell_f = 0;
             cell_K = 0;
-            bool touched = false;
+            bool   touched     = false;
+            double face_energy = 0;
             for (const unsigned q : fv.quadrature_point_indices())
               {
                 const double g = depth(fv.quadrature_point(q) + u_q[q]);
@@ -82,8 +83,7 @@ namespace irdm::fem
                   continue;
                 touched        = true;
                 const double dA = fv.JxW(q);
-                ++s.active_points;
-                s.energy += 0.5 * k * g * g * dA;
+                face_energy += 0.5 * k * g * g * dA;
                 for (unsigned i = 0; i < n_dofs; ++i)
                   n_phi[i] = n * fv[displacement].value(i, q);
                 for (unsigned i = 0; i < n_dofs; ++i)
@@ -96,13 +96,20 @@ namespace irdm::fem
               }
             if (!touched)
               continue;
+            bool pushes_body = false;
             for (unsigned i = 0; i < n_dofs; ++i)
               {
                 f_c(dofs[i]) += cell_f(i);
                 // The resultant on the body: what the fixed DoFs take goes into the support.
                 if (!L.constraints.is_constrained(dofs[i]))
-                  s.force[p][L.fe.system_to_component_index(i).first] += cell_f(i);
+                  {
+                    s.force[p][L.fe.system_to_component_index(i).first] += cell_f(i);
+                    pushes_body = pushes_body || cell_f(i) != 0;
+                  }
               }
+            // A face pressed only at fixed DoFs stores its penalty energy in the support.
+            if (pushes_body)
+              s.energy += face_energy;
             if (K)
               K->add(dofs, cell_K);
           }

@@ -16,8 +16,7 @@ namespace irdm::fem
     // fixed (Dirichlet) nodes goes straight into the support and is not counted.
     std::vector<Vec3>   force;
     std::vector<double> penetration; // m, per plane, deepest free surface vertex (negative: gap)
-    double              energy = 0;  // J, penalty energy
-    unsigned            active_points = 0; // face quadrature points in contact
+    double              energy = 0;  // J, penalty energy of the faces that push free DoFs
   };
 
   class NonlinearElasticity::Impl
