@@ -510,8 +510,9 @@ double model differs from the FEM by more than 1e-9.
 Runs the reference-FEM verification suite (cantilever frequency and convergence, static tip
 deflection, energy conservation and dissipation, gravity reaction, damping, prescribed
 displacement reaction; nonlinear mode: a ball's peak contact force against Hertz over impact
-speed, mesh and penalty) and writes a Markdown report with CSV data under --out. Exit code 0:
-every check passed; 3: some check failed (the report says which); other: an error.
+speed, mesh and penalty) and writes a Markdown report with CSV data under --out; about 10 min
+on 2 cores (--quick: 1.5 min). Exit code 0: every check passed; 3: some check failed (the
+report says which); other: an error.
   --meshes DIR  folder with the project's meshes (default: meshes)
   --out DIR     report folder (default: reports/fem-verification)
   --quick       skip the finest beam and ball meshes and most impact speeds (for a fast look;
