@@ -107,6 +107,12 @@ namespace irdm::validation
   }
 
   double
+  HertzBall::contact_stiffness() const
+  {
+    return 4.0 / 3.0 * effective_modulus() * std::sqrt(radius);
+  }
+
+  double
   HertzBall::max_indentation(const double v) const
   {
     return std::pow(15 * mass() * v * v / (16 * effective_modulus() * std::sqrt(radius)), 0.4);
@@ -115,7 +121,7 @@ namespace irdm::validation
   double
   HertzBall::peak_force(const double v) const
   {
-    return 4.0 / 3.0 * effective_modulus() * std::sqrt(radius) * std::pow(max_indentation(v), 1.5);
+    return contact_stiffness() * std::pow(max_indentation(v), 1.5);
   }
 
   double
@@ -143,8 +149,7 @@ namespace irdm::validation
   {
     // Root of g(F) = 2/5 k^(-2/3) F^(5/3) - c F^2 / 2 - 1/2 m v^2 on (0, F*), F* the maximum
     // of the work term (g rises there from -1/2 m v^2); bisection, as g is monotone on it.
-    const double k = 4.0 / 3.0 * effective_modulus() * std::sqrt(radius),
-                 c = centre_compliance(), energy = 0.5 * mass() * v * v;
+    const double k = contact_stiffness(), c = centre_compliance(), energy = 0.5 * mass() * v * v;
     const auto   g = [&](const double F) {
       return 0.4 * std::pow(k, -2.0 / 3.0) * std::pow(F, 5.0 / 3.0) - 0.5 * c * F * F - energy;
     };
@@ -586,7 +591,7 @@ namespace irdm::validation
       {
         std::string mesh;
         double      speed = 0, penalty = 0, mass = 0, peak = 0, penetration = 0, seconds = 0;
-        HertzBall   hertz() const // Hertz for the FEM's ball: its mesh is 1.3 % lighter
+        HertzBall   hertz() const // Hertz for the FEM's ball, lighter than the sphere
         {
           HertzBall h;
           h.body_mass = mass;

@@ -46,8 +46,9 @@ namespace irdm::validation
     double body_mass = 0;                   // kg; 0: the exact sphere's, 4/3 pi R^3 rho
     double mass() const;                    // kg
     double effective_modulus() const;       // Pa, E / (1 - nu^2) against a rigid plane
+    double contact_stiffness() const;       // N/m^(3/2), k = 4/3 E* sqrt(R): F = k delta^(3/2)
     double max_indentation(double v) const; // m, (15 m v^2 / (16 E* sqrt R))^(2/5)
-    double peak_force(double v) const;      // N, 4/3 E* sqrt(R) delta_max^(3/2)
+    double peak_force(double v) const;      // N, k delta_max^(3/2)
     double contact_time(double v) const;    // s, 2.87 (m^2 / (R E*^2 v))^(1/5)
     double contact_radius(double v) const;  // m, sqrt(R delta_max)
 
