@@ -4,6 +4,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config
   libdeal.ii-dev            # deal.II 9.4 with PETSc/MUMPS, MPI, HDF5 (openmpi flavour)
+  libcli11-dev              # command-line options (apps/irdm.cc)
   libeigen3-dev nlohmann-json3-dev libgtest-dev libopenblas-dev openmpi-bin libbenchmark-dev
   gmsh                      # mesh generation (meshes/generate.sh)
   python3-matplotlib python3-numpy   # report charts (run with /usr/bin/python3)

@@ -1,7 +1,9 @@
 #include <irdm_common/error.h>
+#include <irdm_common/files.h>
 #include <irdm_common/h5.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -56,9 +58,11 @@ namespace irdm::h5
     }
   } // namespace
 
-  Writer::Writer(const std::string &path, const Mode mode)
+  Writer::Writer(const std::string &path, const Mode mode, OutputLock lock)
     : path_(path)
     , part_path_(path + ".part")
+    // Before touching the part file: it may be another run's.
+    , lock_(lock.held() ? std::move(lock) : OutputLock(path))
   {
     silence_hdf5();
     if (mode == Mode::resume)
@@ -71,11 +75,24 @@ namespace irdm::h5
               resumed_ = true;
               return;
             }
-          std::remove(part_path_.c_str()); // unreadable (killed mid-write): start over
+          // Unreadable, and no other run holds the lock: a run killed mid-write. Start over.
+          std::remove(part_path_.c_str());
         }
     file_ = H5Fcreate(part_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (file_ < 0)
       throw InputError("cannot create HDF5 file '" + part_path_ + "'");
+  }
+
+  void
+  Writer::start_over()
+  {
+    if (file_ >= 0)
+      H5Fclose(file_);
+    std::remove(part_path_.c_str());
+    resumed_ = false;
+    file_    = H5Fcreate(part_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    if (file_ < 0)
+      throw IoError("cannot create HDF5 file '" + part_path_ + "'");
   }
 
   Writer::~Writer()
@@ -96,15 +113,19 @@ namespace irdm::h5
     const hid_t plist = H5Pcreate(H5P_DATASET_CREATE);
     std::vector<hsize_t> chunk = dims;
     chunk[0] = std::max<hsize_t>(1, std::min(chunk_rows, dims[0]));
-    H5Pset_chunk(plist, static_cast<int>(chunk.size()), chunk.data());
-    const hid_t set = H5Dcreate2(file_, name.c_str(), is_double ? H5T_IEEE_F64LE : H5T_IEEE_F32LE,
-                                 space, H5P_DEFAULT, plist, H5P_DEFAULT);
-    H5Pclose(plist);
-    H5Sclose(space);
-    if (set < 0)
-      throw InputError("cannot create dataset '" + name + "' " + dims_to_string(dims) +
-                       " in '" + path_ + "'");
-    H5Dclose(set);
+    bool ok = space >= 0 && plist >= 0 &&
+              H5Pset_chunk(plist, static_cast<int>(chunk.size()), chunk.data()) >= 0;
+    const hid_t set = ok ? H5Dcreate2(file_, name.c_str(),
+                                      is_double ? H5T_IEEE_F64LE : H5T_IEEE_F32LE, space,
+                                      H5P_DEFAULT, plist, H5P_DEFAULT)
+                         : -1;
+    ok = set >= 0;
+    ok = (plist < 0 || H5Pclose(plist) >= 0) && ok;
+    ok = (space < 0 || H5Sclose(space) >= 0) && ok;
+    ok = (set < 0 || H5Dclose(set) >= 0) && ok;
+    if (!ok)
+      throw IoError("cannot create dataset '" + name + "' " + dims_to_string(dims) + " in '" +
+                    part_path_ + "'");
   }
 
   namespace
@@ -115,27 +136,28 @@ namespace irdm::h5
     {
       const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
       if (set < 0)
-        throw InputError("no dataset '" + name + "' in '" + path + "'");
+        throw IoError("no dataset '" + name + "' in '" + path + "'");
       const hid_t          space = H5Dget_space(set);
-      const int            rank  = H5Sget_simple_extent_ndims(space);
-      std::vector<hsize_t> dims(rank), start(rank, 0), count;
-      H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+      const int            rank  = space >= 0 ? H5Sget_simple_extent_ndims(space) : -1;
+      bool                 ok    = rank >= 1;
+      std::vector<hsize_t> dims(ok ? rank : 1), start(dims.size(), 0), count;
+      ok       = ok && H5Sget_simple_extent_dims(space, dims.data(), nullptr) >= 0;
       count    = dims;
       start[0] = first;
       count[0] = n_rows;
-      bool ok  = first + n_rows <= dims[0] &&
-                H5Sselect_hyperslab(space, H5S_SELECT_SET, start.data(), nullptr,
-                                    count.data(), nullptr) >= 0;
+      ok       = ok && first + n_rows <= dims[0] &&
+           H5Sselect_hyperslab(space, H5S_SELECT_SET, start.data(), nullptr, count.data(),
+                               nullptr) >= 0;
       if (ok)
         {
           const hid_t mem = H5Screate_simple(rank, count.data(), nullptr);
-          ok = H5Dwrite(set, mem_type, mem, space, H5P_DEFAULT, data) >= 0;
-          H5Sclose(mem);
+          ok = mem >= 0 && H5Dwrite(set, mem_type, mem, space, H5P_DEFAULT, data) >= 0;
+          ok = (mem < 0 || H5Sclose(mem) >= 0) && ok;
         }
-      H5Sclose(space);
-      H5Dclose(set);
+      ok = (space < 0 || H5Sclose(space) >= 0) && ok;
+      ok = H5Dclose(set) >= 0 && ok;
       if (!ok)
-        throw InputError("cannot write rows " + std::to_string(first) + ".." +
+        throw IoError("cannot write rows " + std::to_string(first) + ".." +
                          std::to_string(first + n_rows) + " of '" + name + "' in '" + path +
                          "'");
     }
@@ -196,7 +218,7 @@ namespace irdm::h5
   Writer::flush()
   {
     if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0)
-      throw InputError("cannot flush '" + part_path_ + "'");
+      throw IoError("cannot flush '" + part_path_ + "' (disk full?)");
   }
 
   void
@@ -204,9 +226,8 @@ namespace irdm::h5
   {
     const hid_t g =
       H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    if (g < 0)
-      throw InputError("cannot create group '" + name + "' in '" + path_ + "'");
-    H5Gclose(g);
+    if (g < 0 || H5Gclose(g) < 0)
+      throw IoError("cannot create group '" + name + "' in '" + part_path_ + "'");
   }
 
   namespace
@@ -233,11 +254,10 @@ namespace irdm::h5
       bool ok = set >= 0;
       if (ok)
         ok = H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
-      if (set >= 0)
-        H5Dclose(set);
-      H5Sclose(space);
+      ok = (set < 0 || H5Dclose(set) >= 0) && ok;
+      ok = (space < 0 || H5Sclose(space) >= 0) && ok;
       if (!ok)
-        throw InputError("cannot write dataset '" + name + "' " +
+        throw IoError("cannot write dataset '" + name + "' " +
                          dims_to_string(dims) + " to '" + path + "'");
     }
   } // namespace
@@ -247,7 +267,7 @@ namespace irdm::h5
                 const std::vector<hsize_t> &dims,
                 const double *data)
   {
-    write_any(file_, path_, name, dims, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data);
+    write_any(file_, part_path_, name, dims, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data);
   }
 
   void
@@ -255,7 +275,7 @@ namespace irdm::h5
                 const std::vector<hsize_t> &dims,
                 const float *data)
   {
-    write_any(file_, path_, name, dims, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, data);
+    write_any(file_, part_path_, name, dims, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, data);
   }
 
   void
@@ -263,20 +283,20 @@ namespace irdm::h5
                 const std::vector<hsize_t> &dims,
                 const long long *data)
   {
-    write_any(file_, path_, name, dims, H5T_STD_I64LE, H5T_NATIVE_LLONG, data);
+    write_any(file_, part_path_, name, dims, H5T_STD_I64LE, H5T_NATIVE_LLONG, data);
   }
 
   void
   Writer::write(const std::string &name, const std::vector<hsize_t> &dims, const int *data)
   {
-    write_any(file_, path_, name, dims, H5T_STD_I32LE, H5T_NATIVE_INT, data);
+    write_any(file_, part_path_, name, dims, H5T_STD_I32LE, H5T_NATIVE_INT, data);
   }
 
   void
   Writer::write(const std::string &name, const std::vector<hsize_t> &dims,
                 const unsigned short *data)
   {
-    write_any(file_, path_, name, dims, H5T_STD_U16LE, H5T_NATIVE_USHORT, data);
+    write_any(file_, part_path_, name, dims, H5T_STD_U16LE, H5T_NATIVE_USHORT, data);
   }
 
   void
@@ -287,9 +307,9 @@ namespace irdm::h5
       throw InputError("cannot open HDF5 file '" + source_file + "'");
     const bool ok = H5Ocopy(src, object.c_str(), file_, object.c_str(), H5P_DEFAULT,
                             H5P_DEFAULT) >= 0;
-    H5Fclose(src);
+    H5Fclose(src); // read-only
     if (!ok)
-      throw InputError("cannot copy '" + object + "' from '" + source_file + "' to '" + path_ + "'");
+      throw IoError("cannot copy '" + object + "' from '" + source_file + "' to '" + path_ + "'");
   }
 
   void
@@ -318,18 +338,18 @@ namespace irdm::h5
               H5Adelete(to, name.c_str());
             const hid_t copy = H5Acreate2(to, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
             ok = ok && copy >= 0 && H5Awrite(copy, type, buffer.data()) >= 0;
-            if (copy >= 0)
-              H5Aclose(copy);
-            H5Sclose(space);
-            H5Tclose(type);
+            ok = (copy < 0 || H5Aclose(copy) >= 0) && ok;
+            ok = H5Sclose(space) >= 0 && ok;
+            ok = H5Tclose(type) >= 0 && ok;
           }
-        H5Aclose(attr);
+        ok = H5Aclose(attr) >= 0 && ok;
       }
-    H5Gclose(from);
-    H5Gclose(to);
-    H5Fclose(src);
+    ok = H5Gclose(from) >= 0 && ok;
+    ok = H5Gclose(to) >= 0 && ok;
+    H5Fclose(src); // read-only
     if (!ok)
-      throw InputError("cannot copy the root attributes of '" + source_file + "'");
+      throw IoError("cannot copy the root attributes of '" + source_file + "' to '" +
+                    part_path_ + "'");
   }
 
   namespace
@@ -348,13 +368,12 @@ namespace irdm::h5
       const hid_t space = H5Screate(H5S_SCALAR);
       const hid_t attr =
         H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
-      const bool ok = attr >= 0 && H5Awrite(attr, type, value) >= 0;
-      if (attr >= 0)
-        H5Aclose(attr);
-      H5Sclose(space);
-      H5Oclose(obj);
+      bool ok = attr >= 0 && H5Awrite(attr, type, value) >= 0;
+      ok = (attr < 0 || H5Aclose(attr) >= 0) && ok;
+      ok = H5Sclose(space) >= 0 && ok;
+      ok = H5Oclose(obj) >= 0 && ok;
       if (!ok)
-        throw InputError("cannot write attribute '" + name + "' on '" + object +
+        throw IoError("cannot write attribute '" + name + "' on '" + object +
                          "' in '" + path + "'");
     }
   } // namespace
@@ -369,7 +388,7 @@ namespace irdm::h5
     H5Tset_strpad(type, H5T_STR_NULLPAD);
     try
       {
-        write_attribute(file_, path_, object, name, type, value.c_str());
+        write_attribute(file_, part_path_, object, name, type, value.c_str());
       }
     catch (...)
       {
@@ -384,7 +403,7 @@ namespace irdm::h5
                     const std::string &name,
                     const double value)
   {
-    write_attribute(file_, path_, object, name, H5T_NATIVE_DOUBLE, &value);
+    write_attribute(file_, part_path_, object, name, H5T_NATIVE_DOUBLE, &value);
   }
 
   void
@@ -392,19 +411,24 @@ namespace irdm::h5
                     const std::string &name,
                     const long long value)
   {
-    write_attribute(file_, path_, object, name, H5T_NATIVE_LLONG, &value);
+    write_attribute(file_, part_path_, object, name, H5T_NATIVE_LLONG, &value);
   }
 
   void
   Writer::commit()
   {
-    const herr_t closed = H5Fclose(file_);
-    file_ = -1;
-    if (closed < 0 || std::rename(part_path_.c_str(), path_.c_str()) != 0)
+    // HDF5 caches data and metadata: a full disk often shows only here, in the flush or the
+    // close. Either failing leaves the final name untouched.
+    const bool flushed = H5Fflush(file_, H5F_SCOPE_GLOBAL) >= 0;
+    const bool closed  = H5Fclose(file_) >= 0;
+    file_              = -1;
+    if (!flushed || !closed)
       {
         std::remove(part_path_.c_str());
-        throw InputError("cannot finish HDF5 file '" + path_ + "'");
+        throw IoError("cannot finish HDF5 file '" + path_ + "': writing '" + part_path_ +
+                      "' failed (disk full?); nothing was written under the final name");
       }
+    commit_part_file(part_path_, path_); // fsync, rename, fsync the folder
   }
 
   Reader::Reader(const std::string &path)
@@ -417,7 +441,8 @@ namespace irdm::h5
       throw InputError("cannot open '" + path + "': no such file or not readable");
     file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
     if (file_ < 0)
-      throw InputError("'" + path + "' is not an HDF5 file");
+      throw InputError("'" + path + "' is not an HDF5 file (or it is being written by another "
+                       "run)");
   }
 
   Reader::~Reader()
@@ -453,17 +478,23 @@ namespace irdm::h5
     if (set < 0)
       throw InputError("'" + name + "' in '" + path_ + "' is not a dataset");
     const hid_t space = H5Dget_space(set);
-    const int   rank  = H5Sget_simple_extent_ndims(space);
+    const int   rank  = space >= 0 ? H5Sget_simple_extent_ndims(space) : -1;
     std::vector<hsize_t> dims(rank > 0 ? rank : 0);
-    if (rank > 0)
-      H5Sget_simple_extent_dims(space, dims.data(), nullptr);
-    H5Sclose(space);
+    const bool ok = rank >= 0 && (rank == 0 || H5Sget_simple_extent_dims(space, dims.data(),
+                                                                          nullptr) >= 0);
+    if (space >= 0)
+      H5Sclose(space);
     H5Dclose(set);
+    if (!ok)
+      throw InputError("dataset '" + name + "' in '" + path_ + "' has no simple shape");
     return dims;
   }
 
   namespace
   {
+    // Reads a whole dataset after checking, against the file itself, that it is what it claims:
+    // its shape, a numeric type, and (for datasets stored without filters) that the file
+    // really holds all of its elements. Only then is memory allocated.
     template <typename T>
     std::vector<T>
     read_any(hid_t file,
@@ -478,17 +509,41 @@ namespace irdm::h5
         throw InputError("dataset '" + name + "' in '" + path + "' has shape " +
                          dims_to_string(dims) + ", expected " +
                          dims_to_string(expected));
-      std::size_t n = 1;
+      double n = 1;
       for (const auto d : dims)
-        n *= d;
-      std::vector<T> data(n);
+        n *= static_cast<double>(d);
       const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
-      const bool  ok  = H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT,
-                              data.data()) >= 0;
+      if (set < 0)
+        throw InputError("cannot open dataset '" + name + "' in '" + path + "'");
+      const hid_t       type  = H5Dget_type(set);
+      const H5T_class_t klass = type >= 0 ? H5Tget_class(type) : H5T_NO_CLASS;
+      const double      bytes_on_disk = n * (type >= 0 ? static_cast<double>(H5Tget_size(type)) : 0);
+      if (type >= 0)
+        H5Tclose(type);
+      const hid_t plist    = H5Dget_create_plist(set);
+      const int   nfilters = plist >= 0 ? H5Pget_nfilters(plist) : -1;
+      if (plist >= 0)
+        H5Pclose(plist);
+      const double stored = static_cast<double>(H5Dget_storage_size(set));
+      std::string  problem;
+      if (klass != H5T_INTEGER && klass != H5T_FLOAT)
+        problem = "is not numeric";
+      else if (nfilters == 0 && n > 0 && stored < bytes_on_disk)
+        problem = "is incomplete: the file holds " + std::to_string(static_cast<long long>(stored)) +
+                  " of its " + std::to_string(static_cast<long long>(bytes_on_disk)) + " bytes";
+      else if (n * sizeof(T) > 1e12)
+        problem = "is larger than any model this program reads";
+      if (!problem.empty())
+        {
+          H5Dclose(set);
+          throw InputError("dataset '" + name + "' in '" + path + "' " + problem);
+        }
+      std::vector<T> data(static_cast<std::size_t>(n));
+      const bool ok = H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) >= 0;
       H5Dclose(set);
       if (!ok)
         throw InputError("cannot read dataset '" + name + "' from '" + path +
-                         "'");
+                         "' (wrong type or a damaged file)");
       return data;
     }
   } // namespace
@@ -530,6 +585,8 @@ namespace irdm::h5
   bool
   Reader::has_attribute(const std::string &object, const std::string &name) const
   {
+    if (object != "/" && !exists(object))
+      return false;
     const hid_t obj = open_object(file_, object);
     if (obj < 0)
       return false;
@@ -542,14 +599,9 @@ namespace irdm::h5
   Reader::string_attribute(const std::string &object,
                            const std::string &name) const
   {
-    const hid_t obj = open_object(file_, object);
-    if (obj < 0 || H5Aexists(obj, name.c_str()) <= 0)
-      {
-        if (obj >= 0)
-          H5Oclose(obj);
-        throw InputError("'" + path_ + "' has no attribute '" + name +
-                         "' on '" + object + "'");
-      }
+    if (!has_attribute(object, name))
+      throw InputError("'" + path_ + "' has no attribute '" + name + "' on '" + object + "'");
+    const hid_t       obj   = open_object(file_, object);
     const std::string value = read_string_attribute(obj, name);
     H5Oclose(obj);
     return value;
@@ -559,22 +611,40 @@ namespace irdm::h5
   Reader::double_attribute(const std::string &object,
                            const std::string &name) const
   {
-    const hid_t obj = open_object(file_, object);
-    if (obj < 0 || H5Aexists(obj, name.c_str()) <= 0)
-      {
-        if (obj >= 0)
-          H5Oclose(obj);
-        throw InputError("'" + path_ + "' has no attribute '" + name +
-                         "' on '" + object + "'");
-      }
+    if (!has_attribute(object, name))
+      throw InputError("'" + path_ + "' has no attribute '" + name + "' on '" + object + "'");
+    const hid_t obj   = open_object(file_, object);
     const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
-    double      value = 0;
-    const bool  ok    = H5Aread(attr, H5T_NATIVE_DOUBLE, &value) >= 0;
-    H5Aclose(attr);
+    const hid_t space = attr >= 0 ? H5Aget_space(attr) : -1;
+    const hid_t type  = attr >= 0 ? H5Aget_type(attr) : -1;
+    // One number, never an array: reading an array into one double would overrun it.
+    const bool one = space >= 0 && H5Sget_simple_extent_npoints(space) == 1;
+    const H5T_class_t klass = type >= 0 ? H5Tget_class(type) : H5T_NO_CLASS;
+    double value = 0;
+    const bool ok = one && (klass == H5T_INTEGER || klass == H5T_FLOAT) &&
+                    H5Aread(attr, H5T_NATIVE_DOUBLE, &value) >= 0;
+    if (type >= 0)
+      H5Tclose(type);
+    if (space >= 0)
+      H5Sclose(space);
+    if (attr >= 0)
+      H5Aclose(attr);
     H5Oclose(obj);
     if (!ok)
-      throw InputError("attribute '" + name + "' in '" + path_ +
-                       "' is not a number");
+      throw InputError("attribute '" + name + "' on '" + object + "' in '" + path_ +
+                       "' is not a single number");
     return value;
+  }
+
+  long long
+  Reader::count_attribute(const std::string &object, const std::string &name,
+                          const long long lo, const long long hi) const
+  {
+    const double v = double_attribute(object, name);
+    if (!(v >= static_cast<double>(lo) && v <= static_cast<double>(hi)) || v != std::floor(v))
+      throw InputError("attribute '" + name + "' on '" + object + "' in '" + path_ + "' is " +
+                       std::to_string(v) + "; it must be a whole number in [" +
+                       std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return static_cast<long long>(v);
   }
 } // namespace irdm::h5

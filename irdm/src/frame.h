@@ -15,4 +15,9 @@ namespace irdm
   void
   read_frame(const h5::Reader &r, const std::string &path, ModelFrame &m,
              std::optional<double> expected_time_step);
+
+  /// InputError if the file carries /progress/chunk_done (a precompute's progress) with a chunk
+  /// not written: an interrupted or clashing run, never a model.
+  void
+  check_complete(const h5::Reader &r, const std::string &path);
 } // namespace irdm

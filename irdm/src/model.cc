@@ -4,6 +4,10 @@
 
 #include "frame.h"
 
+#include <irdm_common/files.h>
+
+#include <algorithm>
+
 #include <cmath>
 #include <sstream>
 
@@ -31,9 +35,9 @@ namespace irdm
       throw InputError("model '" + path + "': " + what);
     };
     m.time_step = r.double_attribute("/", "time_step_s");
-    m.length    = static_cast<unsigned>(r.double_attribute("/", "length"));
-    if (!(m.time_step > 0) || m.length < 1)
-      fail("time_step_s and length must be positive");
+    m.length    = static_cast<unsigned>(r.count_attribute("/", "length", 1, 10000000));
+    if (!(m.time_step > 0) || !std::isfinite(m.time_step))
+      fail("time_step_s must be a positive number");
     if (expected_time_step &&
         std::abs(m.time_step - *expected_time_step) > 1e-12 * *expected_time_step)
       fail("it was made with time step " + std::to_string(m.time_step) + " s but the scene uses " +
@@ -52,11 +56,24 @@ namespace irdm
     const auto n_in_v  = r.shape("/inputs/node_tags");
     if (n_out_v.size() != 1 || n_in_v.size() != 1)
       fail("node_tags must be one-dimensional");
+    if (n_out_v[0] < 1 || n_out_v[0] > 100000000 / 3 || n_in_v[0] > n_out_v[0])
+      fail("it needs 1 to 33 million output vertices and no more inputs than outputs");
     m.output_node_tags = r.read_int("/outputs/node_tags", n_out_v);
     const auto xyz     = r.read_double("/outputs/coordinates", {n_out_v[0], 3});
+    for (const double x : xyz)
+      if (!std::isfinite(x))
+        fail("outputs/coordinates contains NaN or Inf");
     for (size_t i = 0; i < n_out_v[0]; ++i)
       m.output_coordinates.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
     m.input_node_tags = r.read_int("/inputs/node_tags", n_in_v);
+    for (const auto *tags : {&m.output_node_tags, &m.input_node_tags})
+      {
+        std::vector<long long> sorted = *tags;
+        std::sort(sorted.begin(), sorted.end());
+        if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+          fail("a node tag appears twice among the " +
+               std::string(tags == &m.output_node_tags ? "outputs" : "inputs"));
+      }
     m.n_outputs       = 3 * n_out_v[0];
     m.n_inputs        = 3 * n_in_v[0];
     m.output_input_index.assign(n_out_v[0], -1);
@@ -65,6 +82,11 @@ namespace irdm
       {
         if (io[k] < 0 || io[k] >= static_cast<long long>(n_out_v[0]))
           fail("inputs/output_index out of range");
+        if (m.output_input_index[io[k]] >= 0)
+          fail("inputs/output_index names output " + std::to_string(io[k]) + " twice");
+        if (m.output_node_tags[io[k]] != m.input_node_tags[k])
+          fail("inputs/output_index: input " + std::to_string(k) +
+               " is not the output vertex it names (node tags differ)");
         m.input_output_index.push_back(static_cast<unsigned>(io[k]));
         m.output_input_index[io[k]] = static_cast<int>(k);
       }
@@ -91,6 +113,25 @@ namespace irdm
       while (std::getline(names, s, ','))
         m.surface_names.push_back(s);
     }
+    for (const int t : m.triangle_surface)
+      if (t < 0 || t >= static_cast<int>(m.surface_names.size()))
+        fail("surface/triangle_surface refers to a surface name that is not listed");
+  }
+
+  void
+  check_complete(const h5::Reader &r, const std::string &path)
+  {
+    if (!r.exists("/progress/chunk_done"))
+      return;
+    const auto shape = r.shape("/progress/chunk_done");
+    if (shape.size() != 1)
+      throw InputError("model '" + path + "': progress/chunk_done must be one-dimensional");
+    const auto done = r.read_int("/progress/chunk_done", shape);
+    const auto n    = std::count(done.begin(), done.end(), 1LL);
+    if (n != static_cast<long long>(done.size()))
+      throw InputError("model '" + path + "' is incomplete: " + std::to_string(n) + " of " +
+                       std::to_string(done.size()) + " chunks were written; run the "
+                       "precompute again to finish it");
   }
 
   ImpulseResponseModel
@@ -106,6 +147,7 @@ namespace irdm
     const double version = r.double_attribute("/", "format_version");
     if (version != 1)
       fail("format version " + std::to_string(version) + " is not supported (this build reads 1)");
+    check_complete(r, path);
     ImpulseResponseModel m;
     read_frame(r, path, m, expected_time_step);
     if (!r.exists("/impulse_response/H"))
@@ -116,6 +158,9 @@ namespace irdm
            std::to_string(m.n_inputs) + " x " + std::to_string(m.length) + " x " +
            std::to_string(m.n_outputs) + ")");
     m.double_storage = r.is_double("/impulse_response/H");
+    check_memory_estimate("loading model '" + path + "'",
+                          (m.double_storage ? 8.0 : 4.0) * m.n_inputs * m.length * m.n_outputs,
+                          false);
     bool finite      = true;
     if (m.double_storage)
       {
@@ -134,14 +179,23 @@ namespace irdm
     if (r.exists("/modes/shapes") && r.exists("/modes/step"))
       {
         const auto shape = r.shape("/modes/shapes");
-        if (shape.size() != 2 || shape[0] != m.n_outputs)
-          fail("modes/shapes must have shape (outputs, modes)");
+        if (shape.size() != 2 || shape[0] != m.n_outputs || shape[1] < 1 ||
+            shape[1] > m.n_outputs + 100000000ull)
+          fail("modes/shapes must have shape (outputs, modes) with at least one mode");
         ModalData &md   = m.modes;
         md.n_modes      = static_cast<unsigned>(shape[1]);
         md.frequency_hz = r.read_double("/modes/frequency_Hz", {shape[1]});
         md.damping_ratio = r.read_double("/modes/damping_ratio", {shape[1]});
         md.shapes       = r.read_double("/modes/shapes", shape);
         md.step         = r.read_double("/modes/step", {shape[1], 3, 5});
+        for (const auto *v : {&md.frequency_hz, &md.damping_ratio, &md.shapes, &md.step})
+          for (const double x : *v)
+            if (!std::isfinite(x))
+              fail("the modal realization (/modes) contains NaN or Inf");
+        for (unsigned i = 0; i < md.n_modes; ++i)
+          if (!(md.frequency_hz[i] >= 0) || !(md.damping_ratio[i] >= 0) ||
+              (i > 0 && md.frequency_hz[i] < md.frequency_hz[i - 1]))
+            fail("modes/frequency_Hz must be ascending and >= 0, damping_ratio >= 0");
       }
     return m;
   }

@@ -12,31 +12,42 @@ namespace irdm
   load_virtual_dof_model(const std::string &path, const double expected_time_step)
   {
     const h5::Reader r(path);
-    if (r.string_attribute("/", "format") != "irdm-virtual-dof-model")
-      throw InputError("'" + path + "' is not a virtual-DOF model (format '" +
-                       r.string_attribute("/", "format") + "'); make one with irdm precompute-vdof");
+    const std::string format =
+      r.has_attribute("/", "format") ? r.string_attribute("/", "format") : std::string("none");
+    if (format != "irdm-virtual-dof-model")
+      throw InputError("'" + path + "' is not a virtual-DOF model (format '" + format +
+                       "'); make one with irdm precompute-vdof");
     VirtualDofModel m;
     m.time_step  = r.double_attribute("/", "time_step_s");
     m.mesh_hash  = r.string_attribute("/", "mesh_hash");
     m.integrator = r.string_attribute("/", "integrator");
-    if (!(m.time_step > 0))
+    if (!(m.time_step > 0) || !std::isfinite(m.time_step))
       throw InputError("'" + path + "': time_step_s must be > 0");
     if (expected_time_step > 0 &&
         std::abs(m.time_step - expected_time_step) > 1e-12 * expected_time_step)
       throw InputError("'" + path + "' was made for a step of " + std::to_string(m.time_step) +
                        " s, not " + std::to_string(expected_time_step) + " s");
     const auto shape = r.shape("/virtual_dofs/surface_response");
-    if (shape.size() != 3 || shape[2] % 3 != 0)
-      throw InputError("'" + path + "': /virtual_dofs/surface_response must be K x T x 3n");
+    if (shape.size() != 3 || shape[2] % 3 != 0 || shape[0] < 1 || shape[1] < 1 || shape[2] < 3 ||
+        shape[0] > 1000000 || shape[1] > 10000000)
+      throw InputError("'" + path + "': /virtual_dofs/surface_response must be K x T x 3n "
+                       "(K, T, n >= 1)");
     m.n_orientations = shape[0];
     m.length         = shape[1];
     m.n_surface      = shape[2] / 3;
     const hsize_t K = m.n_orientations, T = m.length, n = m.n_surface;
     const auto dirs = r.read_double("/virtual_dofs/directions", {K, 3});
     for (hsize_t k = 0; k < K; ++k)
-      m.directions.push_back({dirs[3 * k], dirs[3 * k + 1], dirs[3 * k + 2]});
-    const auto dome = r.read_int("/virtual_dofs/dome_triangles",
-                                 {r.shape("/virtual_dofs/dome_triangles").at(0), 3});
+      {
+        const double len = std::hypot(dirs[3 * k], dirs[3 * k + 1], dirs[3 * k + 2]);
+        if (!(std::abs(len - 1) < 1e-6))
+          throw InputError("'" + path + "': virtual_dofs/directions must be unit vectors");
+        m.directions.push_back({dirs[3 * k], dirs[3 * k + 1], dirs[3 * k + 2]});
+      }
+    const auto dome_shape = r.shape("/virtual_dofs/dome_triangles");
+    if (dome_shape.size() != 2 || dome_shape[1] != 3)
+      throw InputError("'" + path + "': virtual_dofs/dome_triangles must have shape (n, 3)");
+    const auto dome = r.read_int("/virtual_dofs/dome_triangles", dome_shape);
     for (size_t t = 0; t < dome.size(); t += 3)
       {
         for (int c = 0; c < 3; ++c)
@@ -53,15 +64,30 @@ namespace irdm
     m.impulse_force    = r.read_double("/virtual_dofs/impulse_force", {K});
     m.surface_response = r.read_float("/virtual_dofs/surface_response", {K, T, 3 * n});
     m.dof_response     = r.read_double("/virtual_dofs/dof_response", {K, T, K});
+    for (const auto *v : {&m.first_contact, &m.rest_position, &m.impulse_force})
+      for (const double x : *v)
+        if (!std::isfinite(x))
+          throw InputError("'" + path + "': non-finite first_contact, rest_position or "
+                           "impulse_force");
+    for (const double f : m.impulse_force)
+      if (!(f > 0))
+        throw InputError("'" + path + "': virtual_dofs/impulse_force must be > 0 (the responses "
+                         "are per newton of it)");
     m.node_tags        = r.read_int("/outputs/node_tags", {n});
     const auto xyz     = r.read_double("/outputs/coordinates", {n, 3});
+    for (const double x : xyz)
+      if (!std::isfinite(x))
+        throw InputError("'" + path + "': outputs/coordinates contains NaN or Inf");
     for (hsize_t i = 0; i < n; ++i)
       m.coordinates.push_back({xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]});
     for (const long long f : r.read_int("/outputs/fixed", {n}))
       m.fixed.push_back(f != 0);
     if (std::count(m.fixed.begin(), m.fixed.end(), 0) == 0)
       throw InputError("'" + path + "': every surface vertex is fixed");
-    const auto tris = r.read_int("/surface/triangles", {r.shape("/surface/triangles").at(0), 3});
+    const auto tri_shape = r.shape("/surface/triangles");
+    if (tri_shape.size() != 2 || tri_shape[1] != 3)
+      throw InputError("'" + path + "': surface/triangles must have shape (n, 3)");
+    const auto tris = r.read_int("/surface/triangles", tri_shape);
     for (size_t t = 0; t < tris.size(); t += 3)
       {
         for (int c = 0; c < 3; ++c)

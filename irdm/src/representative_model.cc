@@ -304,9 +304,9 @@ namespace irdm
 
   void
   save_representative_model(const RepresentativeModel &m, const std::string &source_file,
-                            const std::string &path)
+                            const std::string &path, OutputLock lock)
   {
-    h5::Writer f(path);
+    h5::Writer f(path, h5::Writer::Mode::create, std::move(lock));
     f.copy_root_attributes(source_file, {"format", "format_version"});
     f.attribute("/", "format", std::string("irdm-representative-model"));
     f.attribute("/", "format_version", 1LL);
@@ -353,29 +353,37 @@ namespace irdm
       fail("not a representative-waveform model (attribute 'format' is missing or different)");
     if (r.double_attribute("/", "format_version") != 1)
       fail("format version not supported (this build reads 1)");
+    check_complete(r, path);
     RepresentativeModel m;
     read_frame(r, path, m, expected_time_step);
+    // Counts are read as whole numbers in range: a delay span past the response length or a
+    // negative one would size the runtime's ring buffers from garbage.
+    const long long T     = m.length;
     m.theta               = r.double_attribute("/", "theta");
-    m.max_delay           = static_cast<unsigned>(r.double_attribute("/", "max_delay_steps"));
-    m.delay_span          = static_cast<unsigned>(r.double_attribute("/", "delay_span_steps"));
-    m.blend               = static_cast<unsigned>(r.double_attribute("/", "blend"));
-    m.candidates          = static_cast<unsigned>(r.double_attribute("/", "candidates"));
+    m.max_delay           = static_cast<unsigned>(r.count_attribute("/", "max_delay_steps", 0, 65535));
+    m.delay_span          = static_cast<unsigned>(r.count_attribute("/", "delay_span_steps", 0,
+                                                                    std::min(T - 1, 65535LL)));
+    m.blend               = static_cast<unsigned>(r.count_attribute("/", "blend", 1, 4));
+    m.candidates          = static_cast<unsigned>(r.count_attribute("/", "candidates", 1, 1000000));
     m.mean_fit            = r.double_attribute("/", "mean_fit");
     m.min_fit             = r.double_attribute("/", "min_fit");
     m.mean_delay          = r.double_attribute("/", "mean_delay_steps");
     m.compression_seconds = r.double_attribute("/", "compression_seconds");
     m.source_file         = r.string_attribute("/", "source_file");
-    if (m.blend < 1 || m.blend > 4)
-      fail("blend must be 1 to 4");
+    if (!(m.theta > 0 && m.theta <= 1))
+      fail("theta must be in (0, 1]");
     for (const char *name : {"/representatives/waveforms", "/representatives/first",
                              "/representatives/term_representative",
                              "/representatives/term_delay", "/representatives/term_amplitude"})
       if (!r.exists(name))
         fail("missing dataset '" + std::string(name) + "'");
     const auto first = r.read_int("/representatives/first", {m.n_inputs + 1ull});
+    const long long max_reps = static_cast<long long>(m.n_inputs) * m.n_outputs;
     for (size_t k = 0; k < first.size(); ++k)
-      if (first[k] < 0 || (k > 0 && first[k] < first[k - 1]))
-        fail("representatives/first must be non-decreasing from 0");
+      if (first[k] < 0 || first[k] > max_reps || (k > 0 && first[k] <= first[k - 1]) ||
+          (k == 0 && first[k] != 0))
+        fail("representatives/first must increase from 0 to at most inputs x outputs (every "
+             "input keeps at least one representative)");
     m.first_representative.assign(first.begin(), first.end());
     const hsize_t R = m.first_representative.back();
     m.representatives = r.read_float("/representatives/waveforms", {R, m.length});
@@ -385,18 +393,19 @@ namespace irdm
     m.term_amplitude = r.read_float("/representatives/term_amplitude", terms);
     m.term_representative.resize(rep.size());
     m.term_delay.resize(delay.size());
+    // Every slot is checked, amplitude 0 or not: the runtime reads them all.
     for (size_t t = 0; t < rep.size(); ++t)
       {
         const size_t k   = t / (static_cast<size_t>(m.n_outputs) * m.blend);
         const auto   n_k = m.first_representative[k + 1] - m.first_representative[k];
-        if (m.term_amplitude[t] != 0 &&
-            (rep[t] < 0 || static_cast<std::uint64_t>(rep[t]) >= n_k || delay[t] < 0 ||
-             delay[t] > m.delay_span))
-          fail("a blend term refers to a representative or delay out of range");
+        if (rep[t] < 0 || static_cast<std::uint64_t>(rep[t]) >= n_k || delay[t] < 0 ||
+            delay[t] > m.delay_span)
+          fail("blend term " + std::to_string(t) + " refers to a representative or delay out of "
+               "range");
         if (!std::isfinite(m.term_amplitude[t]))
           fail("term_amplitude contains NaN or Inf");
-        m.term_representative[t] = static_cast<std::uint32_t>(std::max(0LL, rep[t]));
-        m.term_delay[t]          = static_cast<std::uint16_t>(std::max(0LL, delay[t]));
+        m.term_representative[t] = static_cast<std::uint32_t>(rep[t]);
+        m.term_delay[t]          = static_cast<std::uint16_t>(delay[t]);
       }
     for (const float x : m.representatives)
       if (!std::isfinite(x))

@@ -4,12 +4,14 @@
 
 #include <irdm_common/csv.h>
 #include <irdm_common/error.h>
+#include <irdm_common/files.h>
 #include <irdm_common/h5.h>
 
 #include "elastodynamics_impl.h"
 
 #include <filesystem>
-#include <fstream>
+#include <algorithm>
+#include <sstream>
 
 namespace irdm::fem
 {
@@ -42,6 +44,25 @@ namespace irdm::fem
             col.push_back(v[d]);
           columns.push_back(col);
         }
+    }
+
+    // The map's keys in the order the scene lists them (CSV columns follow the scene, not the
+    // alphabet), then any others.
+    template <typename Map>
+    std::vector<std::string>
+    in_scene_order(const Map &m, const std::vector<std::string> &order)
+    {
+      std::vector<std::string> out;
+      const auto               listed = [&](const std::string &k) {
+        return std::find(out.begin(), out.end(), k) != out.end();
+      };
+      for (const auto &k : order)
+        if (m.count(k) && !listed(k))
+          out.push_back(k);
+      for (const auto &kv : m)
+        if (!listed(kv.first))
+          out.push_back(kv.first);
+      return out;
     }
 
     const char *
@@ -153,24 +174,33 @@ namespace irdm::fem
       {
         std::vector<std::string>         header{"time_s", "kinetic_energy_J", "strain_energy_J"};
         std::vector<std::vector<double>> columns{r.time, r.kinetic_energy, r.strain_energy};
-        for (const auto &[name, series] : r.vertex_displacement)
-          add_vec3_columns(name + "_u", "m", series, header, columns);
-        for (const auto &[name, series] : r.probe_force)
+        std::vector<std::string> vertex_order, probe_order, plane_order;
+        for (const auto &v : scene.outputs.vertices)
+          vertex_order.push_back(v.name);
+        for (const auto &p : scene.prescribed)
+          probe_order.push_back(p.name);
+        for (const auto &p : scene.probes)
+          probe_order.push_back(p.name);
+        for (const auto &p : scene.planes)
+          plane_order.push_back(p.name);
+        for (const auto &name : in_scene_order(r.vertex_displacement, vertex_order))
+          add_vec3_columns(name + "_u", "m", r.vertex_displacement.at(name), header, columns);
+        for (const auto &name : in_scene_order(r.probe_force, probe_order))
           {
             add_vec3_columns(name + "_u", "m", r.probe_displacement.at(name), header, columns);
-            add_vec3_columns(name + "_F", "N", series, header, columns);
+            add_vec3_columns(name + "_F", "N", r.probe_force.at(name), header, columns);
           }
-        for (const auto &[name, series] : r.fixed_reaction)
-          add_vec3_columns(name + "_R", "N", series, header, columns);
+        for (const auto &name : in_scene_order(r.fixed_reaction, scene.fixed_surfaces))
+          add_vec3_columns(name + "_R", "N", r.fixed_reaction.at(name), header, columns);
         if (!r.contact_energy.empty())
           {
             header.insert(header.end(), {"contact_energy_J", "gravity_energy_J"});
             columns.push_back(r.contact_energy);
             columns.push_back(r.gravity_energy);
           }
-        for (const auto &[name, series] : r.plane_force)
+        for (const auto &name : in_scene_order(r.plane_force, plane_order))
           {
-            add_vec3_columns(name + "_F", "N", series, header, columns);
+            add_vec3_columns(name + "_F", "N", r.plane_force.at(name), header, columns);
             header.push_back(name + "_penetration_m");
             columns.push_back(r.plane_penetration.at(name));
           }
@@ -210,14 +240,15 @@ namespace irdm::fem
                              DataOut<3>::type_dof_data, kind);
     // n_subdivisions = degree: quadratic tetrahedra for P2 (VTK cell type 24).
     data_out.build_patches(mapping, scene.fe_degree);
-    char name[64];
-    std::snprintf(name, sizeof name, "%s_%06u.vtu", scene.name.c_str(), step);
-    std::ofstream out(dir / name);
-    if (!out)
-      throw InputError("cannot write '" + (dir / name).string() + "'");
-    data_out.write_vtu(out);
+    char number[16];
+    std::snprintf(number, sizeof number, "_%06u.vtu", step);
+    const std::string  name = scene.name + number;
+    std::ostringstream vtu;
+    data_out.write_vtu(vtu);
+    write_text_file((dir / name).string(), vtu.str());
     records.emplace_back(t, std::string("vtu/") + name);
-    std::ofstream pvd(fs::path(scene.outputs.directory) / (scene.name + ".pvd"));
+    std::ostringstream pvd;
     DataOutBase::write_pvd_record(pvd, records);
+    write_text_file((fs::path(scene.outputs.directory) / (scene.name + ".pvd")).string(), pvd.str());
   }
 } // namespace irdm::fem

@@ -259,8 +259,14 @@ namespace irdm::fem
     // the number of wanted modes so that they converge at rate lambda_i / lambda_{q+1}.
     if (constraints.n_constraints() == 0)
       throw InputError("natural frequencies need a fixed surface: a free body has rigid modes");
-    const unsigned n = dof_handler.n_dofs();
-    const unsigned q = std::min<unsigned>(std::max(2 * n_wanted, n_wanted + 8), n);
+    const unsigned n      = dof_handler.n_dofs();
+    const unsigned n_free = n - static_cast<unsigned>(constraints.n_constraints());
+    if (n_wanted < 1 || n_wanted > n_free)
+      throw InputError("the body has " + std::to_string(n_free) + " free DoFs, so it has 1 to " +
+                       std::to_string(n_free) + " natural frequencies; " +
+                       std::to_string(n_wanted) + " were asked");
+    // The block never exceeds the free DoFs: more vectors would make the reduced mass singular.
+    const unsigned q = std::min<unsigned>(std::max(2 * n_wanted, n_wanted + 8), n_free);
     SparseMatrix<double> k = condensed(stiffness);
     DirectSolver         k_inverse;
     k_inverse.initialize(k);

@@ -231,7 +231,15 @@ namespace irdm::fem
     mass.reinit(sparsity);
 
     for (const auto &f : scene.vertex_forces)
-      force_vertex.push_back(select_vertex(f.vertex, "load '" + f.name + "'"));
+      {
+        const unsigned v = select_vertex(f.vertex, "load '" + f.name + "'");
+        // A force on a fixed vertex goes straight into the support: almost surely a mistake.
+        if (constraints.is_constrained(dofs_of_vertex[v][0]))
+          throw InputError("load '" + f.name + "': its vertex (node tag " +
+                           std::to_string(mesh.node_tags[v]) + ") lies on a fixed surface, so "
+                           "the force would act on nothing");
+        force_vertex.push_back(v);
+      }
     for (const auto &p : scene.prescribed)
       {
         const unsigned v = select_vertex(p.vertex, "prescribed displacement '" + p.name + "'");
@@ -305,6 +313,18 @@ namespace irdm::fem
         if (d2 < best_d2)
           best_d2 = d2, best = v;
       }
+    // A point far from the body is a mistake (wrong units, another mesh), not a request for
+    // the nearest vertex wherever it is: refuse beyond a tenth of the body's size.
+    std::array<double, 3> lo = mesh.vertices[0], hi = mesh.vertices[0];
+    for (const auto &x : mesh.vertices)
+      for (unsigned d = 0; d < 3; ++d)
+        lo[d] = std::min(lo[d], x[d]), hi[d] = std::max(hi[d], x[d]);
+    const double size = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    if (std::sqrt(best_d2) > 0.1 * size)
+      throw InputError(what + ": nearest_to_m is " + std::to_string(std::sqrt(best_d2)) +
+                       " m from the nearest surface vertex, more than a tenth of the body's "
+                       "size (" + std::to_string(size) + " m); the point must lie on or near "
+                       "the surface (units are m)");
     return best;
   }
 

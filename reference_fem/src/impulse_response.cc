@@ -1,6 +1,7 @@
 // Impulse-response precompute by exact modal decoupling of the FEM's time integrator.
 // Plain C++ with LAPACK/BLAS, HDF5 and MPI; the FEM is used through its public interface.
 #include <irdm_common/error.h>
+#include <irdm_common/files.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
@@ -205,6 +206,14 @@ namespace irdm::fem
     const auto    log  = mpi.rank0(options.log);
     if (options.output.empty())
       throw InputError("precompute: no output file given");
+    // Rank 0 writes the file: it checks the path and takes the output's lock now, before
+    // any work, so that a bad path or a second run to the same file is refused at once.
+    OutputLock output_lock;
+    if (rank == 0)
+      {
+        check_output_file("--out", options.output, {scene.mesh_file});
+        output_lock = OutputLock(options.output);
+      }
     if (scene.fixed_surfaces.empty())
       throw InputError("precompute: the scene fixes no surface; a free body has rigid modes "
                        "(non-grounded objects are not supported yet)");
@@ -348,13 +357,24 @@ namespace irdm::fem
     // 4. The file: metadata first, then H in chunks of inputs, each marked done when written.
     const size_t   per_input = static_cast<size_t>(T) * nout;
     const size_t   scalar    = rep.double_storage ? 8 : 4;
-    const unsigned chunk =
-      options.inputs_per_chunk > 0
-        ? options.inputs_per_chunk
-        : static_cast<unsigned>(std::clamp<size_t>(64000000 / (per_input * scalar), 1, 256));
+    // A chunk never holds more inputs than there are (a larger --chunk is clamped).
+    const unsigned chunk = std::min<unsigned>(
+      nin, options.inputs_per_chunk > 0
+             ? options.inputs_per_chunk
+             : static_cast<unsigned>(std::clamp<size_t>(64000000 / (per_input * scalar), 1, 256)));
     const unsigned n_chunks = (nin + chunk - 1) / chunk;
     rep.n_chunks = n_chunks;
     rep.bytes    = static_cast<double>(per_input) * nin * scalar;
+    {
+      // Before the long part: the chunk buffers and GEMM operands of every worker, and the file.
+      const double workers_max = size == 1 ? 4 : 1;
+      const double buffers     = workers_max * chunk * (per_input + static_cast<double>(T) * n) *
+                             (scalar + 8);
+      check_memory_estimate("precompute (--chunk " + std::to_string(chunk) + ")", buffers,
+                            options.allow_large);
+      if (rank == 0)
+        check_disk_estimate("the model", options.output, rep.bytes, options.allow_large);
+    }
 
     const std::string  mesh_hash = file_hash(scene.mesh_file);
     std::ostringstream spec;
@@ -379,8 +399,10 @@ namespace irdm::fem
     double write_seconds = 0;
     if (rank == 0)
       {
-        w = std::make_unique<h5::Writer>(options.output, options.restart ? h5::Writer::Mode::create
-                                                                         : h5::Writer::Mode::resume);
+        w = std::make_unique<h5::Writer>(options.output,
+                                         options.restart ? h5::Writer::Mode::create
+                                                         : h5::Writer::Mode::resume,
+                                         std::move(output_lock));
         w->keep_partial(true);
         if (w->resumed() && w->string_attribute("/", "spec_id") == spec_id &&
             w->exists("/progress/chunk_done"))
@@ -396,9 +418,7 @@ namespace irdm::fem
             if (w->resumed())
               {
                 log("the partial file " + options.output + ".part is from another spec: starting over");
-                w.reset();
-                w = std::make_unique<h5::Writer>(options.output, h5::Writer::Mode::create);
-                w->keep_partial(true);
+                w->start_over();
               }
             {
               auto &f = *w;

@@ -1,7 +1,9 @@
 #include <irdm_common/error.h>
 #include <reference_fem/mesh.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -108,6 +110,18 @@ namespace irdm::fem
     std::ifstream in(path);
     if (!in)
       fail(path, "cannot open the file");
+    // Every count in the file is checked against the file's size before anything is sized
+    // by it: each node, element or name takes at least 2 bytes, so no honest count exceeds
+    // the size. A header claiming 1e18 nodes is refused at once instead of looping.
+    std::error_code   size_error;
+    const std::size_t file_size = std::filesystem::file_size(path, size_error);
+    if (size_error)
+      fail(path, "cannot read its size: " + size_error.message());
+    const auto check_count = [&](const long long n, const char *what) {
+      if (n < 0 || static_cast<unsigned long long>(n) > file_size / 2)
+        fail(path, std::string("the file claims ") + std::to_string(n) + " " + what +
+                     ", which a file of " + std::to_string(file_size) + " bytes cannot hold");
+    };
     std::string line;
     double      version = 0;
     std::unordered_map<long long, std::array<double, 3>> nodes;
@@ -138,13 +152,15 @@ namespace irdm::fem
           }
         else if (line == "$PhysicalNames")
           {
-            int n = 0;
+            long long n = 0;
             in >> n;
             expect(in, "$PhysicalNames");
+            check_count(n, "physical names");
             std::getline(in, line);
-            for (int i = 0; i < n; ++i)
+            for (long long i = 0; i < n; ++i)
               {
-                std::getline(in, line);
+                if (!std::getline(in, line))
+                  fail(path, "the $PhysicalNames section ends early");
                 std::istringstream s(line);
                 int                dim = 0, tag = 0;
                 s >> dim >> tag;
@@ -158,22 +174,27 @@ namespace irdm::fem
         else if (line == "$Entities" && version >= 4)
           {
             // Only the physical tag of each surface and volume entity matters here.
-            std::size_t n[4];
+            long long n[4] = {0, 0, 0, 0};
             in >> n[0] >> n[1] >> n[2] >> n[3];
             expect(in, "$Entities");
+            for (const long long c : n)
+              check_count(c, "entities");
             std::getline(in, line);
             for (int dim = 0; dim < 4; ++dim)
-              for (std::size_t i = 0; i < n[dim]; ++i)
+              for (long long i = 0; i < n[dim]; ++i)
                 {
-                  std::getline(in, line);
+                  if (!std::getline(in, line))
+                    fail(path, "the $Entities section ends early");
                   std::istringstream s(line);
                   int                tag = 0;
                   double             box;
                   s >> tag;
                   for (int k = 0; k < (dim == 0 ? 3 : 6); ++k)
                     s >> box;
-                  std::size_t n_phys = 0;
+                  long long n_phys = 0;
                   s >> n_phys;
+                  if (n_phys < 0)
+                    fail(path, "an entity has a negative number of physical tags");
                   int phys = 0;
                   if (n_phys > 1)
                     fail(path, "an entity has more than one physical tag");
@@ -185,41 +206,53 @@ namespace irdm::fem
           }
         else if (line == "$Nodes")
           {
+            const auto add_node = [&](const long long tag, const std::array<double, 3> &x) {
+              expect(in, "$Nodes");
+              if (!std::isfinite(x[0]) || !std::isfinite(x[1]) || !std::isfinite(x[2]))
+                fail(path, "node " + std::to_string(tag) + " has a coordinate that is not finite");
+              if (!nodes.emplace(tag, x).second)
+                fail(path, "node tag " + std::to_string(tag) + " is defined twice");
+            };
             if (version < 4)
               {
-                std::size_t n = 0;
+                long long n = 0;
                 in >> n;
-                for (std::size_t i = 0; i < n; ++i)
-                  {
-                    long long             tag;
-                    std::array<double, 3> x;
-                    in >> tag >> x[0] >> x[1] >> x[2];
-                    nodes[tag] = x;
-                  }
                 expect(in, "$Nodes");
+                check_count(n, "nodes");
+                for (long long i = 0; i < n; ++i)
+                  {
+                    long long             tag = 0;
+                    std::array<double, 3> x{};
+                    in >> tag >> x[0] >> x[1] >> x[2];
+                    add_node(tag, x);
+                  }
               }
             else
               {
-                std::size_t blocks = 0, n = 0, min_tag, max_tag;
+                long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
                 in >> blocks >> n >> min_tag >> max_tag;
-                for (std::size_t b = 0; b < blocks; ++b)
+                expect(in, "$Nodes");
+                check_count(blocks, "node blocks");
+                check_count(n, "nodes");
+                for (long long b = 0; b < blocks; ++b)
                   {
-                    int         dim, ent, parametric;
-                    std::size_t count;
+                    int       dim = 0, ent = 0, parametric = 0;
+                    long long count = 0;
                     in >> dim >> ent >> parametric >> count;
+                    expect(in, "$Nodes");
+                    check_count(count, "nodes in a block");
                     if (parametric)
                       fail(path, "parametric nodes are not supported");
-                    std::vector<long long> tags(count);
+                    std::vector<long long> tags(static_cast<std::size_t>(count));
                     for (auto &t : tags)
                       in >> t;
                     for (const auto t : tags)
                       {
-                        std::array<double, 3> x;
+                        std::array<double, 3> x{};
                         in >> x[0] >> x[1] >> x[2];
-                        nodes[t] = x;
+                        add_node(t, x);
                       }
                   }
-                expect(in, "$Nodes");
               }
           }
         else if (line == "$Elements")
@@ -231,18 +264,24 @@ namespace irdm::fem
               e.nodes.resize(nn);
               for (auto &v : e.nodes)
                 s >> v;
+              expect(s, "$Elements");
             };
             if (version < 4)
               {
-                std::size_t n = 0;
+                long long n = 0;
                 in >> n;
-                for (std::size_t i = 0; i < n; ++i)
+                expect(in, "$Elements");
+                check_count(n, "elements");
+                for (long long i = 0; i < n; ++i)
                   {
-                    long long  tag;
-                    int        n_tags;
+                    long long  tag = 0;
+                    int        n_tags = 0;
                     RawElement e;
                     in >> tag >> e.type >> n_tags;
-                    std::vector<int> tags(n_tags);
+                    expect(in, "$Elements");
+                    if (n_tags < 0 || n_tags > 64)
+                      fail(path, "an element has " + std::to_string(n_tags) + " tags (0 to 64)");
+                    std::vector<int> tags(static_cast<std::size_t>(n_tags));
                     for (auto &t : tags)
                       in >> t;
                     e.tag = n_tags > 0 ? tags[0] : 0;
@@ -253,18 +292,23 @@ namespace irdm::fem
               }
             else
               {
-                std::size_t blocks = 0, n = 0, min_tag, max_tag;
+                long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
                 in >> blocks >> n >> min_tag >> max_tag;
-                for (std::size_t b = 0; b < blocks; ++b)
+                expect(in, "$Elements");
+                check_count(blocks, "element blocks");
+                check_count(n, "elements");
+                for (long long b = 0; b < blocks; ++b)
                   {
-                    int         dim, ent, type;
-                    std::size_t count;
+                    int       dim = 0, ent = 0, type = 0;
+                    long long count = 0;
                     in >> dim >> ent >> type >> count;
+                    expect(in, "$Elements");
+                    check_count(count, "elements in a block");
                     const auto it   = entity_tag.find({dim, ent});
                     const int  phys = it == entity_tag.end() ? 0 : it->second;
-                    for (std::size_t i = 0; i < count; ++i)
+                    for (long long i = 0; i < count; ++i)
                       {
-                        long long  tag;
+                        long long  tag = 0;
                         RawElement e;
                         e.type = type;
                         e.tag  = phys;
@@ -296,6 +340,7 @@ namespace irdm::fem
       return i;
     };
     std::size_t element_no = 0;
+    std::map<std::array<unsigned, 4>, std::size_t> tet_of_vertices; // sorted vertices -> number
     for (const auto &e : elements)
       {
         ++element_no;
@@ -326,6 +371,12 @@ namespace irdm::fem
         if (vol < 0)
           fail(path, "tetrahedron " + std::to_string(element_no) +
                        " is inverted (negative volume); the mesh is corrupt");
+        std::array<unsigned, 4> key = t;
+        std::sort(key.begin(), key.end());
+        const auto [seen, is_new] = tet_of_vertices.emplace(key, element_no);
+        if (!is_new)
+          fail(path, "tetrahedron " + std::to_string(element_no) + " repeats element " +
+                       std::to_string(seen->second) + " (the same four nodes)");
         mesh.tets.push_back(t);
         mesh.tet_tags.push_back(e.tag);
       }

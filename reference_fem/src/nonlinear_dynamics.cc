@@ -375,4 +375,10 @@ namespace irdm::fem
   {
     impl_->linear.write_outputs(result);
   }
+
+  unsigned
+  NonlinearElasticity::n_dofs() const
+  {
+    return impl_->linear.dof_handler.n_dofs();
+  }
 } // namespace irdm::fem

@@ -6,7 +6,10 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -324,6 +327,40 @@ namespace irdm::fem
       return r;
     }
 
+    // Where in the text a number overflows a double: "line L, key 'K': 1e400 ...".
+    std::string
+    overflowing_number(const std::string &text)
+    {
+      std::size_t line = 1;
+      std::string last_key;
+      for (std::size_t i = 0; i < text.size(); ++i)
+        {
+          const char c = text[i];
+          if (c == '\n')
+            ++line;
+          else if (c == '"')
+            {
+              const std::size_t end = text.find('"', i + 1);
+              if (end == std::string::npos)
+                break;
+              last_key = text.substr(i + 1, end - i - 1);
+              i        = end;
+            }
+          else if (c == '-' || std::isdigit(static_cast<unsigned char>(c)))
+            {
+              std::size_t j = i;
+              while (j < text.size() && std::strchr("0123456789+-.eE", text[j]))
+                ++j;
+              const std::string token = text.substr(i, j - i);
+              if (!std::isfinite(std::strtod(token.c_str(), nullptr)))
+                return "line " + std::to_string(line) + ", key '" + last_key + "': the number " +
+                       token + " is too large for a double";
+              i = j - 1;
+            }
+        }
+      return "a number is too large for a double";
+    }
+
     std::string
     parse_name(const Node &n, const std::string &fallback)
     {
@@ -332,6 +369,13 @@ namespace irdm::fem
       const std::string s = n.at("name").string();
       if (s.empty() || s.find_first_of("/ \t\n,") != std::string::npos)
         fail(n.where + ".name", "must be non-empty, without '/', ',' or spaces");
+      // Names become file names (VTU frames, HDF5 groups): keep them short and plain.
+      if (s.size() > 64)
+        fail(n.where + ".name", "must have at most 64 characters (it has " +
+                                  std::to_string(s.size()) + ")");
+      for (const char c : s)
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.'))
+          fail(n.where + ".name", "may hold only letters, digits, '_', '-' and '.'");
       return s;
     }
   } // namespace
@@ -349,6 +393,12 @@ namespace irdm::fem
     catch (const json::parse_error &e)
       {
         throw InputError("scene " + origin + ": malformed JSON: " + e.what());
+      }
+    catch (const json::out_of_range &e)
+      {
+        // A number too large for a double (1e400): name the key it belongs to.
+        throw InputError("scene " + origin + ": " + overflowing_number(json_text) + " (" +
+                         e.what() + ")");
       }
     const Node top{root, "'" + origin + "'"};
     top.allow_only({"format", "name", "mesh", "fe_degree", "material", "damping",
@@ -651,15 +701,15 @@ namespace irdm::fem
         if (o.has("every"))
           {
             const long long k = o.at("every").integer();
-            if (k < 1)
-              fail(o.where + ".every", "must be >= 1");
+            if (k < 1 || k > 1000000000)
+              fail(o.where + ".every", "must be a whole number from 1 to 1e9");
             s.outputs.every = static_cast<unsigned>(k);
           }
         if (o.has("vtu_every"))
           {
             const long long k = o.at("vtu_every").integer();
-            if (k < 0)
-              fail(o.where + ".vtu_every", "must be >= 0 (0: no VTU output)");
+            if (k < 0 || k > 1000000000)
+              fail(o.where + ".vtu_every", "must be a whole number from 0 to 1e9 (0: no VTU output)");
             s.outputs.vtu_every = static_cast<unsigned>(k);
           }
         if (o.has("hdf5"))

@@ -1,6 +1,7 @@
 // Virtual-DOF precompute: one nonlinear FEM run per wall orientation (NonlinearElasticity,
 // through its public interface), dealt to MPI ranks; rank 0 gathers and writes.
 #include <irdm_common/error.h>
+#include <irdm_common/files.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/nonlinear_elasticity.h>
@@ -100,6 +101,14 @@ namespace irdm::fem
     const auto    log  = mpi.rank0(options.log);
     if (options.output.empty())
       throw InputError("virtual DOFs: no output file given");
+    // Rank 0 writes the file: it checks the path and takes the output's lock now, before
+    // any work, so that a bad path or a second run to the same file is refused at once.
+    OutputLock output_lock;
+    if (rank == 0)
+      {
+        check_output_file("--out", options.output, {scene.mesh_file});
+        output_lock = OutputLock(options.output);
+      }
     if (scene.fixed_surfaces.empty())
       throw InputError("virtual DOFs: the scene fixes no surface; a free body hit by a wall "
                        "moves away rigidly (non-grounded objects are not supported yet)");
@@ -244,7 +253,8 @@ namespace irdm::fem
     std::vector<double> force(K), seconds(K), band_size(K), newton(K);
     if (rank == 0)
       {
-        w = std::make_unique<h5::Writer>(options.output);
+        w = std::make_unique<h5::Writer>(options.output, h5::Writer::Mode::create,
+                                         std::move(output_lock));
         auto &f = *w;
         f.attribute("/", "format", std::string("irdm-virtual-dof-model"));
         f.attribute("/", "format_version", 2LL);

@@ -150,9 +150,15 @@ namespace irdm::validation
       catch (const InputError &)
         {}
     double per_orientation = 0;
+    if (!reuse && fs::exists(o.model_file))
+      throw InputError("--model '" + o.model_file + "' exists but is not a virtual-DOF model of "
+                       "this scene with " + std::to_string(o.subdivisions) + " subdivisions and "
+                       "T = " + std::to_string(o.length) + " (a point model, another scene or "
+                       "another spec); it is never overwritten: remove it or choose another path");
     if (!reuse)
       {
-        fs::create_directories(fs::path(o.model_file).parent_path());
+        if (!fs::path(o.model_file).parent_path().empty())
+          fs::create_directories(fs::path(o.model_file).parent_path());
         fem::VirtualDofOptions vo;
         vo.output       = o.model_file;
         vo.subdivisions = o.subdivisions;

@@ -30,6 +30,17 @@ namespace irdm::validation
 {
   namespace
   {
+    // validate writes its working models into --models and removes each after use: a file
+    // already there is someone's, and is never overwritten or removed.
+    void
+    refuse_existing_model(const std::string &path)
+    {
+      if (fs::exists(path))
+        throw InputError("'" + path + "' exists; validate writes its working models to --models "
+                         "and removes them after use, so it never touches a file already there: "
+                         "move it or choose another --models folder");
+    }
+
 
     // The uncompressed model, all taps or the first `taps`.
     Series
@@ -176,6 +187,7 @@ namespace irdm::validation
         // 1. Model (restricted to the scene's touched region; T >= N so nothing truncates).
         fem::PrecomputeOptions po;
         po.output  = (fs::path(o.model_dir) / (scene.name + ".h5")).string();
+        refuse_existing_model(po.output);
         po.length  = std::max(scene.model.length, N);
         po.restart = true;
         const auto pre = fem::precompute_impulse_responses(scene, po);
@@ -414,6 +426,7 @@ namespace irdm::validation
         s.model      = {};
         fem::PrecomputeOptions po;
         po.output  = (fs::path(o.model_dir) / "full.h5").string();
+        refuse_existing_model(po.output);
         po.restart = true;
         po.log     = [&](const std::string &l) {
           if (l.rfind("chunk", 0) != 0)

@@ -1,8 +1,13 @@
 #pragma once
 // Thin RAII layer over the HDF5 C API, shared by the FEM output and the IRDM model files.
 // Arrays are row-major (C order), as HDF5 stores them. Writers are atomic: data go to
-// "<path>.part" and are renamed to <path> only by commit(), so no half-written file ever
-// carries the final name.
+// "<path>.part" and are renamed to <path> only by commit() (flush, close, fsync, rename, fsync
+// of the folder, every return checked), so no half-written file ever carries the final name.
+// A writer holds an OutputLock on "<path>.lock": a second run to the same path is refused
+// before it touches the first one's part file. Write failures are IoError; bad files read
+// are InputError.
+#include <irdm_common/files.h>
+
 #include <hdf5.h>
 
 #include <string>
@@ -19,7 +24,8 @@ namespace irdm::h5
       create, // always start a new "<path>.part"
       resume  // reopen an existing "<path>.part" (see resumed()), else create
     };
-    explicit Writer(const std::string &path, Mode mode = Mode::create);
+    /// lock: the output's lock if the caller took it earlier (before long work), else taken here.
+    explicit Writer(const std::string &path, Mode mode = Mode::create, OutputLock lock = {});
     /// True if an existing partial file was reopened.
     bool
     resumed() const
@@ -52,6 +58,10 @@ namespace irdm::h5
     string_attribute(const std::string &object, const std::string &name) const;
     bool
     exists(const std::string &name) const;
+    /// Discards the partial file (a resumed one from another spec) and starts a new one,
+    /// keeping the lock.
+    void
+    start_over();
     /// Pushes everything written so far to disk.
     void
     flush();
@@ -106,6 +116,7 @@ namespace irdm::h5
     hid_t       file_         = -1;
     bool        resumed_      = false;
     bool        keep_partial_ = false;
+    OutputLock  lock_;
   };
 
   /// Read access with shape checks; every failure is an InputError naming file and dataset.
@@ -137,8 +148,13 @@ namespace irdm::h5
     has_attribute(const std::string &object, const std::string &name) const;
     std::string
     string_attribute(const std::string &object, const std::string &name) const;
+    /// A single number (an array attribute is refused, never read into one double).
     double
     double_attribute(const std::string &object, const std::string &name) const;
+    /// A single whole number in [lo, hi]; InputError naming the attribute otherwise.
+    long long
+    count_attribute(const std::string &object, const std::string &name, long long lo,
+                    long long hi) const;
 
   private:
     std::string path_;

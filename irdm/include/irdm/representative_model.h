@@ -9,6 +9,7 @@
 // Delays are causal (d >= 0) so that the runtime can read a delayed copy of a representative's
 // convolution instead of convolving again: each representative is convolved once per step
 // with its input's force history, and a substituted waveform costs one read per blend term.
+#include <irdm_common/files.h>
 #include <irdm/model.h>
 
 #include <cstdint>
@@ -83,7 +84,7 @@ namespace irdm
   /// metadata and groups, plus /representatives. Written atomically.
   void
   save_representative_model(const RepresentativeModel &m, const std::string &source_file,
-                            const std::string &path);
+                            const std::string &path, OutputLock lock = {});
   RepresentativeModel
   load_representative_model(const std::string &path,
                             std::optional<double> expected_time_step = {});

@@ -27,6 +27,7 @@ namespace irdm::fem
     std::optional<bool>     double_storage; // overrides scene.model.storage
     unsigned                inputs_per_chunk = 0; // 0: about 64 MB of responses per chunk
     bool                    restart          = false; // ignore a resumable "<output>.part"
+    bool allow_large = false; // run even if the memory or disk estimate exceeds what is free
     std::function<void(const std::string &)> log;      // progress lines (rank 0 only)
   };
 

@@ -61,6 +61,9 @@ namespace irdm::fem
     /// Writes the scene's outputs (HDF5 and CSV as configured) for a result of this solver.
     void
     write_outputs(const RunResult &result) const;
+    /// Degrees of freedom of the discretization (fixed ones included).
+    unsigned
+    n_dofs() const;
 
     /// Consistency of the tangent: at the displacement amplitude * (a smooth field), the
     /// relative difference || K_T d - (R(u + h d) - R(u - h d)) / (2h) || / || K_T d || for a
