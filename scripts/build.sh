@@ -4,5 +4,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 type=${1:-Release}
 dir=build; [ "$type" = Debug ] && dir=build-debug
-cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE="$type" >/dev/null
+# IRDM_WERROR=ON (set by scripts/test.sh, so CI): a warning in our own code fails the build.
+cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE="$type" -DIRDM_WERROR="${IRDM_WERROR:-OFF}" >/dev/null
 ninja -C "$dir" -j"$(nproc)"

@@ -45,6 +45,23 @@ operator delete(void *p, std::size_t) noexcept
 {
   std::free(p);
 }
+// The array forms too: otherwise, under AddressSanitizer, memory from this operator new (malloc)
+// reaches the sanitizer's own operator delete[] and is reported as an alloc-dealloc mismatch.
+void *
+operator new[](std::size_t n)
+{
+  return operator new(n);
+}
+void
+operator delete[](void *p) noexcept
+{
+  std::free(p);
+}
+void
+operator delete[](void *p, std::size_t) noexcept
+{
+  std::free(p);
+}
 
 TEST(Precompute, ModalRouteEqualsSteppingTheFem)
 {

@@ -57,7 +57,7 @@ TEST(Scene, ParsesValuesAndDefaults)
 TEST(Scene, RayleighFromRatiosHitsBothTargets)
 {
   const auto ab = irdm::fem::rayleigh_from_ratios(0.02, 1.5, 0.05, 30);
-  for (const auto [zeta, f] : {std::pair{0.02, 1.5}, std::pair{0.05, 30.0}})
+  for (const auto &[zeta, f] : {std::pair{0.02, 1.5}, std::pair{0.05, 30.0}})
     {
       const double w = 2 * M_PI * f;
       EXPECT_NEAR(ab[0] / (2 * w) + ab[1] * w / 2, zeta, 1e-15);
