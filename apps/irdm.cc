@@ -4,6 +4,7 @@
 #include <irdm/representative_model.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
+#include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/nonlinear_elasticity.h>
@@ -560,30 +561,53 @@ namespace
   }
 } // namespace
 
+namespace
+{
+  // All our files are closed by now (RAII). After a failed HDF5 close, HDF5's own cleanup at
+  // MPI_Finalize would crash on that file (irdm::h5::a_close_failed()): end here instead.
+  int
+  finish(const int status)
+  {
+    if (irdm::h5::a_close_failed())
+      {
+        std::fflush(stdout);
+        std::fflush(stderr);
+        std::_Exit(status);
+      }
+    return status;
+  }
+
+  int
+  run_reporting_errors(int argc, char **argv)
+  {
+    try
+      {
+        return run(argc, argv);
+      }
+    catch (const irdm::InputError &e)
+      {
+        std::fprintf(stderr, "irdm: error: %s\n", e.what());
+        abort_other_ranks();
+        return 2;
+      }
+    catch (const irdm::IoError &e)
+      {
+        std::fprintf(stderr, "irdm: error: %s\n", e.what());
+        abort_other_ranks();
+        return 4;
+      }
+    catch (const std::exception &e)
+      {
+        std::fprintf(stderr, "irdm: internal error: %s\n", e.what());
+        abort_other_ranks();
+        return 1;
+      }
+  }
+} // namespace
+
 int
 main(int argc, char **argv)
 {
   dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
-  try
-    {
-      return run(argc, argv);
-    }
-  catch (const irdm::InputError &e)
-    {
-      std::fprintf(stderr, "irdm: error: %s\n", e.what());
-      abort_other_ranks();
-      return 2;
-    }
-  catch (const irdm::IoError &e)
-    {
-      std::fprintf(stderr, "irdm: error: %s\n", e.what());
-      abort_other_ranks();
-      return 4;
-    }
-  catch (const std::exception &e)
-    {
-      std::fprintf(stderr, "irdm: internal error: %s\n", e.what());
-      abort_other_ranks();
-      return 1;
-    }
+  return finish(run_reporting_errors(argc, argv));
 }

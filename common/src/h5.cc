@@ -3,12 +3,24 @@
 #include <irdm_common/h5.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
 
 namespace irdm::h5
 {
+  namespace
+  {
+    std::atomic<bool> close_failed{false};
+  } // namespace
+
+  bool
+  a_close_failed()
+  {
+    return close_failed.load();
+  }
+
   namespace
   {
     // HDF5 prints its own error stack by default; we report errors ourselves.
@@ -92,8 +104,8 @@ namespace irdm::h5
   void
   Writer::start_over()
   {
-    if (file_ >= 0)
-      H5Fclose(file_);
+    if (file_ >= 0 && H5Fclose(file_) < 0)
+      close_failed = true;
     std::remove(part_path_.c_str());
     resumed_ = false;
     file_    = H5Fcreate(part_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
@@ -105,7 +117,8 @@ namespace irdm::h5
   {
     if (file_ >= 0)
       {
-        H5Fclose(file_);
+        if (H5Fclose(file_) < 0)
+          close_failed = true;
         if (!keep_partial_)
           std::remove(part_path_.c_str());
       }
@@ -428,6 +441,8 @@ namespace irdm::h5
     const bool flushed = H5Fflush(file_, H5F_SCOPE_GLOBAL) >= 0;
     const bool closed  = H5Fclose(file_) >= 0;
     file_              = -1;
+    if (!closed)
+      close_failed = true;
     if (!flushed || !closed)
       {
         std::remove(part_path_.c_str());

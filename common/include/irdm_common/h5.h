@@ -15,6 +15,12 @@
 
 namespace irdm::h5
 {
+  /// True once an HDF5 file failed to close (disk full). HDF5 keeps such a file in its tables,
+  /// and its own cleanup at exit (at MPI_Finalize for parallel HDF5) then crashes closing it
+  /// again: a program should end with _Exit once its files are closed (apps/irdm.cc does).
+  bool
+  a_close_failed();
+
   /// An HDF5 file being written; becomes visible under its final name on commit().
   class Writer
   {
