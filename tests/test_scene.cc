@@ -1,6 +1,7 @@
 // Scene files: valid input parses to the right values; every kind of bad input is an
 // InputError that names the problem.
 #include <irdm_common/error.h>
+#include <reference_fem/elastodynamics.h>
 #include <reference_fem/scene.h>
 
 #include <gtest/gtest.h>
@@ -124,4 +125,42 @@ TEST(Scene, RejectsMissingMeshAndInconsistentKeys)
   std::string v2 = scene("");
   v2.replace(v2.find("irdm-scene/1"), 12, "irdm-scene/2");
   expect_error(v2, "unknown format");
+}
+
+TEST(Scene, NothingIsSilentlyTruncated)
+{
+  // A number too large for a double names its line and key (it was "number overflow").
+  expect_error(scene("", R"("youngs_modulus_Pa": 1e400, "poisson_ratio": 0.4, "density_kg_m3": 1)"),
+               "key 'youngs_modulus_Pa': the number 1e400");
+  // Counts that would wrap at 2^32.
+  expect_error(scene(R"(, "outputs": {"every": 4294967297})"), "outputs.every");
+  expect_error(scene(R"(, "outputs": {"vtu_every": 4294967296})"), "vtu_every");
+  // Names become file names: at most 64 plain characters (57 used to collide VTU frames).
+  expect_error(scene(R"(, "name": ")" + std::string(65, 'a') + R"(")"), "at most 64");
+  expect_error(scene(R"(, "name": "a*b")"), "letters, digits");
+  EXPECT_EQ(parse_scene(scene(R"(, "name": ")" + std::string(64, 'a') + R"(")"), ".").name.size(),
+            64u);
+}
+
+TEST(Scene, PointsFarFromTheBodyAndLoadsOnFixedVerticesAreRefused)
+{
+  const auto fem_error = [](const std::string &json, const std::string &needle) {
+    try
+      {
+        irdm::fem::ElasticDynamics fem(parse_scene(json, "."));
+        ADD_FAILURE() << "no error for: " << json;
+      }
+    catch (const InputError &e)
+      {
+        EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+      }
+  };
+  // The beam is 0.25 m long: a point 1.7 m away is a mistake, not "the nearest vertex".
+  fem_error(scene(R"(, "fixed_surfaces": ["clamp"], "loads": [{"type": "vertex_force",
+      "name": "far", "vertex": {"nearest_to_m": [1.7, 0, 0]}, "force_N": [0, 0, -1]}])"),
+            "more than a tenth of the body's size");
+  // The clamped end (x = 0) is fixed: a load there would act on nothing.
+  fem_error(scene(R"(, "fixed_surfaces": ["clamp"], "loads": [{"type": "vertex_force",
+      "name": "on_clamp", "vertex": {"nearest_to_m": [0, 0, 0]}, "force_N": [0, 0, -1]}])"),
+            "lies on a fixed surface");
 }

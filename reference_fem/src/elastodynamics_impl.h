@@ -80,7 +80,7 @@ namespace irdm::fem
     void
     factorize();
     RunResult
-    run(const std::function<void(double)> &progress);
+    run(const std::function<void(double)> &progress, const SampleSink &sink, unsigned batch);
     RunResult
     solve_static(double t) const;
     std::vector<double>

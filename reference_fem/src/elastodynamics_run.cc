@@ -108,7 +108,8 @@ namespace irdm::fem
 namespace irdm::fem
 {
   RunResult
-  ElasticDynamics::Impl::run(const std::function<void(double)> &progress)
+  ElasticDynamics::Impl::run(const std::function<void(double)> &progress, const SampleSink &sink,
+                             const unsigned batch)
   {
     if (!(scene.duration > 0))
       throw InputError("scene '" + scene.name + "' gives no time.duration_s: nothing to run");
@@ -212,7 +213,15 @@ namespace irdm::fem
         f.swap(f_new);
 
         if (k % scene.outputs.every == 0 || k == N)
-          record(u, v, a, f, lambda, t, out);
+          {
+            record(u, v, a, f, lambda, t, out);
+            if (sink && (out.time.size() >= batch || k == N))
+              {
+                sink(out);
+                if (k < N) // the last batch stays, for the caller's summary
+                  clear_samples(out);
+              }
+          }
         if (scene.outputs.vtu_every > 0 && !scene.outputs.directory.empty() &&
             (k % scene.outputs.vtu_every == 0 || k == N))
           write_vtu(u, k, t, vtu_records);
@@ -332,9 +341,10 @@ namespace irdm::fem
   {}
   ElasticDynamics::~ElasticDynamics() = default;
   RunResult
-  ElasticDynamics::run(const std::function<void(double)> &progress)
+  ElasticDynamics::run(const std::function<void(double)> &progress, const SampleSink &sink,
+                       const unsigned batch)
   {
-    return impl_->run(progress);
+    return impl_->run(progress, sink, batch);
   }
   RunResult
   ElasticDynamics::solve_static(const double t) const
@@ -355,6 +365,11 @@ namespace irdm::fem
   ElasticDynamics::n_dofs() const
   {
     return impl_->dof_handler.n_dofs();
+  }
+  unsigned
+  ElasticDynamics::n_free_dofs() const
+  {
+    return impl_->dof_handler.n_dofs() - static_cast<unsigned>(impl_->constraints.n_constraints());
   }
   unsigned
   ElasticDynamics::n_cells() const

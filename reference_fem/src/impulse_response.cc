@@ -229,6 +229,14 @@ namespace irdm::fem
     // 1. FEM matrices on the free DoFs, and the vertex sets.
     auto                  t0 = Clock::now();
     ElasticDynamics       fem(scene);
+    {
+      // Checked before the dense matrices are built (2 n^2 doubles: 6 GB at n = 19440).
+      const unsigned n = fem.n_free_dofs();
+      if (n > 12000)
+        throw InputError("precompute: " + std::to_string(n) +
+                         " free DoFs is beyond the dense modal route (12000); use fe_degree 1 "
+                         "or a coarser mesh");
+    }
     const DenseSystem     sys = fem.dense_free_system();
     const SurfaceMesh     b   = fem.boundary();
     const auto            out_v = select_vertices(scene.model.outputs, b, sys, "outputs");
@@ -247,10 +255,6 @@ namespace irdm::fem
     rep.n_inputs  = nin;
     rep.n_outputs = nout;
     rep.seconds_fem = since(t0);
-    if (n > 12000)
-      throw InputError("precompute: " + std::to_string(n) +
-                       " free DoFs is beyond the dense modal route (12000); use fe_degree 1 "
-                       "or a coarser mesh");
     log("FEM: " + std::to_string(n) + " free DoFs; model " + std::to_string(nout) +
         " outputs x " + std::to_string(nin) + " inputs x " + std::to_string(T) + " samples (" +
         (rep.double_storage ? "double" : "float") + ")");

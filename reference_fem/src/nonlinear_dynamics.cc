@@ -118,7 +118,8 @@ namespace irdm::fem
   }
 
   RunResult
-  NonlinearElasticity::run(const std::function<void(double)> &progress) const
+  NonlinearElasticity::run(const std::function<void(double)> &progress, const SampleSink &sink,
+                           const unsigned batch) const
   {
     const Impl &I  = *impl_;
     const auto &L  = I.linear;
@@ -357,7 +358,15 @@ namespace irdm::fem
         f.swap(f_new);
         f_c.swap(f_c_new);
         if (step % sc.outputs.every == 0 || step == N)
-          record(t1, contact);
+          {
+            record(t1, contact);
+            if (sink && (out.time.size() >= batch || step == N))
+              {
+                sink(out);
+                if (step < N) // the last batch stays, for the caller's summary
+                  clear_samples(out);
+              }
+          }
         if (progress && (20 * step) / N != last_report)
           {
             last_report = (20 * step) / N;

@@ -68,6 +68,44 @@ namespace irdm::fem
     unsigned n_steps = 0;
   };
 
+  /// Receives the samples a run has recorded so far (up to a batch at a time, and the last
+  /// ones at the end); the run clears each batch after the call, so that a long run's memory
+  /// stays bounded (see ResultWriter).
+  using SampleSink = std::function<void(const RunResult &)>;
+
+  /// Empties the sample series of a result (keeping names, surface and costs).
+  void
+  clear_samples(RunResult &r);
+
+  /// Samples a run of the scene records: t = 0, every outputs.every steps, and the last step.
+  unsigned
+  n_samples(const Scene &scene);
+
+  /// Writes a run's outputs (HDF5 and CSV as the scene asks; docs/fem-output.md) as its samples
+  /// come: the HDF5 datasets are made at their final size with the first batch and each batch
+  /// is appended, CSV rows likewise. Everything goes to part files, and finish() commits them
+  /// (every return checked, fsync, rename); destroyed without finish(), it removes them. A
+  /// second writer of the same scene name in the same folder is refused (a lock).
+  class ResultWriter
+  {
+  public:
+    ResultWriter(const Scene &scene, unsigned n_dofs, unsigned n_samples);
+    ~ResultWriter();
+    ResultWriter(const ResultWriter &) = delete;
+    ResultWriter &
+    operator=(const ResultWriter &) = delete;
+    /// The samples in batch, after those already written.
+    void
+    append(const RunResult &batch);
+    /// Commits the files; last holds what is known only at the end (penalties, node tags).
+    void
+    finish(const RunResult &last);
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+  };
+
   class ElasticDynamics
   {
   public:
@@ -79,9 +117,11 @@ namespace irdm::fem
     operator=(const ElasticDynamics &) = delete;
 
     /// Runs the scene from its initial state to its duration. The callback, if given, is
-    /// called with the fraction done, about every 5 %.
+    /// called with the fraction done, about every 5 %. With a sink, the samples are handed to
+    /// it every `batch` samples and cleared (the result then holds only the last batch).
     RunResult
-    run(const std::function<void(double)> &progress = {});
+    run(const std::function<void(double)> &progress = {}, const SampleSink &sink = {},
+        unsigned batch = 4096);
 
     /// Static equilibrium K u = f under the loads at time t (and gravity), with prescribed
     /// displacements at t: one output sample.
@@ -106,6 +146,9 @@ namespace irdm::fem
 
     unsigned
     n_dofs() const;
+    /// DoFs not fixed by a constraint (what dense_free_system() would hold).
+    unsigned
+    n_free_dofs() const;
     unsigned
     n_cells() const;
     double

@@ -56,7 +56,8 @@ namespace irdm::fem
     /// The callback, if given, gets the fraction done about every 5 %. Throws InputError if
     /// Newton fails at a step (an element inverted, or no convergence: use a smaller step).
     RunResult
-    run(const std::function<void(double)> &progress = {}) const;
+    run(const std::function<void(double)> &progress = {}, const SampleSink &sink = {},
+        unsigned batch = 4096) const;
 
     /// Writes the scene's outputs (HDF5 and CSV as configured) for a result of this solver.
     void
