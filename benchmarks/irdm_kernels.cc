@@ -6,6 +6,7 @@
 //   irdm_kernels MODEL.h5 [REPORT.md] [google-benchmark flags]
 // MODEL.h5: a model from 'irdm precompute' (scripts/benchmark.sh makes one: the press scene's
 // inputs, every surface vertex out, T = 500, float, like the full cat model).
+#include <irdm_common/files.h>
 #include <irdm/modal_model.h>
 #include <irdm/point_interaction.h>
 #include <irdm/representative_interaction.h>
@@ -168,7 +169,7 @@ main(int argc, char **argv)
                 m.n_inputs, m.n_outputs, m.length, m.double_storage ? "double" : "float");
   std::printf("\n%s%s", head, md.c_str());
   if (!report.empty())
-    std::ofstream(report) << head << md;
+    irdm::write_text_file(report, std::string(head) + md);
   benchmark::Shutdown();
   return 0;
 }

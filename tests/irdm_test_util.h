@@ -5,6 +5,7 @@
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/scene.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -30,6 +31,18 @@ namespace irdm_test
       "model": {"length": 100, "storage": "double",
                 "inputs": {"within": {"center_m": [0.22, 0.0, 0.01], "radius_m": 0.03}}})" +
            extra + "}";
+  }
+
+  /// "env -i PATH=... HOME=... " for running the CLI without this test process's MPI
+  /// variables (a nested mpirun would take them for its own), keeping the sanitizers' options.
+  inline std::string
+  clean_environment()
+  {
+    std::string env = "env -i PATH=/usr/bin:/bin HOME=/tmp ";
+    for (const char *name : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "LSAN_OPTIONS"})
+      if (const char *value = std::getenv(name))
+        env += std::string(name) + "='" + value + "' ";
+    return env;
   }
 
   inline std::string

@@ -24,8 +24,7 @@ namespace
   int
   status(const std::string &cmd)
   {
-    const std::string clean = "env -i PATH=/usr/bin:/bin HOME=/tmp ";
-    const int s = std::system((clean + "bash -c '" + cmd + "' > /dev/null 2>&1").c_str());
+    const int s = std::system((clean_environment() + "bash -c '" + cmd + "' > /dev/null 2>&1").c_str());
     return WIFEXITED(s) ? WEXITSTATUS(s) : -1;
   }
 

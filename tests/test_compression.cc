@@ -198,7 +198,7 @@ TEST(Compression, FileRoundTripAndBadInput)
 TEST(Compression, ModalModelConvergesToTheExactModelWithItsModes)
 {
   const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
-  const auto       model = make_model(scene, "modal.h5");
+  const auto       model = make_model(scene, "modal_compression.h5");
   ASSERT_GT(model.modes.n_modes, 20u);
   std::vector<double> errors;
   for (const unsigned M : {5u, model.modes.n_modes / 4, model.modes.n_modes})
@@ -225,7 +225,7 @@ TEST(Compression, CommandLineChecksItsInput)
 {
   const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
   make_model(scene, "cli_src.h5");
-  const std::string cli = std::string("env -i PATH=/usr/bin:/bin HOME=/tmp ") + IRDM_CLI + " compress ";
+  const std::string cli = clean_environment() + IRDM_CLI + " compress ";
   const auto status = [](const std::string &cmd) {
     const int s = std::system((cmd + " > /dev/null 2>&1").c_str());
     return WIFEXITED(s) ? WEXITSTATUS(s) : -1;

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <new>
 #include <fstream>
 #include <map>
 
@@ -59,6 +60,30 @@ operator delete[](void *p) noexcept
 }
 void
 operator delete[](void *p, std::size_t) noexcept
+{
+  std::free(p);
+}
+// And the nothrow forms: std::stable_sort's buffer comes from operator new(nothrow) and goes
+// back through operator delete, so both must be ours (malloc and free).
+void *
+operator new(std::size_t n, const std::nothrow_t &) noexcept
+{
+  if (g_count_allocations)
+    ++g_allocations;
+  return std::malloc(n ? n : 1);
+}
+void *
+operator new[](std::size_t n, const std::nothrow_t &tag) noexcept
+{
+  return operator new(n, tag);
+}
+void
+operator delete(void *p, const std::nothrow_t &) noexcept
+{
+  std::free(p);
+}
+void
+operator delete[](void *p, const std::nothrow_t &) noexcept
 {
   std::free(p);
 }
@@ -248,7 +273,7 @@ TEST(Precompute, TwoMpiRanksGiveTheSerialResult)
   const std::string serial = tmp("serial.h5"), parallel = tmp("parallel.h5");
   // A clean environment: this test process is itself an MPI singleton, and its OMPI_*
   // variables would confuse a nested mpirun.
-  const std::string clean = "env -i PATH=/usr/bin:/bin HOME=/tmp ";
+  const std::string clean = clean_environment();
   const std::string base  = std::string(IRDM_CLI) + " precompute " + scene_file +
                            " --quiet --restart --chunk 5 --out ";
   ASSERT_EQ(std::system((clean + base + serial + " > /dev/null").c_str()), 0);

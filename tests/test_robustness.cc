@@ -8,6 +8,7 @@
 //  - writers against a failing disk (RLIMIT_FSIZE: writes past the limit fail with EFBIG, as on
 //    a full disk): an IoError, and nothing under the final name;
 //  - output locks and output-path checks.
+#include <irdm/modal_model.h>
 #include <irdm/model.h>
 #include <irdm/plane_interaction.h>
 #include <irdm/point_interaction.h>
@@ -394,10 +395,24 @@ namespace
       }
   }
 
+  // The uncompressed model runs twice: by direct convolution, and (if the file holds a modal
+  // realization) as the modal model made from it.
   bool
   load_and_run_model(const std::string &path)
   {
-    return load_and_run<PointInteraction>(path, [](const std::string &f) { return load_model(f); });
+    const bool direct =
+      load_and_run<PointInteraction>(path, [](const std::string &f) { return load_model(f); });
+    if (direct)
+      {
+        const ImpulseResponseModel m = load_model(path);
+        if (m.modes.n_modes > 0)
+          load_and_run<ModalInteraction>(path, [&](const std::string &) {
+            ModalModelOptions o;
+            o.surface_modes = m.modes.n_modes;
+            return make_modal_model(m, o);
+          });
+      }
+    return direct;
   }
 
   bool
@@ -811,31 +826,41 @@ TEST(Writers, AFailedWriteIsAnIoErrorAndLeavesNothingUnderTheFinalName)
 {
   const std::vector<double> big(200000, 1.0); // 1.6 MB
   // A large dataset fails in the write itself; many small ones only when HDF5 flushes its
-  // cache at commit. Both must be an IoError, with neither the final name nor a part left.
-  for (const bool small_pieces : {false, true})
+  // cache at commit; a chunked one written in rows (the precompute's H) in write_rows or flush.
+  // Each must be an IoError, with neither the final name nor a part left.
+  for (const int how : {0, 1, 2})
     {
-      const auto path = scratch(small_pieces ? "full_disk_small.h5" : "full_disk_big.h5");
+      const auto path = scratch("full_disk_" + std::to_string(how) + ".h5");
       fs::remove(path);
       bool io_error = false;
       try
         {
           FileSizeLimit limit(64 * 1024);
           h5::Writer    w(path);
-          if (small_pieces)
+          if (how == 0)
+            w.write("/d", {big.size()}, big.data());
+          else if (how == 1)
             for (int i = 0; i < 40; ++i)
               w.write("/d" + std::to_string(i), {500}, big.data());
           else
-            w.write("/d", {big.size()}, big.data());
+            {
+              w.create_dataset("/H", {400, 500}, true, 10);
+              for (hsize_t row = 0; row < 400; row += 10)
+                {
+                  w.write_rows("/H", row, 10, big.data());
+                  w.flush();
+                }
+            }
           w.commit();
         }
       catch (const IoError &)
         {
           io_error = true;
         }
-      EXPECT_TRUE(io_error) << small_pieces;
-      EXPECT_FALSE(fs::exists(path)) << small_pieces;
-      EXPECT_FALSE(fs::exists(path + ".part")) << small_pieces;
-      EXPECT_FALSE(fs::exists(path + ".lock")) << small_pieces;
+      EXPECT_TRUE(io_error) << how;
+      EXPECT_FALSE(fs::exists(path)) << how;
+      EXPECT_FALSE(fs::exists(path + ".part")) << how;
+      EXPECT_FALSE(fs::exists(path + ".lock")) << how;
     }
   const auto csv = scratch("full_disk.csv");
   fs::remove(csv);

@@ -551,8 +551,9 @@ namespace irdm::fem
       const std::vector<Scalar> phi_out_s(phi_out.begin(), phi_out.end());
       std::vector<std::vector<Scalar>> buffers(workers,
                                                std::vector<Scalar>(static_cast<size_t>(chunk) * per_input));
-      double   compute_seconds = 0;
-      unsigned finished        = rep.chunks_resumed;
+      double     compute_seconds = 0;
+      unsigned   finished        = rep.chunks_resumed;
+      const auto t_chunks        = Clock::now(); // the time left is estimated from this run's rate
       const auto store = [&](const unsigned c, const Scalar *data) {
         const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
         const auto     tw = Clock::now();
@@ -562,9 +563,11 @@ namespace irdm::fem
         w->flush();
         write_seconds += since(tw);
         ++finished;
+        const double per_chunk = since(t_chunks) / (finished - rep.chunks_resumed);
         log("chunk " + std::to_string(finished) + "/" + std::to_string(n_chunks) + " (inputs " +
             std::to_string(k0) + ".." + std::to_string(k0 + nk - 1) + "), " +
-            std::to_string(static_cast<int>(since(t_start))) + " s elapsed");
+            std::to_string(static_cast<int>(since(t_start))) + " s elapsed, about " +
+            std::to_string(static_cast<int>(per_chunk * (n_chunks - finished))) + " s left");
       };
       std::vector<unsigned> todo;
       for (unsigned c = 0; c < n_chunks; ++c)

@@ -232,11 +232,13 @@ namespace irdm::fem
         ++n_done;
         if (rank == 0)
           {
-            char line[160];
+            const double elapsed = seconds_since(t_start);
+            char         line[200];
             std::snprintf(line, sizeof line,
                           "  orientation %u (%u of %u on rank 0): force %.4g N, %.2f s, %u "
-                          "Newton iterations", k, n_done, n_mine, F, rows.seconds,
-                          r.newton_iterations);
+                          "Newton iterations; about %.0f s left", k, n_done, n_mine, F,
+                          rows.seconds, r.newton_iterations,
+                          elapsed / n_done * (n_mine - n_done));
             log(line);
           }
         mine[k] = std::move(rows);

@@ -1,5 +1,6 @@
 // Issue 4's comparison on one scene: representative waveforms (plain and interpolated) at each
 // theta, the modal realization at several M, and the uncompressed model, each in closed loop.
+#include <irdm_common/files.h>
 #include <irdm/modal_model.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
@@ -112,9 +113,7 @@ namespace irdm::validation
   void
   write_compression_csv(const std::string &path, const std::vector<CompressionRow> &rows)
   {
-    std::ofstream f(path);
-    if (!f)
-      throw InputError("cannot write '" + path + "'");
+    std::ostringstream f;
     f.precision(10);
     f << "method,setting,value,bytes,percent_of_float_H,representatives_percent,build_s,"
          "force_rel_l2,force_max_rel,disp_rms_rel,disp_max_rel,force_loop_us,surface_update_us,"
@@ -125,6 +124,7 @@ namespace irdm::validation
         << r.errors.force_max << "," << r.errors.disp_rms << "," << r.errors.disp_max << ","
         << r.force_loop_us << "," << r.surface_us << "," << (r.stable ? 1 : 0) << ","
         << r.diverged_at << "\n";
+    write_text_file(path, f.str());
   }
 
   std::string

@@ -1,4 +1,5 @@
 // Virtual-DOF plane contact against the nonlinear FEM (validation/plane_validation.h).
+#include <irdm_common/files.h>
 #include <irdm/plane_interaction.h>
 #include <irdm_common/error.h>
 #include <irdm_common/h5.h>
@@ -338,7 +339,7 @@ namespace irdm::validation
 
     // 3. Report.
     {
-      std::ofstream csv(fs::path(dir) / "planes.csv");
+      std::ostringstream csv;
       csv << "case,kind,dx,dy,dz,on_dome,depth_m,speed_m_s,fem_peak_force_N,"
              "fem_max_penetration_m,force_error_nearest,force_error_interpolated,"
              "displacement_error_nearest,displacement_error_interpolated,"
@@ -352,9 +353,10 @@ namespace irdm::validation
             << r.displacement_error[1] << "," << r.open_loop_displacement_error << ","
             << r.impulse_error[0] << "," << r.impulse_error[1] << "," << r.fem_ms_per_step << "," << r.irdm_force_us << "," << r.irdm_surface_us << ","
             << r.newton << "\n";
+      write_text_file((fs::path(dir) / "planes.csv").string(), csv.str());
     }
     {
-      std::ofstream csv(fs::path(dir) / "forces.csv");
+      std::ostringstream csv;
       csv << "case,time_s,penetration_m,fem_force_N,irdm_force_nearest_N,"
              "irdm_force_interpolated_N\n";
       for (const auto &r : rows)
@@ -362,6 +364,7 @@ namespace irdm::validation
           csv << r.c.name << "," << k * tau << ","
               << interp(r.c.times, r.c.penetration, k * tau) << "," << r.F_fem[k] << ","
               << r.F_irdm[0][k - 1] << "," << r.F_irdm[1][k - 1] << "\n";
+      write_text_file((fs::path(dir) / "forces.csv").string(), csv.str());
     }
     std::ostringstream md;
     md.precision(3);
@@ -401,7 +404,7 @@ namespace irdm::validation
          << " % | " << r.fem_ms_per_step << " | " << r.irdm_force_us << " | "
          << r.irdm_surface_us << " |\n";
     md << "\n![error against depth and speed](planes.png)\n";
-    std::ofstream(fs::path(dir) / "planes.md") << md.str();
+    write_text_file((fs::path(dir) / "planes.md").string(), md.str());
     if (!o.plot_script.empty())
       {
         const std::string cmd = "/usr/bin/python3 '" + o.plot_script + "' '" + dir + "'";
