@@ -247,7 +247,7 @@ namespace
     std::string scene, out, storage;
     unsigned    subdivisions = 2, length = 0;
     double      depth = 0.001, band = 0.001;
-    bool        quiet = false;
+    bool        quiet = false, allow_large = false;
   };
 
   int
@@ -263,6 +263,7 @@ namespace
     if (a.length > 0)
       o.length = a.length;
     o.double_storage = storage_choice(a.storage);
+    o.allow_large    = a.allow_large;
     o.log            = stderr_log(a.quiet);
     const auto r = irdm::fem::precompute_virtual_dofs(scene, o);
     if (mpi_rank() == 0)
@@ -440,6 +441,8 @@ namespace
       ->check(CLI::Range(1u, 1000000u));
     precompute_vdof->add_option("--storage", pv.storage, storage_help)
       ->check(CLI::IsMember({"float", "double"}));
+    precompute_vdof->add_flag("--allow-large", pv.allow_large,
+                              "run even if the memory or disk estimate exceeds what is free");
     precompute_vdof->add_flag("--quiet", pv.quiet, "no progress on stderr");
 
     // compress

@@ -2,6 +2,7 @@
 // during simulate (exit 4, nothing under the final name), inputs never overwritten, commands
 // that are not parallel refused under mpirun. Runs the real binary (IRDM_CLI).
 #include <irdm/model.h>
+#include <irdm_common/files.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/mesh.h>
@@ -204,4 +205,27 @@ TEST(Cli, ValidateNeverTouchesAModelAlreadyInItsModelsFolder)
   std::string   content;
   std::getline(in, content);
   EXPECT_EQ(content, "a user's file");
+}
+
+TEST(Cli, ARunLargerThanTheDiskIsRefusedBeforeItStarts)
+{
+  // 9.5e7 steps (just under the scene's 1e8 limit) with the surface kept: about 440 GB of
+  // results. Refused before the first step (exit 2, the disk named), not after filling it.
+  const std::string dir = tmp("huge_out");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  if (irdm::available_disk_bytes(dir) > 4e11)
+    GTEST_SKIP() << "more than 400 GB free: this run would fit";
+  const std::string scene = write_scene(
+    "cli_huge", R"(, "outputs": {"directory": ")" + dir + R"(", "surface": true, "csv": false})",
+    1.9e5);
+  const std::string err = tmp("cli_huge.err");
+  EXPECT_EQ(std::system((clean_environment() + std::string(IRDM_CLI) + " simulate " + scene +
+                         " --quiet 2> " + err)
+                          .c_str()) >> 8,
+            2);
+  std::stringstream message;
+  message << std::ifstream(err).rdbuf();
+  EXPECT_NE(message.str().find("of disk"), std::string::npos) << message.str();
+  EXPECT_TRUE(fs::is_empty(dir));
 }

@@ -188,6 +188,14 @@ namespace irdm::fem
     unsigned n_done = 0, n_mine = 0;
     for (unsigned k = rank; k < K; k += size)
       ++n_mine;
+    {
+      // Rank 0 holds every orientation's responses until it writes them: surface (K x T x 3n)
+      // and virtual DOFs (K x T x K); each rank holds its share while it works.
+      const double bytes = static_cast<double>(K) * T * (3.0 * n_surface * (dbl ? 8 : 4) + 8.0 * K);
+      check_memory_estimate("the virtual-DOF responses", bytes, options.allow_large);
+      if (rank == 0)
+        check_disk_estimate("the virtual-DOF model", options.output, bytes, options.allow_large);
+    }
     log("virtual DOFs: " + std::to_string(K) + " orientations x " + std::to_string(T) +
         " samples, " + std::to_string(size) + " rank(s)");
     for (unsigned k = rank; k < K; k += size)

@@ -47,6 +47,7 @@ namespace irdm::fem
     double                  band           = 0.001; // m, the seed's +-1 mm
     std::optional<unsigned> length;              // T; default scene.model.length
     std::optional<bool>     double_storage;      // default scene.model.storage
+    bool allow_large = false; // run even if the memory or disk estimate exceeds what is free
     std::function<void(const std::string &)> log; // progress lines (rank 0)
   };
 
