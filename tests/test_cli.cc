@@ -80,6 +80,30 @@ TEST(Cli, SimulateOnAFullDiskExitsFourAndLeavesNoResult)
   EXPECT_TRUE(fs::exists(fs::path(dir) / "irdm_beam.h5"));
 }
 
+TEST(Cli, PrecomputeAndCompressOnAFullDiskExitFourAndLeaveNoResult)
+{
+  // The beam's model is 40 MB and, at theta 0.999, its compressed model about 12 MB: both
+  // larger than a 7 MiB file-size limit (MPI's start-up needs about 6 MiB itself).
+  const std::string full = "ulimit -f 7168; trap \"\" XFSZ; " + std::string(IRDM_CLI);
+  const std::string scene = write_scene("cli_full_pc", "");
+  const std::string model = tmp("cli_full_model.h5"), compressed = tmp("cli_full_c.h5");
+  for (const auto &f : {model, compressed, model + ".part", compressed + ".part"})
+    fs::remove(f);
+  EXPECT_EQ(status(full + " precompute " + scene + " --out " + model + " --chunk 10 --quiet"), 4);
+  EXPECT_FALSE(fs::exists(model));
+  // With room, the run completes (the part file of the failed run is not trusted).
+  EXPECT_EQ(status(std::string(IRDM_CLI) + " precompute " + scene + " --out " + model +
+                   " --chunk 10 --quiet"),
+            0);
+  ASSERT_GT(fs::file_size(model), 7168u * 1024u);
+  const std::string compress = " compress " + model + " --out " + compressed + " --theta 0.999 --quiet";
+  EXPECT_EQ(status(full + compress), 4);
+  EXPECT_FALSE(fs::exists(compressed));
+  EXPECT_FALSE(fs::exists(compressed + ".part"));
+  EXPECT_EQ(status(std::string(IRDM_CLI) + compress), 0);
+  EXPECT_GT(fs::file_size(compressed), 7168u * 1024u);
+}
+
 TEST(Cli, ValidatePlanesNeverOverwritesAModelOfAnotherKind)
 {
   const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");

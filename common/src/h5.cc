@@ -95,6 +95,7 @@ namespace irdm::h5
             }
           // Unreadable, and no other run holds the lock: a run killed mid-write. Start over.
           std::remove(part_path_.c_str());
+          discarded_part_ = true;
         }
     file_ = H5Fcreate(part_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (file_ < 0)

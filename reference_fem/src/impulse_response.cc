@@ -408,6 +408,9 @@ namespace irdm::fem
                                                          : h5::Writer::Mode::resume,
                                          std::move(output_lock));
         w->keep_partial(true);
+        if (w->discarded_unreadable_part())
+          log("the partial file " + options.output + ".part was unreadable (a run that failed "
+              "mid-write): starting over");
         if (w->resumed() && w->string_attribute("/", "spec_id") == spec_id &&
             w->exists("/progress/chunk_done"))
           {

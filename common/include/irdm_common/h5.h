@@ -38,6 +38,13 @@ namespace irdm::h5
     {
       return resumed_;
     }
+    /// True if a partial file was there but unreadable (a run that failed mid-write) and was
+    /// discarded.
+    bool
+    discarded_unreadable_part() const
+    {
+      return discarded_part_;
+    }
     /// Keep "<path>.part" when destroyed without commit(), for a later resume.
     void
     keep_partial(bool keep)
@@ -119,9 +126,10 @@ namespace irdm::h5
   private:
     std::string path_;
     std::string part_path_;
-    hid_t       file_         = -1;
-    bool        resumed_      = false;
-    bool        keep_partial_ = false;
+    hid_t       file_           = -1;
+    bool        resumed_        = false;
+    bool        discarded_part_ = false;
+    bool        keep_partial_   = false;
     OutputLock  lock_;
   };
 
