@@ -1,6 +1,7 @@
 // irdm: one command-line program with subcommands, parsed by CLI11 (typed options with ranges:
 // "--max-delay 10.9" is refused, never truncated). Exit status (docs/exit-codes.md): 0 ok,
 // 1 internal error, 2 bad input, usage or a refusal, 3 a check failed, 4 a read or write failed.
+#include <irdm/model.h>
 #include <irdm/representative_model.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
@@ -203,7 +204,7 @@ namespace
   struct PrecomputeArgs
   {
     std::string scene, out, storage;
-    unsigned    length = 0, chunk = 0;
+    unsigned    length = 0, chunk = 0, modes = 0;
     bool        restart = false, quiet = false, allow_large = false;
   };
 
@@ -225,11 +226,20 @@ namespace
     if (a.length > 0)
       o.length = a.length;
     o.inputs_per_chunk = a.chunk;
+    if (a.modes > 0)
+      o.modes = a.modes;
     o.double_storage   = storage_choice(a.storage);
     o.restart          = a.restart;
     o.allow_large      = a.allow_large;
     o.log              = stderr_log(a.quiet);
     const auto r = irdm::fem::precompute_impulse_responses(scene, o);
+    if (mpi_rank() == 0 && r.sparse)
+      std::printf("sparse route: the lowest %u of %u modes (largest relative residual %.2g, %u "
+                  "restarts) + %u residual modes; static compliance at the inputs in the "
+                  "lowest: mean %.4f, least %.4f; with the residual modes: error %.2g\n",
+                  r.n_lowest, r.n_free, r.eigen_residual, r.eigen_iterations,
+                  r.n_modes - r.n_lowest, r.static_in_modes_mean, r.static_in_modes_min,
+                  r.static_basis_error_max);
     if (mpi_rank() == 0)
       std::printf("model %s: %u outputs x %u inputs x %u samples, %.1f MB (%s), %d rank(s)\n"
                   "time: total %.2f s = FEM %.2f + modes %.2f + responses %.2f + write %.2f "
@@ -282,6 +292,51 @@ namespace
     irdm::CompressionOptions  o;
     bool                      quiet = false;
   };
+
+  /// compare-models: how far a model's H is from a reference model's (same inputs, outputs,
+  /// step and length), e.g. a truncated or coarser-storage model against the exact one.
+  int
+  run_compare_models(const std::string &reference_path, const std::string &model_path)
+  {
+    const auto ref = irdm::load_model(reference_path);
+    const auto m   = irdm::load_model(model_path, ref.time_step);
+    if (m.length != ref.length || m.input_node_tags != ref.input_node_tags ||
+        m.output_node_tags != ref.output_node_tags)
+      throw irdm::InputError("compare-models: '" + model_path + "' and '" + reference_path +
+                             "' differ in their inputs, outputs or length");
+    const unsigned nin = ref.n_inputs, nout = ref.n_outputs, T = ref.length;
+    double d2 = 0, r2 = 0, worst_input = 0, worst_static = 0, worst_feedthrough = 0;
+    for (unsigned k = 0; k < nin; ++k)
+      {
+        const unsigned kk = 3 * ref.input_output_index[k / 3] + k % 3; // driving point
+        double         dk = 0, rk = 0, sum_ref = 0, sum_m = 0;
+        for (unsigned s = 0; s < T; ++s)
+          {
+            for (unsigned j = 0; j < nout; ++j)
+              {
+                const double a = ref.h(k, s, j), b = m.h(k, s, j);
+                dk += (a - b) * (a - b);
+                rk += a * a;
+              }
+            sum_ref += ref.h(k, s, kk);
+            sum_m += m.h(k, s, kk);
+          }
+        d2 += dk;
+        r2 += rk;
+        worst_input  = std::max(worst_input, std::sqrt(dk / rk));
+        worst_static = std::max(worst_static, std::abs(sum_m / sum_ref - 1));
+        worst_feedthrough =
+          std::max(worst_feedthrough, std::abs(m.h(k, 0, kk) / ref.h(k, 0, kk) - 1));
+      }
+    std::printf("%s against %s (%u inputs x %u samples x %u outputs):\n"
+                "  H, relative L2 over all entries: %.3e\n"
+                "  H, relative L2 of the worst input: %.3e\n"
+                "  driving-point static compliance sum_s H_kk[s], worst relative: %.3e\n"
+                "  driving-point feed-through H_kk[0], worst relative: %.3e\n",
+                model_path.c_str(), reference_path.c_str(), nin, T, nout, std::sqrt(d2 / r2),
+                worst_input, worst_static, worst_feedthrough);
+    return 0;
+  }
 
   int
   run_compress(CompressArgs a)
@@ -406,6 +461,12 @@ namespace
                            "inputs per chunk (default: about 64 MB of responses; clamped to the "
                            "number of inputs)")
       ->check(CLI::Range(1u, 1000000u));
+    precompute->add_option("--modes", pre.modes,
+                           "keep the lowest MODES modes (sparse route: SLEPc shift-invert, plus "
+                           "one residual mode per input DoF that keeps the static compliance "
+                           "exact; default: all modes by the dense route up to 12000 free DoFs, "
+                           "else 200)")
+      ->check(CLI::Range(1u, 1000000u));
     precompute->add_flag("--restart", pre.restart, "ignore a partial file and start over");
     precompute->add_flag("--allow-large", pre.allow_large,
                          "run even if the memory or disk estimate exceeds what is free");
@@ -474,6 +535,17 @@ namespace
       ->capture_default_str()
       ->check(CLI::Range(0u, 1024u));
     compress->add_flag("--quiet", ca.quiet, "no progress on stderr");
+
+    // compare-models
+    std::string cmp_reference, cmp_model;
+    auto *compare = app.add_subcommand("compare-models", "how far a model's H is from a reference model's");
+    compare->footer("Relative differences of H between two models of the same inputs, outputs, "
+      "time step and length (for example a sparse-route model with --modes against the "
+      "all-modes model): over all entries, for the worst input, and of the driving-point "
+      "static compliance and feed-through.");
+    compare->add_option("reference", cmp_reference, "reference model (from 'irdm precompute')")
+      ->required()->check(CLI::ExistingFile);
+    compare->add_option("model", cmp_model, "model to compare")->required()->check(CLI::ExistingFile);
 
     // validate
     irdm::validation::PointValidationOptions va;
@@ -566,6 +638,8 @@ namespace
       return run_precompute_vdof(pv);
     if (compress->parsed())
       return run_compress(ca);
+    if (compare->parsed())
+      return run_compare_models(cmp_reference, cmp_model);
     if (validate->parsed())
       {
         irdm::check_output_folder("--out", va.report_dir);

@@ -1,20 +1,43 @@
 // ElasticDynamics: the dense free system and the boundary, for the impulse-response precompute.
 #include "elastodynamics_impl.h"
 
+#include <algorithm>
 #include <set>
 
 namespace irdm::fem
 {
+  std::vector<int>
+  ElasticDynamics::Impl::free_of_dof() const
+  {
+    std::vector<int> out(dof_handler.n_dofs(), -1);
+    int              next = 0;
+    for (unsigned i = 0; i < out.size(); ++i)
+      if (!constraints.is_constrained(i))
+        out[i] = next++;
+    return out;
+  }
+
+  std::vector<int>
+  ElasticDynamics::vertex_dof_to_free() const
+  {
+    const Impl            &m           = *impl_;
+    const std::vector<int> free_of_dof = m.free_of_dof();
+    std::vector<int>       out(3 * m.mesh.vertices.size(), -1);
+    for (unsigned v = 0; v < m.dofs_of_vertex.size(); ++v)
+      for (unsigned d = 0; d < 3; ++d)
+        out[3 * v + d] = free_of_dof[m.dofs_of_vertex[v][d]];
+    return out;
+  }
+
   DenseSystem
   ElasticDynamics::dense_free_system() const
   {
-    const Impl    &m = *impl_;
-    const unsigned n = m.dof_handler.n_dofs();
-    std::vector<int> free_of_dof(n, -1);
-    DenseSystem      out;
-    for (unsigned i = 0; i < n; ++i)
-      if (!m.constraints.is_constrained(i))
-        free_of_dof[i] = static_cast<int>(out.n_free++);
+    const Impl            &m           = *impl_;
+    const unsigned         n           = m.dof_handler.n_dofs();
+    const std::vector<int> free_of_dof = m.free_of_dof();
+    DenseSystem            out;
+    out.n_free = static_cast<unsigned>(std::count_if(free_of_dof.begin(), free_of_dof.end(),
+                                                      [](int f) { return f >= 0; }));
     const size_t nf = out.n_free;
     out.stiffness.assign(nf * nf, 0.0);
     out.mass.assign(nf * nf, 0.0);
@@ -30,10 +53,7 @@ namespace irdm::fem
           if (free_of_dof[it->column()] >= 0)
             out.mass[r * nf + free_of_dof[it->column()]] = it->value();
       }
-    out.vertex_dof_to_free.assign(3 * m.mesh.vertices.size(), -1);
-    for (unsigned v = 0; v < m.dofs_of_vertex.size(); ++v)
-      for (unsigned d = 0; d < 3; ++d)
-        out.vertex_dof_to_free[3 * v + d] = free_of_dof[m.dofs_of_vertex[v][d]];
+    out.vertex_dof_to_free = vertex_dof_to_free();
     return out;
   }
 

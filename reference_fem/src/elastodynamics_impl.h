@@ -104,6 +104,9 @@ namespace irdm::fem
     init_result(RunResult &out) const;
     SparseMatrix<double>
     condensed(const SparseMatrix<double> &A) const;
+    /// Free index of each DoF (-1 if constrained), in DoF order.
+    std::vector<int>
+    free_of_dof() const;
     std::array<types::global_dof_index, 3>
     vertex_dofs(unsigned vertex) const;
     unsigned

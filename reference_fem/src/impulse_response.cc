@@ -18,6 +18,7 @@
 #include <cmath>
 #include <set>
 #include <memory>
+#include <numeric>
 #include <sstream>
 #include <thread>
 #include <type_traits>
@@ -48,6 +49,11 @@ namespace irdm::fem
   namespace
   {
     using Clock = std::chrono::steady_clock;
+    // The dense route holds K, M and the eigenvectors as dense n x n matrices (3 n^2 doubles:
+    // 3.5 GB at 12000); beyond this the sparse route is taken.
+    constexpr unsigned dense_route_limit = 12000;
+    // Modes the sparse route keeps when --modes is not given (measured: reports/scaling/).
+    constexpr unsigned default_sparse_modes = 200;
     double
     since(const Clock::time_point t0)
     {
@@ -71,7 +77,7 @@ namespace irdm::fem
     // The free surface vertices in a region, in boundary order.
     std::vector<unsigned>
     select_vertices(const std::optional<VertexRegion> &region, const SurfaceMesh &b,
-                    const DenseSystem &sys, const std::string &what)
+                    const std::vector<int> &vertex_dof_to_free, const std::string &what)
     {
       std::vector<char> in_surface(b.mesh_vertex.size(), 0);
       if (!region || region->surfaces.empty())
@@ -93,7 +99,7 @@ namespace irdm::fem
       std::vector<unsigned> out;
       for (unsigned i = 0; i < b.mesh_vertex.size(); ++i)
         {
-          if (!in_surface[i] || sys.vertex_dof_to_free[3 * b.mesh_vertex[i]] < 0)
+          if (!in_surface[i] || vertex_dof_to_free[3 * b.mesh_vertex[i]] < 0)
             continue;
           if (region && !region->balls.empty())
             {
@@ -226,76 +232,140 @@ namespace irdm::fem
     rep.double_storage = options.double_storage.value_or(scene.model.double_storage);
     const unsigned T   = rep.length;
 
-    // 1. FEM matrices on the free DoFs, and the vertex sets.
-    auto                  t0 = Clock::now();
-    ElasticDynamics       fem(scene);
-    {
+    // 1. The FEM on the free DoFs, the route, and the vertex sets.
+    auto            t0 = Clock::now();
+    ElasticDynamics fem(scene);
+    const unsigned  n = fem.n_free_dofs();
+    // The dense route keeps all modes (exact); beyond its limit, or when --modes is given, the
+    // sparse route keeps the lowest ones plus a static correction for the rest.
+    const bool sparse = options.modes.has_value() || n > dense_route_limit;
+    const unsigned n_lowest = sparse ? options.modes.value_or(default_sparse_modes) : n;
+    if (sparse && (n_lowest < 1 || n_lowest >= n))
+      throw InputError("precompute: --modes " + std::to_string(n_lowest) + " must be between 1 and " +
+                       std::to_string(n - 1) + " (the body has " + std::to_string(n) +
+                       " free DoFs; leave --modes out to keep all of them" +
+                       (n > dense_route_limit ? ", which the dense route cannot here)" : ")"));
+    if (!sparse)
       // Checked before the dense matrices are built (2 n^2 doubles: 6 GB at n = 19440).
-      const unsigned n = fem.n_free_dofs();
-      if (n > 12000)
-        throw InputError("precompute: " + std::to_string(n) +
-                         " free DoFs is beyond the dense modal route (12000); use fe_degree 1 "
-                         "or a coarser mesh");
-    }
-    const DenseSystem     sys = fem.dense_free_system();
-    const SurfaceMesh     b   = fem.boundary();
-    const auto            out_v = select_vertices(scene.model.outputs, b, sys, "outputs");
-    const auto            in_v  = select_vertices(scene.model.inputs, b, sys, "inputs");
+      check_memory_estimate("the dense modal route (" + std::to_string(n) + " free DoFs)",
+                            3.0 * n * n * 8, options.allow_large);
+    const std::vector<int> dof_to_free = fem.vertex_dof_to_free();
+    const SurfaceMesh      b           = fem.boundary();
+    const auto out_v = select_vertices(scene.model.outputs, b, dof_to_free, "outputs");
+    const auto in_v  = select_vertices(scene.model.inputs, b, dof_to_free, "inputs");
+    std::vector<unsigned> in_as_out; // each input's row among the outputs
     {
-      const std::set<unsigned> outs(out_v.begin(), out_v.end());
       for (const unsigned v : in_v)
-        if (!outs.count(v))
-          throw InputError("model: every input vertex must also be an output (the contact "
-                           "solve needs H_CC[0]); node " + std::to_string(b.node_tags[v]) +
-                           " is not");
+        {
+          const auto it = std::find(out_v.begin(), out_v.end(), v);
+          if (it == out_v.end())
+            throw InputError("model: every input vertex must also be an output (the contact "
+                             "solve needs H_CC[0]); node " + std::to_string(b.node_tags[v]) +
+                             " is not");
+          in_as_out.push_back(static_cast<unsigned>(it - out_v.begin()));
+        }
     }
-    const unsigned n   = sys.n_free;
     const unsigned nin = 3 * in_v.size(), nout = 3 * out_v.size();
+    // Free index of each output DoF (3 * vertex + axis) and each input DoF.
+    std::vector<int> out_free(nout), in_free(nin);
+    for (size_t k = 0; k < out_v.size(); ++k)
+      for (unsigned d = 0; d < 3; ++d)
+        out_free[3 * k + d] = dof_to_free[3 * b.mesh_vertex[out_v[k]] + d];
+    for (size_t k = 0; k < in_v.size(); ++k)
+      for (unsigned d = 0; d < 3; ++d)
+        in_free[3 * k + d] = dof_to_free[3 * b.mesh_vertex[in_v[k]] + d];
     rep.n_free    = n;
+    rep.sparse    = sparse;
     rep.n_inputs  = nin;
     rep.n_outputs = nout;
     rep.seconds_fem = since(t0);
     log("FEM: " + std::to_string(n) + " free DoFs; model " + std::to_string(nout) +
         " outputs x " + std::to_string(nin) + " inputs x " + std::to_string(T) + " samples (" +
-        (rep.double_storage ? "double" : "float") + ")");
+        (rep.double_storage ? "double" : "float") + "); " +
+        (sparse ? "sparse route, the lowest " + std::to_string(n_lowest) +
+                    " modes + residual modes of the inputs"
+                : std::string("dense route, all modes")));
 
-    // 2. All modes: K phi = w^2 M phi, M-orthonormal (LAPACK dsygvd on rank 0, broadcast so
-    //    that every rank uses the same bits).
+    // 2. Modes, M-orthonormal, at the output and input DoFs (row-major, rows x nm), on rank 0
+    //    and broadcast so that every rank uses the same bits. Dense route: all modes by LAPACK
+    //    dsygvd. Sparse route: the lowest n_lowest by SLEPc plus the residual modes of unit
+    //    loads at the inputs, so that the basis holds K^-1 at the inputs exactly.
     t0 = Clock::now();
-    std::vector<double> w2(n), phi(sys.stiffness); // phi: column-major eigenvectors
+    unsigned            nm = sparse ? 0 : n; // modes kept
+    std::vector<double> w2, phi_out, phi_in, compliance; // compliance: nout x nin (sparse)
     if (rank == 0)
       {
-        // One BLAS thread: the eigenvectors' bits depend on the thread count, and a run under
-        // mpirun (one core per rank) must give the serial run's file exactly.
-        const int threads = openblas_get_num_threads ? openblas_get_num_threads() : 1;
-        if (openblas_set_num_threads)
-          openblas_set_num_threads(1);
-        std::vector<double> m = sys.mass;
-        const int itype = 1, N = static_cast<int>(n);
-        int       info  = 0, lwork = -1, liwork = -1, iwq = 0;
-        double    wq    = 0;
-        dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), &wq, &lwork,
-                &iwq, &liwork, &info);
-        lwork  = static_cast<int>(wq);
-        liwork = iwq;
-        std::vector<double> work(lwork);
-        std::vector<int>    iwork(liwork);
-        dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), work.data(),
-                &lwork, iwork.data(), &liwork, &info);
-        if (openblas_set_num_threads)
-          openblas_set_num_threads(threads);
-        if (info != 0)
-          throw std::runtime_error("dsygvd failed (info " + std::to_string(info) + ")");
+        if (sparse)
+          {
+            LowestModes lm = fem.lowest_modes(n_lowest, out_free, in_free);
+            nm             = static_cast<unsigned>(lm.w2.size());
+            w2             = std::move(lm.w2);
+            phi_out        = std::move(lm.shapes);
+            compliance     = std::move(lm.compliance);
+            rep.eigen_residual   = lm.largest_residual;
+            rep.eigen_iterations = lm.iterations;
+            rep.seconds_static   = lm.seconds_static;
+            phi_in.resize(static_cast<size_t>(nin) * nm);
+            for (unsigned k = 0; k < nin; ++k)
+              std::copy_n(&phi_out[static_cast<size_t>(3 * in_as_out[k / 3] + k % 3) * nm], nm,
+                          &phi_in[static_cast<size_t>(k) * nm]);
+          }
+        else
+          {
+            const DenseSystem sys = fem.dense_free_system();
+            // One BLAS thread: the eigenvectors' bits depend on the thread count, and a run
+            // under mpirun (one core per rank) must give the serial run's file exactly.
+            const int threads = openblas_get_num_threads ? openblas_get_num_threads() : 1;
+            if (openblas_set_num_threads)
+              openblas_set_num_threads(1);
+            std::vector<double> phi = sys.stiffness, m = sys.mass; // phi: column-major
+            w2.resize(n);
+            const int itype = 1, N = static_cast<int>(n);
+            int       info  = 0, lwork = -1, liwork = -1, iwq = 0;
+            double    wq    = 0;
+            dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), &wq, &lwork,
+                    &iwq, &liwork, &info);
+            lwork  = static_cast<int>(wq);
+            liwork = iwq;
+            std::vector<double> work(lwork);
+            std::vector<int>    iwork(liwork);
+            dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), work.data(),
+                    &lwork, iwork.data(), &liwork, &info);
+            if (openblas_set_num_threads)
+              openblas_set_num_threads(threads);
+            if (info != 0)
+              throw std::runtime_error("dsygvd failed (info " + std::to_string(info) + ")");
+            phi_out.resize(static_cast<size_t>(nout) * n);
+            phi_in.resize(static_cast<size_t>(nin) * n);
+            for (unsigned r = 0; r < nout; ++r)
+              for (unsigned i = 0; i < n; ++i)
+                phi_out[static_cast<size_t>(r) * n + i] = phi[static_cast<size_t>(i) * n + out_free[r]];
+            for (unsigned r = 0; r < nin; ++r)
+              for (unsigned i = 0; i < n; ++i)
+                phi_in[static_cast<size_t>(r) * n + i] = phi[static_cast<size_t>(i) * n + in_free[r]];
+          }
       }
-    MPI_Bcast(w2.data(), n, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-    MPI_Bcast(phi.data(), static_cast<int>(phi.size()), MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(&nm, 1, MPI_UNSIGNED, 0, MPI_COMM_WORLD);
+    w2.resize(nm);
+    phi_out.resize(static_cast<size_t>(nout) * nm);
+    phi_in.resize(static_cast<size_t>(nin) * nm);
+    if (sparse)
+      compliance.resize(static_cast<size_t>(nout) * nin);
+    MPI_Bcast(w2.data(), nm, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(phi_out.data(), static_cast<int>(phi_out.size()), MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(phi_in.data(), static_cast<int>(phi_in.size()), MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    if (sparse)
+      MPI_Bcast(compliance.data(), static_cast<int>(compliance.size()), MPI_DOUBLE, 0,
+                MPI_COMM_WORLD);
+    rep.n_modes    = nm;
+    rep.n_lowest   = n_lowest;
     rep.seconds_eigen = since(t0);
     if (w2[0] <= 0)
       throw std::runtime_error("the fixed system has a non-positive eigenvalue");
     rep.lowest_frequency_hz  = std::sqrt(w2[0]) / (2 * M_PI);
-    rep.highest_frequency_hz = std::sqrt(w2[n - 1]) / (2 * M_PI);
+    rep.highest_frequency_hz = std::sqrt(w2[nm - 1]) / (2 * M_PI);
     rep.lowest_damping_ratio = 1e300;
-    for (unsigned i = 0; i < n; ++i)
+    for (unsigned i = 0; i < nm; ++i)
       {
         const double w = std::sqrt(w2[i]);
         rep.lowest_damping_ratio =
@@ -303,60 +373,81 @@ namespace irdm::fem
       }
     log("modes: " + std::to_string(rep.seconds_eigen) + " s; f = " +
         std::to_string(rep.lowest_frequency_hz) + " .. " +
-        std::to_string(rep.highest_frequency_hz) + " Hz");
+        std::to_string(rep.highest_frequency_hz) + " Hz" +
+        (sparse ? "; largest relative residual " + std::to_string(rep.eigen_residual) + ", " +
+                    std::to_string(rep.eigen_iterations) + " restarts"
+                : std::string()));
 
     // 3. Modal responses h[s][i] and the energy left at T.
     const auto          coef = IntegratorCoefficients::from_scene(scene);
-    std::vector<double> h(static_cast<size_t>(T) * n), q(T), e0(n), eT(n), gain(n);
-    for (unsigned i = 0; i < n; ++i)
+    std::vector<double> h(static_cast<size_t>(T) * nm), q(T), e0(nm), eT(nm), gain(nm);
+    for (unsigned i = 0; i < nm; ++i)
       {
         modal_response(scene, coef, w2[i], q.data(), T, e0[i], eT[i]);
         for (unsigned s = 0; s < T; ++s)
           {
-            h[static_cast<size_t>(s) * n + i] = q[s];
+            h[static_cast<size_t>(s) * nm + i] = q[s];
             gain[i] += q[s]; // sum_{s<T} h_i[s]; the untruncated sum is the static gain 1/w^2
           }
       }
-    // Row-major Phi restricted to the input and output DoFs (DoF order: 3 * vertex + axis).
-    const auto restrict_rows = [&](const std::vector<unsigned> &verts) {
-      std::vector<double> r(3 * verts.size() * static_cast<size_t>(n));
-      for (size_t k = 0; k < verts.size(); ++k)
-        for (unsigned d = 0; d < 3; ++d)
-          {
-            const int f = sys.vertex_dof_to_free[3 * b.mesh_vertex[verts[k]] + d];
-            for (unsigned i = 0; i < n; ++i)
-              r[(3 * k + d) * n + i] = phi[static_cast<size_t>(i) * n + f];
-          }
-      return r;
-    };
-    const std::vector<double> phi_in = restrict_rows(in_v), phi_out = restrict_rows(out_v);
-    phi.clear();
-    phi.shrink_to_fit();
     {
-      double sum = 0, sum_static = 0;
+      double sum = 0, sum_static = 0, captured_sum = 0;
+      // The largest eigenvalue among the lowest modes (they and the residual modes are stored
+      // together, ascending); on the dense route every mode is "lowest".
+      double w2_lowest_max = 0;
+      if (sparse)
+        {
+          // The lowest n_lowest eigenvalues are exact; the residual modes lie above the
+          // n_lowest-th (they are orthogonal to the lowest modes), so the n_lowest-th
+          // smallest is the boundary.
+          w2_lowest_max = w2[n_lowest - 1];
+        }
+      else
+        w2_lowest_max = w2[nm - 1];
+      rep.static_in_modes_min = 1;
       for (unsigned k = 0; k < nin; ++k)
         {
-          double a = 0, z = 0, g = 0, g_all = 0;
-          for (unsigned i = 0; i < n; ++i)
+          double a = 0, z = 0, g = 0, g_modes = 0;
+          for (unsigned i = 0; i < nm; ++i)
             {
-              const double p2 = phi_in[static_cast<size_t>(k) * n + i] * phi_in[static_cast<size_t>(k) * n + i];
+              const double p2 = phi_in[static_cast<size_t>(k) * nm + i] * phi_in[static_cast<size_t>(k) * nm + i];
               a += p2 * eT[i];
               z += p2 * e0[i];
               g += p2 * gain[i];
-              g_all += p2 / w2[i];
+              g_modes += p2 / w2[i];
             }
+          // The driving-point static compliance (K^-1)_kk: all modes, or the sparse solve.
+          const unsigned kk    = 3 * in_as_out[k / 3] + k % 3;
+          const double   g_all = sparse ? compliance[static_cast<size_t>(kk) * nin + k] : g_modes;
           rep.energy_left_max = std::max(rep.energy_left_max, a / z);
           sum += a / z;
           rep.static_left_max = std::max(rep.static_left_max, std::abs(1 - g / g_all));
           sum_static += std::abs(1 - g / g_all);
+          // The lowest modes' share (the residual modes carry the rest).
+          double g_lowest = 0;
+          for (unsigned i = 0; i < nm; ++i)
+            if (w2[i] <= w2_lowest_max)
+              g_lowest += phi_in[static_cast<size_t>(k) * nm + i] *
+                          phi_in[static_cast<size_t>(k) * nm + i] / w2[i];
+          rep.static_in_modes_min = std::min(rep.static_in_modes_min, g_lowest / g_all);
+          captured_sum += g_lowest / g_all;
+          rep.static_basis_error_max =
+            std::max(rep.static_basis_error_max, std::abs(g_modes / g_all - 1));
         }
-      rep.energy_left_mean = sum / nin;
-      rep.static_left_mean = sum_static / nin;
+      rep.energy_left_mean    = sum / nin;
+      rep.static_left_mean    = sum_static / nin;
+      rep.static_in_modes_mean = captured_sum / nin;
     }
     log("energy left after T = " + std::to_string(T) + " steps: mean " +
         std::to_string(rep.energy_left_mean) + ", max " + std::to_string(rep.energy_left_max) +
         "; static compliance missing: mean " + std::to_string(rep.static_left_mean) + ", max " +
         std::to_string(rep.static_left_max));
+    if (sparse)
+      log("static compliance at the inputs in the lowest " + std::to_string(n_lowest) +
+          " modes: mean " + std::to_string(rep.static_in_modes_mean) + ", least " +
+          std::to_string(rep.static_in_modes_min) + "; with the " +
+          std::to_string(nm - n_lowest) + " residual modes: error " +
+          std::to_string(rep.static_basis_error_max) + " (exact: round-off)");
 
     // 4. The file: metadata first, then H in chunks of inputs, each marked done when written.
     const size_t   per_input = static_cast<size_t>(T) * nout;
@@ -372,7 +463,7 @@ namespace irdm::fem
     {
       // Before the long part: the chunk buffers and GEMM operands of every worker, and the file.
       const double workers_max = size == 1 ? 4 : 1;
-      const double buffers     = workers_max * chunk * (per_input + static_cast<double>(T) * n) *
+      const double buffers     = workers_max * chunk * (per_input + static_cast<double>(T) * nm) *
                              (scalar + 8);
       check_memory_estimate("precompute (--chunk " + std::to_string(chunk) + ")", buffers,
                             options.allow_large);
@@ -388,7 +479,10 @@ namespace irdm::fem
          << " a " << scene.rayleigh_alpha << " b " << scene.rayleigh_beta << " int "
          << static_cast<int>(scene.integrator) << " rho_inf " << scene.rho_inf << " dt "
          << scene.time_step << " T " << T << " dbl " << rep.double_storage << " chunk " << chunk
-         << " fixed " << join(scene.fixed_surfaces) << " in";
+         << " fixed " << join(scene.fixed_surfaces);
+    if (sparse)
+      spec << " modes " << n_lowest;
+    spec << " in";
     for (const unsigned v : in_v)
       spec << ' ' << b.node_tags[v];
     spec << " out";
@@ -442,8 +536,15 @@ namespace irdm::fem
                                       "step n is FEM time (n+1)*time_step"));
               f.attribute("/", "length", static_cast<long long>(T));
               f.attribute("/", "storage", std::string(rep.double_storage ? "double" : "float"));
-              f.attribute("/", "route", std::string("modal (all modes, exact)"));
+              f.attribute("/", "route",
+                          sparse ? "modal (the lowest " + std::to_string(n_lowest) + " of " +
+                                     std::to_string(n) + " modes by SLEPc shift-invert, plus " +
+                                     std::to_string(nm - n_lowest) + " residual modes of "
+                                     "the inputs' static responses)"
+                                 : std::string("modal (all modes, exact)"));
               f.attribute("/", "free_dofs", static_cast<long long>(n));
+              f.attribute("/", "modes_kept", static_cast<long long>(nm));
+              f.attribute("/", "modes_lowest", static_cast<long long>(n_lowest));
 
               const auto write_vertices = [&](const std::string &g, const std::vector<unsigned> &vs) {
                 f.create_group(g);
@@ -460,10 +561,8 @@ namespace irdm::fem
               write_vertices("/outputs", out_v);
               write_vertices("/inputs", in_v);
               // Inputs as rows of the outputs (so the contact solve can read H_CC).
-              std::vector<long long> in_as_out;
-              for (const unsigned v : in_v)
-                in_as_out.push_back(std::find(out_v.begin(), out_v.end(), v) - out_v.begin());
-              f.write("/inputs/output_index", {in_as_out.size()}, in_as_out.data());
+              const std::vector<long long> output_index(in_as_out.begin(), in_as_out.end());
+              f.write("/inputs/output_index", {output_index.size()}, output_index.data());
 
               // Surface triangles among the outputs, for display and for probes.
               std::vector<long long> local(b.mesh_vertex.size(), -1), tris, tri_surface;
@@ -488,26 +587,27 @@ namespace irdm::fem
               f.attribute("/surface", "surface_names", join(names));
 
               f.create_group("/modes");
-              std::vector<double> hz(n), zeta(n);
-              for (unsigned i = 0; i < n; ++i)
+              std::vector<double> hz(nm), zeta(nm);
+              for (unsigned i = 0; i < nm; ++i)
                 {
                   const double wi = std::sqrt(w2[i]);
                   hz[i]   = wi / (2 * M_PI);
                   zeta[i] = (scene.rayleigh_alpha + scene.rayleigh_beta * w2[i]) / (2 * wi);
                 }
-              f.write("/modes/frequency_Hz", {n}, hz.data());
-              f.write("/modes/damping_ratio", {n}, zeta.data());
+              f.write("/modes/frequency_Hz", {nm}, hz.data());
+              f.write("/modes/damping_ratio", {nm}, zeta.data());
               // The modal realization of H: mode shapes at the outputs (M-orthonormal) and
               // each mode's step matrix; H[s] = Phi_out diag(q_i[s]) Phi_in^T with q_i from
               // iterating the step (docs/model-format.md).
-              f.write("/modes/shapes", {nout, n}, phi_out.data());
-              std::vector<double> steps(static_cast<size_t>(n) * 15);
-              for (unsigned i = 0; i < n; ++i)
+              f.write("/modes/shapes", {nout, nm}, phi_out.data());
+              std::vector<double> steps(static_cast<size_t>(nm) * 15);
+              for (unsigned i = 0; i < nm; ++i)
                 {
                   const auto m = ModalStep(scene, coef, w2[i]).matrix();
                   std::copy(m.begin(), m.end(), steps.begin() + 15 * i);
                 }
-              f.write("/modes/step", {n, 3, 5}, steps.data());
+              f.write("/modes/step", {nm, 3, 5}, steps.data());
+
 
               f.create_group("/impulse_response");
               f.create_dataset("/impulse_response/H", {nin, T, nout}, rep.double_storage, 1);
@@ -528,17 +628,17 @@ namespace irdm::fem
     const auto compute_chunk = [&](const unsigned c, const auto &phi_out_s, auto *result) {
       using Scalar     = std::remove_pointer_t<decltype(result)>;
       const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
-      std::vector<Scalar> A(static_cast<size_t>(nk) * T * n);
+      std::vector<Scalar> A(static_cast<size_t>(nk) * T * nm);
       for (unsigned k = 0; k < nk; ++k)
         for (unsigned s = 0; s < T; ++s)
           {
-            Scalar       *row = &A[(static_cast<size_t>(k) * T + s) * n];
-            const double *hs  = &h[static_cast<size_t>(s) * n];
-            const double *pk  = &phi_in[static_cast<size_t>(k0 + k) * n];
-            for (unsigned i = 0; i < n; ++i)
+            Scalar       *row = &A[(static_cast<size_t>(k) * T + s) * nm];
+            const double *hs  = &h[static_cast<size_t>(s) * nm];
+            const double *pk  = &phi_in[static_cast<size_t>(k0 + k) * nm];
+            for (unsigned i = 0; i < nm; ++i)
               row[i] = static_cast<Scalar>(hs[i] * pk[i]);
           }
-      gemm_abt(static_cast<int>(nk * T), static_cast<int>(nout), static_cast<int>(n), A.data(),
+      gemm_abt(static_cast<int>(nk * T), static_cast<int>(nout), static_cast<int>(nm), A.data(),
                phi_out_s.data(), result);
     };
     // Each GEMM runs on one BLAS thread so that a chunk's bits do not depend on how the work

@@ -39,6 +39,20 @@ namespace irdm::fem
     std::vector<int>    vertex_dof_to_free; // [3 * mesh vertex + d] -> free index, -1 if fixed
   };
 
+  /// A truncated modal basis of the fixed system (K phi = w^2 M phi on the free DoFs) at
+  /// chosen free DoFs (ElasticDynamics::lowest_modes): the lowest modes, then residual modes
+  /// that carry the static compliance the lowest ones miss for loads at the chosen columns.
+  struct LowestModes
+  {
+    unsigned            n_lowest = 0;   // the first n_lowest are exact eigenmodes
+    std::vector<double> w2;             // (rad/s)^2, every mode kept (lowest, then residual)
+    std::vector<double> shapes;         // rows x modes, row-major; M-orthonormal
+    std::vector<double> compliance;     // rows x columns, row-major: (K^-1)(row, column), m/N
+    double   largest_residual = 0;      // max over the lowest modes of |K x - w2 M x| / |K x|
+    unsigned iterations       = 0;      // Krylov-Schur restarts
+    double   seconds_eigen = 0, seconds_static = 0;
+  };
+
   struct RunResult
   {
     std::vector<double> time;           // s, the output samples
@@ -139,6 +153,21 @@ namespace irdm::fem
     /// Dense K and M on the free DoFs (fixed-surface rows and columns removed).
     DenseSystem
     dense_free_system() const;
+
+    /// Free index of each vertex DoF: [3 * mesh vertex + d] -> free index, -1 if fixed (the
+    /// numbering of dense_free_system(), without its matrices).
+    std::vector<int>
+    vertex_dof_to_free() const;
+
+    /// The `count` lowest modes by SLEPc (Krylov-Schur, shift-invert at 0 with a MUMPS
+    /// Cholesky of K; sparse, for models beyond the dense route), augmented by the residual
+    /// modes of unit loads at the free DoFs `columns` (the static responses K^-1 e_c with the
+    /// lowest modes removed, made K- and M-orthogonal by a small eigenproblem: the basis then
+    /// holds K^-1 e_c exactly). Shapes at the free DoFs `rows`, and K^-1 at (rows, columns).
+    /// Serial (MPI_COMM_SELF).
+    LowestModes
+    lowest_modes(unsigned count, const std::vector<int> &rows, const std::vector<int> &columns,
+                 double tolerance = 1e-10) const;
 
     /// All boundary triangles with their surface names; vertices in mesh order.
     SurfaceMesh

@@ -7,11 +7,16 @@
 // u[n] = sum_s H[s] f[n - s]. H[0] != 0 for the implicit integrators (direct feed-through).
 // IRDM step n is the FEM state at t = (n + 1) tau when the FEM starts from rest at t = 0.
 //
-// Route: exact modal decoupling. With Rayleigh damping, the Newmark / generalized-alpha
+// Routes: exact modal decoupling. With Rayleigh damping, the Newmark / generalized-alpha
 // recursion of K, M, C decouples in the M-orthonormal modes of (K, M) on the free DoFs; every
 // mode's response to a unit modal impulse is a scalar recursion with the same coefficients, and
 // H[s] = Phi_out diag(h[s]) Phi_in^T. All modes are kept, so H equals stepping the FEM to
-// round-off (tested). Runs under mpirun: inputs are split across ranks, rank 0 writes.
+// round-off (tested). Beyond 12000 free DoFs (or with --modes) the sparse route keeps the
+// lowest modes (SLEPc) plus residual modes: the static responses to unit loads at the inputs
+// with the lowest modes removed, diagonalized by Rayleigh-Ritz (modal truncation
+// augmentation), so the static compliance at the inputs stays exact and H is still a sum of
+// decoupled modes (the modal runtime runs it unchanged). Runs under mpirun: inputs are split
+// across ranks, rank 0 writes.
 #include <reference_fem/scene.h>
 
 #include <functional>
@@ -26,6 +31,11 @@ namespace irdm::fem
     std::optional<unsigned> length;         // overrides scene.model.length
     std::optional<bool>     double_storage; // overrides scene.model.storage
     unsigned                inputs_per_chunk = 0; // 0: about 64 MB of responses per chunk
+    // Lowest modes kept. Unset: all modes by the dense route (exact), or, beyond its 12000
+    // free DoFs, the lowest 200 by the sparse route. Set: the lowest `modes` by the sparse
+    // route (SLEPc), plus one residual mode per input DoF (the static response the lowest
+    // modes miss), so that the static compliance at the inputs stays exact.
+    std::optional<unsigned> modes;
     bool                    restart          = false; // ignore a resumable "<output>.part"
     bool allow_large = false; // run even if the memory or disk estimate exceeds what is free
     std::function<void(const std::string &)> log;      // progress lines (rank 0 only)
@@ -35,6 +45,18 @@ namespace irdm::fem
   {
     unsigned n_inputs = 0, n_outputs = 0; // DoFs
     unsigned n_free = 0, length = 0, n_chunks = 0, chunks_resumed = 0;
+    unsigned n_modes = 0;       // kept: n_free on the dense route, lowest + residual on the sparse
+    unsigned n_lowest = 0;      // exact eigenmodes among them
+    bool     sparse  = false;   // the sparse route (lowest modes + residual modes)
+    double   eigen_residual = 0; // sparse: largest |K x - w2 M x| / |K x| of the modes kept
+    unsigned eigen_iterations = 0; // sparse: Krylov-Schur restarts
+    double   seconds_static = 0;   // sparse: K^-1 at (outputs, inputs), within seconds_eigen
+    // Sparse: the share of the driving-point static compliance (K^-1)_kk the kept modes carry,
+    // sum_i phi_ki^2 / w_i^2 over (K^-1)_kk: mean and least over the inputs.
+    double static_in_modes_mean = 1, static_in_modes_min = 1;
+    // Sparse: the largest |1 - (Phi diag(1/w^2) Phi^T)_kk / (K^-1)_kk| over the inputs with
+    // every mode kept (lowest and residual): exact up to round-off.
+    double static_basis_error_max = 0;
     int      ranks          = 1;
     bool     double_storage = false;
     double   bytes          = 0; // of H

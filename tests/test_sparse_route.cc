@@ -1,0 +1,163 @@
+// The sparse modal route of the precompute (the lowest modes by SLEPc plus residual modes of
+// the inputs), against the dense route's all-modes model on the small beam, where both exist.
+#include <irdm_common/h5.h>
+#include <reference_fem/elastodynamics.h>
+
+#include "irdm_test_util.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <cstdio>
+
+using namespace irdm_test;
+
+namespace
+{
+  // The dense generalized eigenproblem of the free system, ascending.
+  struct DenseModes
+  {
+    Eigen::VectorXd w2;
+    Eigen::MatrixXd phi, k_inverse;
+  };
+
+  DenseModes
+  dense_modes(const fem::DenseSystem &sys)
+  {
+    const Eigen::Index n = sys.n_free;
+    Eigen::MatrixXd    K = Eigen::Map<const Eigen::MatrixXd>(sys.stiffness.data(), n, n);
+    Eigen::MatrixXd    M = Eigen::Map<const Eigen::MatrixXd>(sys.mass.data(), n, n);
+    Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> es(K, M);
+    return {es.eigenvalues(), es.eigenvectors(), K.ldlt().solve(Eigen::MatrixXd::Identity(n, n))};
+  }
+
+  double
+  relative_difference(const ImpulseResponseModel &a, const ImpulseResponseModel &b)
+  {
+    double d = 0, norm = 0;
+    for (size_t i = 0; i < a.h_double.size(); ++i)
+      {
+        d += std::pow(a.h_double[i] - b.h_double[i], 2);
+        norm += std::pow(b.h_double[i], 2);
+      }
+    return std::sqrt(d / norm);
+  }
+} // namespace
+
+TEST(SparseRoute, LowestModesAndStaticComplianceEqualTheDenseSolution)
+{
+  const fem::Scene        scene = fem::parse_scene(beam_scene(""), ".");
+  const fem::ElasticDynamics fem(scene);
+  const fem::DenseSystem  sys = fem.dense_free_system();
+  const DenseModes        dense = dense_modes(sys);
+  std::vector<int>        rows, columns;
+  for (int i = 3; i < static_cast<int>(sys.n_free); i += 41)
+    columns.push_back(i);
+  rows = columns; // the columns first: the basis' compliance at (columns, columns) is checked
+  for (int i = 0; i < static_cast<int>(sys.n_free); i += 7)
+    rows.push_back(i);
+  const unsigned          count = 40;
+  const fem::LowestModes  lm    = fem.lowest_modes(count, rows, columns);
+  const unsigned total = static_cast<unsigned>(lm.w2.size());
+  ASSERT_EQ(lm.n_lowest, count);
+  ASSERT_EQ(total, count + columns.size()); // one residual mode per load column
+  // A dense eigensolver's error is about eps * w2_max, so its lowest w2 are relatively the
+  // least accurate (measured: 3e-9 for the first): agreement to 1e-7.
+  for (unsigned i = 0; i < count; ++i)
+    EXPECT_NEAR(lm.w2[i] / dense.w2[i], 1.0, 1e-7) << "mode " << i;
+  EXPECT_LT(lm.largest_residual, 1e-8);
+  double worst = 0, scale = 0;
+  for (size_t r = 0; r < rows.size(); ++r)
+    for (size_t c = 0; c < columns.size(); ++c)
+      {
+        worst = std::max(worst, std::abs(lm.compliance[r * columns.size() + c] -
+                                         dense.k_inverse(rows[r], columns[c])));
+        scale = std::max(scale, std::abs(dense.k_inverse(rows[r], columns[c])));
+      }
+  // cond(K) is about 1e7 here: the dense inverse itself carries ~1e-10 of relative error.
+  EXPECT_LT(worst, 1e-9 * scale);
+  // The basis (lowest + residual modes) holds K^-1 at the load columns exactly:
+  // sum_i phi_i(a) phi_i(b) / w2_i = (K^-1)(a, b) for columns a, b.
+  double basis_worst = 0;
+  for (size_t a = 0; a < columns.size(); ++a)
+    for (size_t c = 0; c < columns.size(); ++c)
+      {
+        double sum = 0;
+        for (unsigned i = 0; i < total; ++i)
+          sum += lm.shapes[a * total + i] * lm.shapes[c * total + i] / lm.w2[i];
+        basis_worst = std::max(basis_worst, std::abs(sum - dense.k_inverse(columns[a], columns[c])));
+      }
+  EXPECT_LT(basis_worst, 1e-9 * scale);
+  // Without the residual modes it is not (the lowest 40 carry only part of it).
+  double lowest_worst = 0;
+  for (size_t a = 0; a < columns.size(); ++a)
+    {
+      double sum = 0;
+      for (unsigned i = 0; i < count; ++i)
+        sum += lm.shapes[a * total + i] * lm.shapes[a * total + i] / lm.w2[i];
+      lowest_worst = std::max(lowest_worst, std::abs(sum / dense.k_inverse(columns[a], columns[a]) - 1));
+    }
+  EXPECT_GT(lowest_worst, 1e-3);
+  // Each mode's shape at the rows equals the dense one up to its sign (the beam's lowest 40
+  // modes are simple here: no two eigenvalues within 1e-6 of each other).
+  for (unsigned i = 0; i < count; ++i)
+    {
+      ASSERT_GT(dense.w2[i + 1] / dense.w2[i] - 1, 1e-6) << "mode " << i << " is degenerate";
+      double dot = 0;
+      for (size_t r = 0; r < rows.size(); ++r)
+        dot += lm.shapes[r * total + i] * dense.phi(rows[r], i);
+      const double sign = dot < 0 ? -1 : 1;
+      double       diff = 0, norm = 0;
+      for (size_t r = 0; r < rows.size(); ++r)
+        {
+          diff = std::max(diff, std::abs(lm.shapes[r * total + i] - sign * dense.phi(rows[r], i)));
+          norm = std::max(norm, std::abs(dense.phi(rows[r], i)));
+        }
+      EXPECT_LT(diff, 1e-6 * norm) << "mode " << i;
+    }
+}
+
+TEST(SparseRoute, TruncatedModelConvergesToTheAllModesModelAndKeepsItsStaticCompliance)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  const auto       all   = make_model(scene, "sparse_all.h5");
+  double           previous = 1e300;
+  for (const unsigned modes : {25u, 50u, 100u, 200u, 400u})
+    {
+      fem::PrecomputeOptions o;
+      o.output  = tmp("sparse_" + std::to_string(modes) + ".h5");
+      o.restart = true;
+      o.modes   = modes;
+      const auto rep = fem::precompute_impulse_responses(scene, o);
+      EXPECT_TRUE(rep.sparse);
+      EXPECT_EQ(rep.n_lowest, modes);
+      // One residual mode per input DoF, less those the basis already spans (at 400 of 540).
+      EXPECT_LE(rep.n_modes, std::min(modes + all.n_inputs, rep.n_free));
+      EXPECT_GT(rep.n_modes, modes);
+      EXPECT_LT(rep.static_basis_error_max, 1e-9);
+      const auto model = load_model(o.output, scene.time_step);
+      ASSERT_EQ(model.h_double.size(), all.h_double.size());
+      ASSERT_EQ(model.modes.n_modes, rep.n_modes);
+      const double error = relative_difference(model, all);
+      // Driving-point static compliance over the model's length: the modes left out are fast
+      // and decay within T in the all-modes model, so the sums agree to their tails.
+      double static_worst = 0;
+      for (unsigned k = 0; k < model.n_inputs; ++k)
+        {
+          const unsigned kk = 3 * model.input_output_index[k / 3] + k % 3;
+          double         a = 0, b = 0;
+          for (unsigned s = 0; s < model.length; ++s)
+            a += model.h(k, s, kk), b += all.h(k, s, kk);
+          static_worst = std::max(static_worst, std::abs(a / b - 1));
+        }
+      std::printf("%u of %u modes + %u residual: H relative error %.3e, driving-point static "
+                  "compliance %.1e; lowest modes alone carry %.4f of it (least)\n",
+                  modes, rep.n_free, rep.n_modes - modes, error, static_worst,
+                  rep.static_in_modes_min);
+      EXPECT_LT(error, previous);
+      EXPECT_LT(static_worst, 1e-6);
+      previous = error;
+    }
+}
