@@ -241,12 +241,14 @@ namespace
                   r.n_modes - r.n_lowest, r.static_in_modes_mean, r.static_in_modes_min,
                   r.static_basis_error_max);
     if (mpi_rank() == 0)
-      std::printf("model %s: %u outputs x %u inputs x %u samples, %.1f MB (%s), %d rank(s)\n"
+      std::printf("model %s: %u outputs x %u inputs x %u samples, %.1f MB (%s), %d rank(s); "
+                  "%u free DoFs, %s route, %u modes\n"
                   "time: total %.2f s = FEM %.2f + modes %.2f + responses %.2f + write %.2f "
                   "(+ other)\nenergy left after T: mean %.3g, max %.3g; static compliance beyond T: "
                   "mean %.3g, max %.3g\n",
                   o.output.c_str(), r.n_outputs, r.n_inputs, r.length, r.bytes / 1e6,
-                  r.double_storage ? "double" : "float", r.ranks, r.seconds_total,
+                  r.double_storage ? "double" : "float", r.ranks, r.n_free,
+                  r.sparse ? "sparse" : "dense", r.n_modes, r.seconds_total,
                   r.seconds_fem, r.seconds_eigen, r.seconds_responses, r.seconds_write,
                   r.energy_left_mean, r.energy_left_max, r.static_left_mean, r.static_left_max);
     return 0;

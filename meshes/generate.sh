@@ -13,6 +13,7 @@ mesh() { # geo output [name value]...
 }
 mesh cat.geo  cat.msh       lc 0.015
 mesh cat.geo  cat_fine.msh  lc 0.0068
+mesh cat.geo  cat_xfine.msh lc 0.0048
 for n in 2 4 8; do mesh beam.geo "beam_$n.msh" n $n; done
 mesh ball.geo ball.msh      lc 0.01
 # Balls refined at the pole that touches the floor (Hertz impact, mesh convergence).

@@ -170,6 +170,8 @@ namespace irdm::fem
     check(KSPGetPC(ksp, &pc), "KSPGetPC");
     check(PCSetType(pc, PCCHOLESKY), "PCSetType");
     check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+    // PETSc options (PETSC_OPTIONS="-eps_ncv 300 ...") may tune the solver further.
+    check(EPSSetFromOptions(e.eps), "EPSSetFromOptions");
     check(EPSSolve(e.eps), "EPSSolve");
     PetscInt converged = 0, iterations = 0;
     check(EPSGetConverged(e.eps, &converged), "EPSGetConverged");
