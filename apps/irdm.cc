@@ -575,6 +575,16 @@ namespace
     validate->add_flag("--no-full-model", no_full_model,
                        "skip the full cat model (T = 500, 4.8 GB): its precompute timing, the "
                        "seed's Table 1 and the full-model runtimes (about 5 min)");
+    validate->add_option("--full-model-stride", va.full_model_stride,
+                         "full model inputs: every k-th free surface vertex plus the first "
+                         "scene's touched region (compression is per input, so a sample gives "
+                         "its ratios at a k-th of the memory and time; 1: every vertex)")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 1000u));
+    validate->add_option("--length", va.length,
+                         "samples per response of every scene's model (default: the scene's "
+                         "model.length); never fewer than the scene's steps, so no run truncates")
+      ->check(CLI::Range(1u, 100000u));
 
     // validate-planes
     irdm::validation::PlaneValidationOptions vp;

@@ -31,8 +31,6 @@ for mesh in cat cat_fine cat_xfine; do
       /usr/bin/time -f "%M" -o "$work/rss" "${launcher[@]}" "$irdm" precompute "$scene" \
         --out "$work/model.h5" --restart --quiet > "$work/stdout"
       cat "$work/stdout" >&2
-      line=$(grep '^model ' "$work/stdout")
-      t=$(grep '^time: ' "$work/stdout")
       /usr/bin/python3 - "$mesh" "$p" "$ranks" "$(tail -1 "$work/rss")" "$work/stdout" >> "$csv" <<'PY'
 import re, sys
 mesh, p, ranks, rss_kb, path = sys.argv[1:]

@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -160,4 +161,49 @@ TEST(SparseRoute, TruncatedModelConvergesToTheAllModesModelAndKeepsItsStaticComp
       EXPECT_LT(static_worst, 1e-6);
       previous = error;
     }
+}
+
+// A sampled input set (validate --full-model-stride): every k-th input vertex plus a region
+// kept whole. Each input's responses do not depend on which other inputs are in the model, so
+// the sample's H equals the full model's at the same inputs.
+TEST(InputSample, EveryKthInputPlusTheKeptRegionWithTheFullModelsResponses)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  const auto       all   = make_model(scene, "sample_all.h5");
+  fem::PrecomputeOptions o;
+  o.output        = tmp("sample_3.h5");
+  o.restart       = true;
+  o.input_stride  = 3;
+  o.inputs_always = fem::VertexRegion{{}, {{{0.24, 0.0, 0.01}, 0.012}}};
+  fem::precompute_impulse_responses(scene, o);
+  const auto sample = load_model(o.output, scene.time_step);
+  ASSERT_EQ(sample.n_outputs, all.n_outputs);
+  // The expected set: every 3rd input vertex in order, plus those within the kept ball.
+  std::vector<long long> expected;
+  unsigned               kept = 0;
+  for (size_t i = 0; i < all.input_node_tags.size(); ++i)
+    {
+      const auto  &x     = all.output_coordinates[all.input_output_index[i]];
+      const double d2    = std::pow(x[0] - 0.24, 2) + std::pow(x[1], 2) + std::pow(x[2] - 0.01, 2);
+      const bool   in_ball = d2 <= 0.012 * 0.012;
+      kept += in_ball && i % 3 != 0;
+      if (i % 3 == 0 || in_ball)
+        expected.push_back(all.input_node_tags[i]);
+    }
+  ASSERT_GT(kept, 0u) << "the kept ball adds no vertex: the test would not test it";
+  ASSERT_EQ(sample.input_node_tags, expected);
+  double worst = 0, scale = 0;
+  for (unsigned k = 0; k < sample.n_inputs; ++k)
+    {
+      const auto   it = std::find(all.input_node_tags.begin(), all.input_node_tags.end(),
+                                  sample.input_node_tags[k / 3]);
+      const unsigned ka = 3 * static_cast<unsigned>(it - all.input_node_tags.begin()) + k % 3;
+      for (unsigned s = 0; s < sample.length; ++s)
+        for (unsigned j = 0; j < sample.n_outputs; ++j)
+          {
+            worst = std::max(worst, std::abs(sample.h(k, s, j) - all.h(ka, s, j)));
+            scale = std::max(scale, std::abs(all.h(ka, s, j)));
+          }
+    }
+  EXPECT_LT(worst, 1e-12 * scale);
 }

@@ -16,14 +16,15 @@ namespace irdm
   ImpulseResponseModel
   ImpulseResponseModel::as_float() const
   {
-    ImpulseResponseModel m = *this;
-    if (double_storage)
-      {
-        m.h_float.assign(h_double.begin(), h_double.end());
-        m.h_double.clear();
-        m.h_double.shrink_to_fit();
-        m.double_storage = false;
-      }
+    if (!double_storage)
+      return *this;
+    // Frame and modes copied, H converted straight into the copy: a whole copy first would
+    // hold the double H twice (1.5 GB extra for the trace scene's model).
+    ImpulseResponseModel m;
+    static_cast<ModelFrame &>(m) = static_cast<const ModelFrame &>(*this);
+    m.modes          = modes;
+    m.double_storage = false;
+    m.h_float.assign(h_double.begin(), h_double.end());
     return m;
   }
 

@@ -252,7 +252,19 @@ namespace irdm::fem
     const std::vector<int> dof_to_free = fem.vertex_dof_to_free();
     const SurfaceMesh      b           = fem.boundary();
     const auto out_v = select_vertices(scene.model.outputs, b, dof_to_free, "outputs");
-    const auto in_v  = select_vertices(scene.model.inputs, b, dof_to_free, "inputs");
+    std::vector<unsigned> in_v = select_vertices(scene.model.inputs, b, dof_to_free, "inputs");
+    if (options.input_stride > 1)
+      {
+        std::vector<unsigned> always;
+        if (options.inputs_always)
+          always = select_vertices(options.inputs_always, b, dof_to_free, "inputs (always)");
+        std::vector<unsigned> sample;
+        for (size_t i = 0; i < in_v.size(); ++i)
+          if (i % options.input_stride == 0 ||
+              std::binary_search(always.begin(), always.end(), in_v[i]))
+            sample.push_back(in_v[i]);
+        in_v = std::move(sample);
+      }
     std::vector<unsigned> in_as_out; // each input's row among the outputs
     {
       for (const unsigned v : in_v)

@@ -37,6 +37,11 @@ namespace irdm::fem
     // modes miss), so that the static compliance at the inputs stays exact.
     std::optional<unsigned> modes;
     bool                    restart          = false; // ignore a resumable "<output>.part"
+    // A sample of the input region, for studies whose figures are per input (compression is
+    // per input): every k-th input vertex in mesh order, plus every vertex of `inputs_always`
+    // (for example the region a probe touches). 1: every input vertex.
+    unsigned                    input_stride = 1;
+    std::optional<VertexRegion> inputs_always;
     bool allow_large = false; // run even if the memory or disk estimate exceeds what is free
     std::function<void(const std::string &)> log;      // progress lines (rank 0 only)
   };
