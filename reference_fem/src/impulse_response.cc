@@ -279,13 +279,14 @@ namespace irdm::fem
     }
     const unsigned nin = 3 * in_v.size(), nout = 3 * out_v.size();
     // Free index of each output DoF (3 * vertex + axis) and each input DoF.
-    std::vector<int> out_free(nout), in_free(nin);
-    for (size_t k = 0; k < out_v.size(); ++k)
-      for (unsigned d = 0; d < 3; ++d)
-        out_free[3 * k + d] = dof_to_free[3 * b.mesh_vertex[out_v[k]] + d];
-    for (size_t k = 0; k < in_v.size(); ++k)
-      for (unsigned d = 0; d < 3; ++d)
-        in_free[3 * k + d] = dof_to_free[3 * b.mesh_vertex[in_v[k]] + d];
+    const auto free_dofs_of = [&](const std::vector<unsigned> &verts) {
+      std::vector<int> f(3 * verts.size());
+      for (size_t k = 0; k < verts.size(); ++k)
+        for (unsigned d = 0; d < 3; ++d)
+          f[3 * k + d] = dof_to_free[3 * b.mesh_vertex[verts[k]] + d];
+      return f;
+    };
+    const std::vector<int> out_free = free_dofs_of(out_v), in_free = free_dofs_of(in_v);
     rep.n_free    = n;
     rep.sparse    = sparse;
     rep.n_inputs  = nin;
@@ -347,14 +348,16 @@ namespace irdm::fem
               openblas_set_num_threads(threads);
             if (info != 0)
               throw std::runtime_error("dsygvd failed (info " + std::to_string(info) + ")");
-            phi_out.resize(static_cast<size_t>(nout) * n);
-            phi_in.resize(static_cast<size_t>(nin) * n);
-            for (unsigned r = 0; r < nout; ++r)
-              for (unsigned i = 0; i < n; ++i)
-                phi_out[static_cast<size_t>(r) * n + i] = phi[static_cast<size_t>(i) * n + out_free[r]];
-            for (unsigned r = 0; r < nin; ++r)
-              for (unsigned i = 0; i < n; ++i)
-                phi_in[static_cast<size_t>(r) * n + i] = phi[static_cast<size_t>(i) * n + in_free[r]];
+            // Row-major Phi restricted to the given free DoFs.
+            const auto restrict_rows = [&](const std::vector<int> &free) {
+              std::vector<double> r(free.size() * static_cast<size_t>(n));
+              for (size_t k = 0; k < free.size(); ++k)
+                for (unsigned i = 0; i < n; ++i)
+                  r[k * n + i] = phi[static_cast<size_t>(i) * n + free[k]];
+              return r;
+            };
+            phi_out = restrict_rows(out_free);
+            phi_in  = restrict_rows(in_free);
           }
       }
     MPI_Bcast(&nm, 1, MPI_UNSIGNED, 0, MPI_COMM_WORLD);
@@ -404,18 +407,6 @@ namespace irdm::fem
       }
     {
       double sum = 0, sum_static = 0, captured_sum = 0;
-      // The largest eigenvalue among the lowest modes (they and the residual modes are stored
-      // together, ascending); on the dense route every mode is "lowest".
-      double w2_lowest_max = 0;
-      if (sparse)
-        {
-          // The lowest n_lowest eigenvalues are exact; the residual modes lie above the
-          // n_lowest-th (they are orthogonal to the lowest modes), so the n_lowest-th
-          // smallest is the boundary.
-          w2_lowest_max = w2[n_lowest - 1];
-        }
-      else
-        w2_lowest_max = w2[nm - 1];
       rep.static_in_modes_min = 1;
       for (unsigned k = 0; k < nin; ++k)
         {
@@ -435,11 +426,12 @@ namespace irdm::fem
           sum += a / z;
           rep.static_left_max = std::max(rep.static_left_max, std::abs(1 - g / g_all));
           sum_static += std::abs(1 - g / g_all);
-          // The lowest modes' share (the residual modes carry the rest).
+          // The lowest modes' share (the residual modes carry the rest). The modes are stored
+          // ascending and the residual modes lie above the lowest (they are M-orthogonal to
+          // them), so the lowest are the first n_lowest (every mode on the dense route).
           double g_lowest = 0;
-          for (unsigned i = 0; i < nm; ++i)
-            if (w2[i] <= w2_lowest_max)
-              g_lowest += phi_in[static_cast<size_t>(k) * nm + i] *
+          for (unsigned i = 0; i < n_lowest; ++i)
+            g_lowest += phi_in[static_cast<size_t>(k) * nm + i] *
                           phi_in[static_cast<size_t>(k) * nm + i] / w2[i];
           rep.static_in_modes_min = std::min(rep.static_in_modes_min, g_lowest / g_all);
           captured_sum += g_lowest / g_all;

@@ -38,8 +38,8 @@ namespace irdm::fem
     std::optional<unsigned> modes;
     bool                    restart          = false; // ignore a resumable "<output>.part"
     // A sample of the input region, for studies whose figures are per input (compression is
-    // per input): every k-th input vertex in mesh order, plus every vertex of `inputs_always`
-    // (for example the region a probe touches). 1: every input vertex.
+    // per input): every k-th input vertex in mesh order, plus every input vertex within
+    // `inputs_always` (for example the region a probe touches). 1: every input vertex.
     unsigned                    input_stride = 1;
     std::optional<VertexRegion> inputs_always;
     bool allow_large = false; // run even if the memory or disk estimate exceeds what is free
