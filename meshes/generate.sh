@@ -1,7 +1,14 @@
 #!/usr/bin/env bash
 # Regenerates every .msh in this folder from its .geo source (gmsh 4.8, MSH 2.2 ASCII,
 # linear tetrahedra). Usage: meshes/generate.sh   (from anywhere)
+#        meshes/generate.sh --study DIR: only the two cats finer than cat_xfine that
+#        scripts/convergence.sh uses (lc 3.4 and 2.4 mm; 8 and 22 MB, so not kept here), into DIR
 set -euo pipefail
+study_dir=
+if [ "${1:-}" = "--study" ]; then
+  [ -d "${2:-}" ] || { echo "usage: $0 --study EXISTING_DIR" >&2; exit 2; }
+  study_dir=$(cd "$2" && pwd)
+fi
 cd "$(dirname "$0")"
 command -v gmsh >/dev/null || { echo "gmsh not found: apt-get install gmsh" >&2; exit 1; }
 mesh() { # geo output [name value]...
@@ -11,6 +18,11 @@ mesh() { # geo output [name value]...
   gmsh -3 "${args[@]}" "$geo" -format msh22 -o "$out" -v 2 >/dev/null
   echo "$out: $(awk '/^\$Nodes/{getline; print $1 " nodes"}' "$out"), $(awk '/^\$Elements/{n=1; next} n==1{n=2; next} n==2 && /^\$End/{exit} n==2 && $2==4{c++} END{print c " tetrahedra"}' "$out")"
 }
+if [ -n "$study_dir" ]; then
+  mesh cat.geo "$study_dir/cat_lc3.4mm.msh" lc 0.0034
+  mesh cat.geo "$study_dir/cat_lc2.4mm.msh" lc 0.0024
+  exit 0
+fi
 mesh cat.geo  cat.msh       lc 0.015
 mesh cat.geo  cat_fine.msh  lc 0.0068
 mesh cat.geo  cat_xfine.msh lc 0.0048

@@ -1,6 +1,7 @@
 // IRDM precompute and runtime against the reference FEM on a small mesh: the modal route equals
 // stepping the FEM itself; untruncated IRDM reproduces the FEM's probe force and surface to
 // round-off; the model loader rejects bad files; mpirun -np 2 gives the serial file's numbers.
+#include <irdm/modal_model.h>
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
 #include <irdm_common/error.h>
@@ -88,110 +89,231 @@ operator delete[](void *p, const std::nothrow_t &) noexcept
   std::free(p);
 }
 
+namespace
+{
+  // The largest difference, relative to the largest displacement, between the model's H and
+  // stepping the FEM of the beam scene with a unit force sample on each input DoF of `inputs`
+  // (held during step 0, i.e. the load at t = tau, zero at 0 and 2 tau), at every output and
+  // every step.
+  double
+  h_against_stepping(const ImpulseResponseModel &model, const std::vector<unsigned> &inputs)
+  {
+    double worst = 0, scale = 0;
+    for (const unsigned k : inputs)
+      {
+        const long long tag = model.input_node_tags[k / 3];
+        std::array<double, 3> dir = {0, 0, 0};
+        dir[k % 3] = 1;
+        const std::string load =
+          R"(, "loads": [{"type": "vertex_force", "vertex": {"node_tag": )" + std::to_string(tag) +
+          R"(}, "force_N": [)" + std::to_string(dir[0]) + "," + std::to_string(dir[1]) + "," +
+          std::to_string(dir[2]) + R"(], "history": {"times_s": [0, 0.002, 0.004], "factors": [0, 1, 0]}}],
+          "outputs": {"surface": true})";
+        fem::Scene s = fem::parse_scene(beam_scene(load), ".");
+        s.duration   = model.length * s.time_step;
+        fem::ElasticDynamics fem(s);
+        const auto           r = fem.run();
+        std::map<long long, unsigned> at;
+        for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
+          at[r.surface.node_tags[i]] = i;
+        for (unsigned step = 0; step < model.length; ++step)
+          for (unsigned j = 0; j < model.n_outputs; ++j)
+            {
+              const double fem_u = r.surface_displacement[step + 1][3 * at[model.output_node_tags[j / 3]] + j % 3];
+              worst = std::max(worst, std::abs(fem_u - model.h(k, step, j)));
+              scale = std::max(scale, std::abs(fem_u));
+            }
+      }
+    EXPECT_GT(scale, 0);
+    return worst / scale;
+  }
+} // namespace
+
 TEST(Precompute, ModalRouteEqualsSteppingTheFem)
 {
   const fem::Scene     scene = fem::parse_scene(beam_scene(""), ".");
   ImpulseResponseModel model = make_model(scene, "modal.h5");
   ASSERT_GT(model.n_inputs, 6u);
-  // Step the FEM itself with a unit force sample on input DoF k (held during step 0, i.e. the
-  // load at t = tau, zero at 0 and 2 tau) and compare every output at every step.
-  double worst = 0, scale = 0;
-  for (const unsigned k : {0u, 4u, model.n_inputs - 1})
-    {
-      const long long tag = model.input_node_tags[k / 3];
-      std::array<double, 3> dir = {0, 0, 0};
-      dir[k % 3] = 1;
-      const std::string load =
-        R"(, "loads": [{"type": "vertex_force", "vertex": {"node_tag": )" + std::to_string(tag) +
-        R"(}, "force_N": [)" + std::to_string(dir[0]) + "," + std::to_string(dir[1]) + "," +
-        std::to_string(dir[2]) + R"(], "history": {"times_s": [0, 0.002, 0.004], "factors": [0, 1, 0]}}],
+  EXPECT_LT(h_against_stepping(model, {0u, 4u, model.n_inputs - 1}), 1e-9)
+    << "modal H differs from stepping the FEM"; // measured 3.0e-10 (cond(K) of a slender beam)
+}
+
+// With every free surface vertex in and out, precompute computes each chunk's outputs from its
+// own first input on and takes the others by reciprocity (H[s] symmetric). Many chunks (7
+// inputs each, a ragged last one): the rows filled by symmetry still equal stepping the FEM,
+// and H[s] is symmetric.
+TEST(Precompute, ReciprocityFillsHAsSteppingTheFemWould)
+{
+  fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  scene.model.inputs.reset(); // every free surface vertex, as the outputs
+  fem::PrecomputeOptions o;
+  o.output           = tmp("reciprocity.h5");
+  o.restart          = true;
+  o.length           = 30;
+  o.inputs_per_chunk = 7;
+  fem::precompute_impulse_responses(scene, o);
+  const ImpulseResponseModel model = load_model(o.output, scene.time_step);
+  ASSERT_EQ(model.n_inputs, model.n_outputs);
+  ASSERT_GT(model.n_inputs, 100u);
+  size_t asymmetric = 0;
+  for (unsigned k = 0; k < model.n_inputs; ++k)
+    for (unsigned s = 0; s < model.length; s += 7)
+      for (unsigned j = 0; j < k; ++j)
+        asymmetric += model.h(k, s, j) != model.h(j, s, k);
+  EXPECT_EQ(asymmetric, 0u);
+  // The last input's row lies almost all below the diagonal (filled by symmetry); the one in
+  // the middle half and half.
+  EXPECT_LT(h_against_stepping(model, {model.n_inputs / 2 + 1, model.n_inputs - 1}), 1e-9);
+}
+
+namespace
+{
+  // Runs the beam scene with one unilateral probe (its JSON fields after "name") through the
+  // FEM and through untruncated IRDM (PointInteraction on the model's H, ModalInteraction on
+  // its modal realization, every mode) and expects the same probe force and surface to
+  // round-off (the modal surface to float round-off), with no heap allocation inside the runtimes' steps. Returns the most vertices
+  // the probe's force spread over.
+  int
+  expect_irdm_reproduces_the_fem(const std::string &probe_fields, const std::string &name)
+  {
+    const std::string probe = R"(, "probes": [{"name": "finger", )" + probe_fields + R"(}],
         "outputs": {"surface": true})";
-      fem::Scene s = fem::parse_scene(beam_scene(load), ".");
-      s.duration   = model.length * s.time_step;
-      fem::ElasticDynamics fem(s);
-      const auto           r = fem.run();
-      std::map<long long, unsigned> at;
-      for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
-        at[r.surface.node_tags[i]] = i;
-      for (unsigned step = 0; step < model.length; ++step)
+    const fem::Scene     scene = fem::parse_scene(beam_scene(probe), ".");
+    ImpulseResponseModel model = make_model(scene, name + ".h5");
+    fem::ElasticDynamics fem(scene);
+    const auto           r = fem.run();
+    const ModalModel     modal_model = make_modal_model(model, {model.modes.n_modes});
+
+    std::vector<unsigned>                 cand;
+    std::vector<std::array<unsigned, 3>> tris;
+    const int sides = static_cast<int>(std::find(model.surface_names.begin(), model.surface_names.end(), "sides") -
+                                       model.surface_names.begin());
+    for (unsigned t = 0; t < model.triangles.size(); ++t)
+      if (model.triangle_surface[t] == sides)
+        cand.push_back(t), tris.push_back(model.triangles[t]);
+    std::map<long long, unsigned> at;
+    for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
+      at[r.surface.node_tags[i]] = i;
+
+    PointInteraction    irdm(model);
+    ModalInteraction    modal(modal_model);
+    std::vector<double> u(model.n_outputs), um(model.n_outputs);
+    double fmax = 0, ferr = 0, umax = 0, uerr = 0, uerr_modal = 0;
+    int    switches = 0, most_vertices = 0;
+    bool   was_active = false;
+    for (unsigned n = 0; n < scene.n_steps(); ++n)
+      {
+        const double t  = (n + 1) * scene.time_step;
+        const auto  &p  = scene.probes[0];
+        const auto   sp = geometry::closest_point(model.output_coordinates, tris, p.path.at(t));
+        ProbeTarget  target;
+        target.triangle = static_cast<int>(cand[sp.triangle]);
+        target.weights  = sp.weights;
+        if (p.radius > 0)
+          target.n_patch = geometry::radius_patch(model.output_coordinates, tris, sp.point, p.radius,
+                                                  target.patch_vertices.data(),
+                                                  target.patch_weights.data(), contact::max_patch);
+        most_vertices = std::max(most_vertices, p.radius > 0 ? target.n_patch : 3);
+        for (int d = 0; d < 3; ++d)
+          target.displacement[d] = p.depth.at(t) * p.direction[d];
+        target.direction    = p.direction;
+        target.unilateral   = true;
+        g_count_allocations = true;
+        const bool stepped  = irdm.step(&target, 1);
+        irdm.surface_displacement(u.data());
+        const bool stepped_modal = modal.step(&target, 1);
+        modal.surface_displacement(um.data());
+        g_count_allocations = false;
+        EXPECT_TRUE(stepped && stepped_modal);
+        if (!stepped || !stepped_modal)
+          return most_vertices;
+        const auto &fem_force = r.probe_force.at("finger")[n + 1];
+        for (int d = 0; d < 3; ++d)
+          {
+            fmax = std::max(fmax, std::abs(fem_force[d]));
+            ferr = std::max({ferr, std::abs(irdm.force(0)[d] - fem_force[d]),
+                             std::abs(modal.force(0)[d] - fem_force[d])});
+          }
+        switches += irdm.active(0) != was_active;
+        was_active = irdm.active(0);
         for (unsigned j = 0; j < model.n_outputs; ++j)
           {
-            const double fem_u = r.surface_displacement[step + 1][3 * at[model.output_node_tags[j / 3]] + j % 3];
-            worst = std::max(worst, std::abs(fem_u - model.h(k, step, j)));
-            scale = std::max(scale, std::abs(fem_u));
+            const double fem_u = r.surface_displacement[n + 1][3 * at[model.output_node_tags[j / 3]] + j % 3];
+            umax = std::max(umax, std::abs(fem_u));
+            uerr       = std::max(uerr, std::abs(u[j] - fem_u));
+            uerr_modal = std::max(uerr_modal, std::abs(um[j] - fem_u));
           }
+      }
+    EXPECT_EQ(g_allocations, 0) << "heap allocations inside step() / surface_displacement()";
+    EXPECT_GT(fmax, 1e-4);  // the probe did push
+    EXPECT_GE(switches, 2); // it touched and let go
+    EXPECT_LT(ferr / fmax, 1e-9);
+    EXPECT_LT(uerr / umax, 1e-9);
+    EXPECT_LT(uerr_modal / umax, 1e-6); // the modal surface's static residual is stored in float
+    return most_vertices;
+  }
+
+  const std::string moving_press = R"("surface": "sides", "direction": [0, 0, -1], "unilateral": true,
+      "path": {"times_s": [0, 0.2], "points_m": [[0.21, 0.001, 0.01], [0.235, -0.002, 0.01]]},
+      "depth": {"times_s": [0, 0.05, 0.1, 0.12], "values_m": [0, 0.002, 0.002, -0.002]})";
+} // namespace
+
+// The patch of a radius probe on a flat, uniform triangulated grid (spacing 1): every vertex
+// has the same area, so the weights are psi(|x - c| / r) normalized; vertices at or beyond r
+// get none; the patch is symmetric about its centre.
+TEST(Runtime, RadiusPatchWeightsOnAFlatGrid)
+{
+  const int                            n = 11; // vertices per side; centre vertex (5, 5)
+  std::vector<geometry::Point>         v;
+  std::vector<std::array<unsigned, 3>> tri;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      v.push_back({double(i), double(j), 0.0});
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i)
+      {
+        const unsigned a = j * n + i;
+        // One diagonal direction throughout: every interior vertex is in 6 triangles of area
+        // 1/2, so all have the same area (1).
+        tri.push_back({a, a + 1, a + n + 1});
+        tri.push_back({a, a + n + 1, a + n});
+      }
+  std::array<unsigned, contact::max_patch> vertex{};
+  std::array<double, contact::max_patch>   weight{};
+  const double                             r = 2.5;
+  const int k = geometry::radius_patch(v, tri, {5, 5, 0}, r, vertex.data(), weight.data(),
+                                       contact::max_patch);
+  // Vertices with |x - c| < 2.5 on the unit grid: 21 (1 + 4 + 4 + 4 + 8).
+  ASSERT_EQ(k, 21);
+  double sum = 0, norm = 0;
+  for (int i = 0; i < k; ++i)
+    {
+      const double rho2 = (std::pow(v[vertex[i]][0] - 5, 2) + std::pow(v[vertex[i]][1] - 5, 2)) / (r * r);
+      norm += (1 - rho2) * (1 - rho2);
+      sum += weight[i];
     }
-  EXPECT_GT(scale, 0);
-  EXPECT_LT(worst / scale, 1e-9) << "modal H differs from stepping the FEM"; // measured 3.0e-10 (cond(K) of a slender beam)
+  EXPECT_NEAR(sum, 1, 1e-14);
+  for (int i = 0; i < k; ++i)
+    {
+      const double rho2 = (std::pow(v[vertex[i]][0] - 5, 2) + std::pow(v[vertex[i]][1] - 5, 2)) / (r * r);
+      EXPECT_NEAR(weight[i], (1 - rho2) * (1 - rho2) / norm, 1e-14);
+    }
+  EXPECT_EQ(geometry::radius_patch(v, tri, {5, 5, 0}, 0.5, vertex.data(), weight.data(), 8), 1);
+  EXPECT_EQ(geometry::radius_patch(v, tri, {5.5, 5.5, 0}, 0.5, vertex.data(), weight.data(), 8), 0);
+  EXPECT_EQ(geometry::radius_patch(v, tri, {5, 5, 0}, r, vertex.data(), weight.data(), 20), -1);
 }
 
 TEST(Runtime, UntruncatedIrdmReproducesTheFem)
 {
-  const std::string probe = R"(, "probes": [{"name": "finger", "surface": "sides",
-      "direction": [0, 0, -1], "unilateral": true,
-      "path": {"times_s": [0, 0.2], "points_m": [[0.21, 0.001, 0.01], [0.235, -0.002, 0.01]]},
-      "depth": {"times_s": [0, 0.05, 0.1, 0.12], "values_m": [0, 0.002, 0.002, -0.002]}}],
-      "outputs": {"surface": true})";
-  const fem::Scene     scene = fem::parse_scene(beam_scene(probe), ".");
-  ImpulseResponseModel model = make_model(scene, "exact.h5");
-  fem::ElasticDynamics fem(scene);
-  const auto           r = fem.run();
+  EXPECT_EQ(expect_irdm_reproduces_the_fem(moving_press, "exact"), 3);
+}
 
-  std::vector<unsigned>                 cand;
-  std::vector<std::array<unsigned, 3>> tris;
-  const int sides = static_cast<int>(std::find(model.surface_names.begin(), model.surface_names.end(), "sides") -
-                                     model.surface_names.begin());
-  for (unsigned t = 0; t < model.triangles.size(); ++t)
-    if (model.triangle_surface[t] == sides)
-      cand.push_back(t), tris.push_back(model.triangles[t]);
-  std::map<long long, unsigned> at;
-  for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
-    at[r.surface.node_tags[i]] = i;
-
-  PointInteraction    irdm(model);
-  std::vector<double> u(model.n_outputs);
-  double fmax = 0, ferr = 0, umax = 0, uerr = 0;
-  int    switches = 0;
-  bool   was_active = false;
-  for (unsigned n = 0; n < scene.n_steps(); ++n)
-    {
-      const double t  = (n + 1) * scene.time_step;
-      const auto  &p  = scene.probes[0];
-      const auto   sp = geometry::closest_point(model.output_coordinates, tris, p.path.at(t));
-      ProbeTarget  target;
-      target.triangle = static_cast<int>(cand[sp.triangle]);
-      target.weights  = sp.weights;
-      for (int d = 0; d < 3; ++d)
-        target.displacement[d] = p.depth.at(t) * p.direction[d];
-      target.direction  = p.direction;
-      target.unilateral = true;
-      g_count_allocations = true;
-      const bool stepped  = irdm.step(&target, 1);
-      irdm.surface_displacement(u.data());
-      g_count_allocations = false;
-      ASSERT_TRUE(stepped);
-      for (int d = 0; d < 3; ++d)
-        {
-          fmax = std::max(fmax, std::abs(r.probe_force.at("finger")[n + 1][d]));
-          ferr = std::max(ferr, std::abs(irdm.force(0)[d] - r.probe_force.at("finger")[n + 1][d]));
-        }
-      switches += irdm.active(0) != was_active;
-      was_active = irdm.active(0);
-      for (unsigned j = 0; j < model.n_outputs; ++j)
-        {
-          const double fem_u = r.surface_displacement[n + 1][3 * at[model.output_node_tags[j / 3]] + j % 3];
-          umax = std::max(umax, std::abs(fem_u));
-          uerr = std::max(uerr, std::abs(u[j] - fem_u));
-        }
-    }
-  EXPECT_EQ(g_allocations, 0) << "heap allocations inside step() / surface_displacement()";
-  EXPECT_GT(fmax, 1e-4); // the probe did push
-  EXPECT_GE(switches, 2); // it touched and let go
-  EXPECT_LT(ferr / fmax, 1e-9);
-  EXPECT_LT(uerr / umax, 1e-9);
-  // Float storage costs float round-off, not more.
-  const auto f = model.as_float();
-  EXPECT_FALSE(f.double_storage);
+// A probe with a contact radius (issue 16): its force spreads over every surface vertex within
+// 12 mm by the smooth weights of geometry::radius_patch, in the FEM and in the runtimes alike,
+// and the patch changes as the probe slides.
+TEST(Runtime, UntruncatedIrdmReproducesTheFemWithARadiusProbe)
+{
+  EXPECT_GE(expect_irdm_reproduces_the_fem(moving_press + R"(, "radius_m": 0.012)", "radius"), 8);
 }
 
 TEST(Runtime, LoaderRejectsBadFiles)
@@ -265,29 +387,44 @@ TEST(Precompute, TwoMpiRanksGiveTheSerialResult)
 {
   if (std::system("command -v mpirun > /dev/null 2>&1") != 0)
     GTEST_SKIP() << "mpirun not installed";
-  const std::string scene_file = tmp("mpi_scene.json");
-  {
-    std::ofstream f(scene_file);
-    f << beam_scene("");
-  }
-  const std::string serial = tmp("serial.h5"), parallel = tmp("parallel.h5");
-  // A clean environment: this test process is itself an MPI singleton, and its OMPI_*
-  // variables would confuse a nested mpirun.
-  const std::string clean = clean_environment();
-  const std::string base  = std::string(IRDM_CLI) + " precompute " + scene_file +
-                           " --quiet --restart --chunk 5 --out ";
-  ASSERT_EQ(std::system((clean + base + serial + " > /dev/null").c_str()), 0);
-  ASSERT_EQ(std::system((clean + "mpirun --allow-run-as-root --oversubscribe -np 2 " + base + parallel +
-                         " > /dev/null").c_str()),
-            0);
-  const auto a = load_model(serial), b = load_model(parallel);
-  ASSERT_EQ(a.h_double.size(), b.h_double.size());
-  size_t differ = 0;
-  for (size_t i = 0; i < a.h_double.size(); ++i)
-    differ += a.h_double[i] != b.h_double[i];
-  EXPECT_EQ(differ, 0u) << "entries of H that differ between 1 and 2 ranks";
-  h5::Reader r(parallel);
-  EXPECT_EQ(r.double_attribute("/", "precompute_ranks"), 2);
+  // The beam's model (inputs near the tip), and one with every free surface vertex in and
+  // out (H filled by reciprocity on the writing rank).
+  const std::string inputs_near_tip =
+    R"("inputs": {"within": {"center_m": [0.22, 0.0, 0.01], "radius_m": 0.03}})";
+  for (const bool symmetric : {false, true})
+    {
+      std::string scene = beam_scene("");
+      if (symmetric)
+        {
+          const size_t at = scene.find(inputs_near_tip);
+          ASSERT_NE(at, std::string::npos);
+          scene.replace(at, inputs_near_tip.size(), R"("inputs": {"surfaces": ["sides", "tip"]})");
+        }
+      const std::string scene_file = tmp("mpi_scene.json");
+      {
+        std::ofstream f(scene_file);
+        f << scene;
+      }
+      const std::string serial = tmp("serial.h5"), parallel = tmp("parallel.h5");
+      // A clean environment: this test process is itself an MPI singleton, and its OMPI_*
+      // variables would confuse a nested mpirun.
+      const std::string clean = clean_environment();
+      const std::string base  = std::string(IRDM_CLI) + " precompute " + scene_file +
+                               " --quiet --restart --chunk 5 --length 20 --out ";
+      ASSERT_EQ(std::system((clean + base + serial + " > /dev/null").c_str()), 0);
+      ASSERT_EQ(std::system((clean + "mpirun --allow-run-as-root --oversubscribe -np 2 " + base +
+                             parallel + " > /dev/null").c_str()),
+                0);
+      const auto a = load_model(serial), b = load_model(parallel);
+      EXPECT_EQ(a.n_inputs == a.n_outputs, symmetric);
+      ASSERT_EQ(a.h_double.size(), b.h_double.size());
+      size_t differ = 0;
+      for (size_t i = 0; i < a.h_double.size(); ++i)
+        differ += a.h_double[i] != b.h_double[i];
+      EXPECT_EQ(differ, 0u) << "entries of H that differ between 1 and 2 ranks";
+      h5::Reader r(parallel);
+      EXPECT_EQ(r.double_attribute("/", "precompute_ranks"), 2);
+    }
 }
 
 TEST(Precompute, ResumesAnInterruptedRunWithoutRedoingChunks)

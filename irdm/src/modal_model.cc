@@ -111,10 +111,16 @@ namespace irdm
   }
 
   bool
+  ModalInteraction::can_touch(const ProbeTarget &probe) const
+  {
+    return detail::can_touch(model_, probe);
+  }
+
+  bool
   ModalInteraction::step(const ProbeTarget *probes, const int P)
   {
     for (int p = 0; p < P; ++p)
-      if (!can_touch(probes[p].triangle))
+      if (!can_touch(probes[p]))
         return false;
     for (const unsigned k : pushed_)
       force_now_[k] = 0, is_pushed_[k] = 0;

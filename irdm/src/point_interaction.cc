@@ -64,6 +64,12 @@ namespace irdm
     return detail::can_touch(model_, t);
   }
 
+  bool
+  PointInteraction::can_touch(const ProbeTarget &probe) const
+  {
+    return detail::can_touch(model_, probe);
+  }
+
   // sum over active inputs k and s = 1 .. taps-1 of H[k][s][j] f_k[n - s], at the current
   // step n_ (before its force is known).
   template <typename Scalar>
@@ -88,7 +94,7 @@ namespace irdm
   PointInteraction::step(const ProbeTarget *probes, const int P)
   {
     for (int p = 0; p < P; ++p)
-      if (!can_touch(probes[p].triangle))
+      if (!can_touch(probes[p]))
         return false;
     history_.begin_step(n_, [](unsigned) {});
     detail::probe_step(

@@ -36,6 +36,12 @@ namespace irdm
     return detail::can_touch(model_, t);
   }
 
+  bool
+  RepresentativeInteraction::can_touch(const ProbeTarget &probe) const
+  {
+    return detail::can_touch(model_, probe);
+  }
+
   double
   RepresentativeInteraction::feed_through(const unsigned k, const unsigned j) const
   {
@@ -75,7 +81,7 @@ namespace irdm
   RepresentativeInteraction::step(const ProbeTarget *probes, const int P)
   {
     for (int p = 0; p < P; ++p)
-      if (!can_touch(probes[p].triangle))
+      if (!can_touch(probes[p]))
         return false;
     history_.begin_step(n_, [&](const unsigned k) {
       for (auto r = model_.first_representative[k]; r < model_.first_representative[k + 1]; ++r)

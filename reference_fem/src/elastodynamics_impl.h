@@ -16,6 +16,7 @@
 #include <deal.II/lac/sparsity_pattern.h>
 #include <deal.II/lac/vector.h>
 
+#include <irdm_common/geometry.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/mesh.h>
 
@@ -140,6 +141,17 @@ namespace irdm::fem
     std::vector<std::array<double, 10>> last_probe; // the latest solve_probes() result
     const Vector<double> &
     probe_column(types::global_dof_index dof) const;
+    /// Where probe p touches at time t: its contact point, and the mesh vertices its force
+    /// spreads over with their weights (its triangle's barycentric weights, or the patch of a
+    /// probe with a radius). InputError if a radius covers no vertex or too many.
+    struct ProbeSpread
+    {
+      geometry::SurfacePoint at;
+      std::vector<unsigned>  vertices;
+      std::vector<double>    weights;
+    };
+    ProbeSpread
+    probe_spread(unsigned p, double t) const;
     /// Imposes the probes at time t on u (free solution in, constrained solution out),
     /// adds their forces to f; returns per probe: force (3), contact point (3), active flag,
     /// displacement of the contact point (3).

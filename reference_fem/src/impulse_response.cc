@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <set>
 #include <memory>
 #include <numeric>
@@ -60,18 +61,19 @@ namespace irdm::fem
       return std::chrono::duration<double>(Clock::now() - t0).count();
     }
 
-    // Row-major C (m x n) = A (m x k) * B^T, B (n x k) row-major: column-major C^T = B A^T.
+    // Row-major C (m x n, row stride ldc) = A (m x k) * B^T, B (n x k) row-major:
+    // column-major C^T = B A^T.
     void
-    gemm_abt(int m, int n, int k, const float *A, const float *B, float *C)
+    gemm_abt(int m, int n, int k, const float *A, const float *B, float *C, int ldc)
     {
       const float one = 1, zero = 0;
-      sgemm_("T", "N", &n, &m, &k, &one, B, &k, A, &k, &zero, C, &n);
+      sgemm_("T", "N", &n, &m, &k, &one, B, &k, A, &k, &zero, C, &ldc);
     }
     void
-    gemm_abt(int m, int n, int k, const double *A, const double *B, double *C)
+    gemm_abt(int m, int n, int k, const double *A, const double *B, double *C, int ldc)
     {
       const double one = 1, zero = 0;
-      dgemm_("T", "N", &n, &m, &k, &one, B, &k, A, &k, &zero, C, &n);
+      dgemm_("T", "N", &n, &m, &k, &one, B, &k, A, &k, &zero, C, &ldc);
     }
 
     // The free surface vertices in a region, in boundary order.
@@ -464,11 +466,19 @@ namespace irdm::fem
     const unsigned n_chunks = (nin + chunk - 1) / chunk;
     rep.n_chunks = n_chunks;
     rep.bytes    = static_cast<double>(per_input) * nin * scalar;
+    // Reciprocity (Maxwell-Betti): with the same vertices in and out, in the same order,
+    // H[s] = Phi diag(h[s]) Phi^T is symmetric. Each chunk then computes only the outputs from
+    // its own first input on (half the GEMM) and takes the outputs before it from the chunks
+    // already computed, transposed. Those blocks wait on the writing rank until their chunk is
+    // written: at most about a quarter of H.
+    const bool symmetric = in_v == out_v;
     {
-      // Before the long part: the chunk buffers and GEMM operands of every worker, and the file.
-      const double workers_max = size == 1 ? 4 : 1;
+      // Before the long part: the chunk buffers (two sets on one rank: one computing, one
+      // writing) and GEMM operands of every worker, the blocks reciprocity keeps, and the file.
+      const double workers_max = size == 1 ? 2 * 4 : 1;
       const double buffers     = workers_max * chunk * (per_input + static_cast<double>(T) * nm) *
-                             (scalar + 8);
+                                 (scalar + 8) +
+                             (symmetric && rank == 0 ? rep.bytes / 4 : 0);
       check_memory_estimate("precompute (--chunk " + std::to_string(chunk) + ")", buffers,
                             options.allow_large);
       if (rank == 0)
@@ -642,8 +652,10 @@ namespace irdm::fem
             for (unsigned i = 0; i < nm; ++i)
               row[i] = static_cast<Scalar>(hs[i] * pk[i]);
           }
-      gemm_abt(static_cast<int>(nk * T), static_cast<int>(nout), static_cast<int>(nm), A.data(),
-               phi_out_s.data(), result);
+      const unsigned j0 = symmetric ? k0 : 0; // the outputs before j0 come by reciprocity
+      gemm_abt(static_cast<int>(nk * T), static_cast<int>(nout - j0), static_cast<int>(nm),
+               A.data(), phi_out_s.data() + static_cast<size_t>(j0) * nm, result + j0,
+               static_cast<int>(nout));
     };
     // Each GEMM runs on one BLAS thread so that a chunk's bits do not depend on how the work
     // is split; a serial run computes several chunks at once on threads of its own instead.
@@ -656,9 +668,12 @@ namespace irdm::fem
       using Scalar = decltype(zero);
       const MPI_Datatype        type = sizeof(Scalar) == 8 ? MPI_DOUBLE : MPI_FLOAT;
       const std::vector<Scalar> phi_out_s(phi_out.begin(), phi_out.end());
-      std::vector<std::vector<Scalar>> buffers(workers,
+      // Two sets of buffers on one rank: the GEMMs of one batch fill one set while the other
+      // set, the batch before, is being written.
+      const unsigned n_sets = size == 1 ? 2 : 1;
+      std::vector<std::vector<Scalar>> buffers(n_sets * workers,
                                                std::vector<Scalar>(static_cast<size_t>(chunk) * per_input));
-      double     compute_seconds = 0;
+      double     compute_seconds = 0, fill_seconds = 0;
       unsigned   finished        = rep.chunks_resumed;
       const auto t_chunks        = Clock::now(); // the time left is estimated from this run's rate
       const auto store = [&](const unsigned c, const Scalar *data) {
@@ -676,26 +691,87 @@ namespace irdm::fem
             std::to_string(static_cast<int>(since(t_start))) + " s elapsed, about " +
             std::to_string(static_cast<int>(per_chunk * (n_chunks - finished))) + " s left");
       };
+      // Reciprocity, on the writing rank, chunk by chunk in order: chunk c's outputs before
+      // its first input from the blocks earlier chunks left for it (and its own block's lower
+      // triangle from its upper), then the blocks it leaves for later chunks:
+      // block[c2][c] = H[inputs of c][s][outputs of c2], [k][s][j].
+      std::vector<std::vector<std::vector<Scalar>>> block(symmetric ? n_chunks : 0);
+      const auto complete = [&](const unsigned c, Scalar *data) {
+        if (!symmetric)
+          return;
+        const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
+        for (unsigned c1 = 0; c1 < c; ++c1)
+          {
+            const unsigned j0 = c1 * chunk, nj = std::min(chunk, nin - j0);
+            const Scalar  *from = block[c][c1].data(); // [j][s][k]: H[j][s][k] = H[k][s][j]
+            for (unsigned k = 0; k < nk; ++k)
+              for (unsigned s = 0; s < T; ++s)
+                {
+                  Scalar *row = data + (static_cast<size_t>(k) * T + s) * nout + j0;
+                  for (unsigned j = 0; j < nj; ++j)
+                    row[j] = from[(static_cast<size_t>(j) * T + s) * nk + k];
+                }
+            std::vector<Scalar>().swap(block[c][c1]);
+          }
+        // Within the chunk's own block, below its diagonal too: the stored H[s] is then exactly
+        // symmetric.
+        for (unsigned k = 1; k < nk; ++k)
+          for (unsigned s = 0; s < T; ++s)
+            for (unsigned j = 0; j < k; ++j)
+              data[(static_cast<size_t>(k) * T + s) * nout + k0 + j] =
+                data[(static_cast<size_t>(j) * T + s) * nout + k0 + k];
+        for (unsigned c2 = c + 1; c2 < n_chunks; ++c2)
+          {
+            const unsigned j0 = c2 * chunk, nj = std::min(chunk, nin - j0);
+            auto          &to = block[c2][c];
+            to.resize(static_cast<size_t>(nk) * T * nj);
+            for (size_t r = 0; r < static_cast<size_t>(nk) * T; ++r)
+              std::copy(data + r * nout + j0, data + r * nout + j0 + nj, to.data() + r * nj);
+          }
+      };
+      for (auto &b : block)
+        b.resize(n_chunks);
+      // Chunks to compute: those not written yet, and under reciprocity every chunk before
+      // them too (their blocks are needed; a resumed run recomputes them without writing).
       std::vector<unsigned> todo;
       for (unsigned c = 0; c < n_chunks; ++c)
-        if (!done[c])
+        if (!done[c] || symmetric)
           todo.push_back(c);
       if (size == 1)
-        for (size_t first = 0; first < todo.size(); first += workers)
-          {
-            const size_t n_batch = std::min<size_t>(workers, todo.size() - first);
-            const auto   tc      = Clock::now();
-            std::vector<std::thread> pool;
-            for (size_t b = 1; b < n_batch; ++b)
-              pool.emplace_back(
-                [&, b] { compute_chunk(todo[first + b], phi_out_s, buffers[b].data()); });
-            compute_chunk(todo[first], phi_out_s, buffers[0].data());
-            for (auto &t : pool)
-              t.join();
-            compute_seconds += since(tc);
-            for (size_t b = 0; b < n_batch; ++b)
-              store(todo[first + b], buffers[b].data());
-          }
+        {
+          std::future<void> writing; // the batch before, written while this batch computes
+          for (size_t first = 0, batch = 0; first < todo.size(); first += workers, ++batch)
+            {
+              const size_t n_batch = std::min<size_t>(workers, todo.size() - first);
+              const auto   buffer  = [&, batch](const size_t b) {
+                return buffers[(batch % n_sets) * workers + b].data();
+              };
+              const auto tc = Clock::now();
+              std::vector<std::thread> pool;
+              for (size_t b = 1; b < n_batch; ++b)
+                pool.emplace_back([&, b] { compute_chunk(todo[first + b], phi_out_s, buffer(b)); });
+              compute_chunk(todo[first], phi_out_s, buffer(0));
+              for (auto &t : pool)
+                t.join();
+              const auto tf = Clock::now();
+              for (size_t b = 0; b < n_batch; ++b)
+                complete(todo[first + b], buffer(b));
+              fill_seconds += since(tf);
+              compute_seconds += since(tc);
+              if (writing.valid())
+                writing.get(); // rethrows a failed write
+              writing = std::async(std::launch::async, [&, first, n_batch, buffer] {
+                for (size_t b = 0; b < n_batch; ++b)
+                  if (!done[todo[first + b]])
+                    store(todo[first + b], buffer(b));
+              });
+            }
+          if (writing.valid())
+            writing.get();
+          if (symmetric)
+            log("responses: " + std::to_string(compute_seconds) + " s, of which the fill by "
+                "reciprocity " + std::to_string(fill_seconds) + " s");
+        }
       else
         for (const unsigned c : todo)
           {
@@ -715,7 +791,11 @@ namespace irdm::fem
               MPI_Recv(buffers[0].data(), static_cast<int>(count), type, owner,
                        static_cast<int>(c), MPI_COMM_WORLD, MPI_STATUS_IGNORE);
             if (rank == 0)
-              store(c, buffers[0].data());
+              {
+                complete(c, buffers[0].data());
+                if (!done[c])
+                  store(c, buffers[0].data());
+              }
           }
       return compute_seconds;
     };

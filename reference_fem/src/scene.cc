@@ -605,7 +605,8 @@ namespace irdm::fem
     if (top.has("probes"))
       for (const auto &n : top.at("probes").array())
         {
-          n.allow_only({"name", "surface", "direction", "unilateral", "path", "depth", "until_s"});
+          n.allow_only({"name", "surface", "direction", "unilateral", "path", "depth", "until_s",
+                        "radius_m"});
           Probe p;
           p.name    = unique(n, parse_name(n, "probe" + std::to_string(names.size())));
           p.surface = n.at("surface").string();
@@ -618,6 +619,8 @@ namespace irdm::fem
             p.unilateral = n.at("unilateral").boolean();
           if (n.has("until_s"))
             p.until = n.at("until_s").positive();
+          if (n.has("radius_m"))
+            p.radius = n.at("radius_m").positive();
           std::vector<Node> samples;
           parse_samples(n.at("path"), "points_m", p.path.times, samples);
           for (const auto &x : samples)

@@ -87,6 +87,20 @@ namespace irdm::validation
             const auto  sp = geometry::closest_point(model.output_coordinates, ps.triangles[p], pr.path.at(t));
             targets[p].triangle = static_cast<int>(ps.candidates[p][sp.triangle]);
             targets[p].weights  = sp.weights;
+            targets[p].n_patch  = 0;
+            if (pr.radius > 0)
+              {
+                // The same patch the FEM spreads over (geometry::radius_patch).
+                targets[p].n_patch = geometry::radius_patch(
+                  model.output_coordinates, ps.triangles[p], sp.point, pr.radius,
+                  targets[p].patch_vertices.data(), targets[p].patch_weights.data(),
+                  contact::max_patch);
+                if (targets[p].n_patch <= 0)
+                  throw InputError("probe '" + pr.name + "': at t = " + std::to_string(t) +
+                                   " s its radius_m covers " +
+                                   (targets[p].n_patch == 0 ? "no model vertex" : "too many") +
+                                   " (see probe-stiffness)");
+              }
             for (int d = 0; d < 3; ++d)
               targets[p].displacement[d] = pr.depth.at(t) * pr.direction[d];
             targets[p].direction  = pr.direction;
@@ -96,8 +110,8 @@ namespace irdm::validation
         const auto t0 = Clock::now();
         if (!irdm.step(targets.data(), P))
           throw InputError("scene '" + scene.name + "': at t = " + std::to_string(t) +
-                           " s a probe touches a triangle whose vertices are not all model "
-                           "inputs; widen the scene's model.inputs region");
+                           " s a probe touches a vertex that is not a model input; widen the "
+                           "scene's model.inputs region");
         s.force_loop_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
         bool bad = false;
         for (int p = 0; p < P; ++p)

@@ -15,6 +15,9 @@
 namespace irdm::contact
 {
   constexpr int max_probes = 4;
+  // Vertices one probe's force may spread over (a probe with a contact radius; a point probe
+  // spreads over the 3 vertices of its triangle).
+  constexpr int max_patch = 128;
   constexpr int max_rows   = 3 * max_probes;
   using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, max_rows, max_rows>;
   using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, max_rows, 1>;

@@ -1,8 +1,9 @@
 #pragma once
 // Closest point on a triangle mesh, by barycentric weights: the contact point of a probe
-// between vertices. Shared by the reference FEM and the IRDM runtime so both place a probe
-// identically. Allocation-free.
+// between vertices; and the contact patch of a probe with a radius. Shared by the reference FEM
+// and the IRDM runtime so both place a probe identically. Allocation-free.
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <limits>
 
@@ -87,5 +88,64 @@ namespace irdm::geometry
           best = SurfacePoint{static_cast<int>(t), w, q, d2};
       }
     return best;
+  }
+
+  /// The contact patch of a probe with a contact radius r centred at the surface point c: the
+  /// surface vertices within distance r of c, with weights
+  ///   w_i = A_i psi(|x_i - c| / r) / sum_j A_j psi(|x_j - c| / r),  psi(rho) = (1 - rho^2)^2,
+  /// A_i a third of the area of the given triangles at vertex i (a lumped quadrature of the
+  /// surface). The probe's force F spreads as w_i F, and the probe's displacement is
+  /// sum_i w_i u_i (the same weights: force and displacement stay work-conjugate). As the mesh
+  /// is refined this tends to the smooth traction F psi / (integral of psi) on a disc, whose
+  /// compliance is finite; a force on one vertex (a point load) has a compliance that grows
+  /// without bound as the mesh is refined. psi is C1 at rho = 1, so a patch that slides over the
+  /// surface changes its weights continuously.
+  /// Writes up to max_n (vertex, weight) pairs and returns their number; returns -1 if more
+  /// than max_n vertices lie within r, and 0 if none does (then r is below the mesh size).
+  template <typename Vertices, typename Triangles>
+  int
+  radius_patch(const Vertices &vertices, const Triangles &triangles, const Point &c,
+               const double r, unsigned *vertex, double *weight, const int max_n)
+  {
+    int n = 0;
+    for (std::size_t t = 0; t < triangles.size(); ++t)
+      {
+        const Point &a = vertices[triangles[t][0]], &b = vertices[triangles[t][1]],
+                    &d = vertices[triangles[t][2]];
+        const Point ab = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const Point ad = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+        const Point cross = {ab[1] * ad[2] - ab[2] * ad[1], ab[2] * ad[0] - ab[0] * ad[2],
+                             ab[0] * ad[1] - ab[1] * ad[0]};
+        const double third_area =
+          std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]) / 6;
+        for (int k = 0; k < 3; ++k)
+          {
+            const unsigned v   = static_cast<unsigned>(triangles[t][k]);
+            const Point   &x   = vertices[v];
+            const double   rho2 = ((x[0] - c[0]) * (x[0] - c[0]) + (x[1] - c[1]) * (x[1] - c[1]) +
+                                 (x[2] - c[2]) * (x[2] - c[2])) /
+                                (r * r);
+            if (!(rho2 < 1))
+              continue;
+            const double psi = (1 - rho2) * (1 - rho2);
+            int          i   = 0;
+            while (i < n && vertex[i] != v)
+              ++i;
+            if (i == n)
+              {
+                if (n == max_n)
+                  return -1;
+                vertex[n]   = v;
+                weight[n++] = 0;
+              }
+            weight[i] += third_area * psi;
+          }
+      }
+    double sum = 0;
+    for (int i = 0; i < n; ++i)
+      sum += weight[i];
+    for (int i = 0; i < n; ++i)
+      weight[i] /= sum;
+    return n;
   }
 } // namespace irdm::geometry

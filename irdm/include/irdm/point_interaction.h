@@ -5,7 +5,8 @@
 // by barycentric weights, so a probe can move between vertices and trace along the surface.
 // Every step (the force loop):
 //   h_C   = sum_{s>=1} H_C[s] f[n-s]                  history term at the contact rows
-//   S     = B H_CC[0] B^T                              (3P x 3P), B the barycentric spreading
+//   S     = B H_CC[0] B^T                              (3P x 3P), B the spreading (barycentric,
+//                                                      or a radius probe's patch weights)
 //   S lambda = ubar - B h_C                            contact forces (irdm_common/contact.h)
 //   f[n]  = B^T lambda                                 pushed into the force history
 // and on demand the displacement of every output (the full surface update).
@@ -21,10 +22,18 @@
 
 namespace irdm
 {
+  /// Where a probe touches: a point of a model triangle (barycentric weights on its 3
+  /// vertices, the seeds' point interaction), or, with n_patch > 0, a patch of model vertices
+  /// with weights summing to 1 (a probe with a contact radius, geometry::radius_patch, whose
+  /// force converges as the mesh is refined). Either way the force spreads over the vertices
+  /// by the weights and the probe's displacement is the weighted sum of theirs.
   struct ProbeTarget
   {
-    int                   triangle = -1;        // model triangle touched
+    int                   triangle = -1;        // model triangle touched (n_patch == 0)
     std::array<double, 3> weights  = {1, 0, 0}; // barycentric, on its vertices
+    int                                      n_patch = 0; // > 0: the patch below instead
+    std::array<unsigned, contact::max_patch> patch_vertices{}; // model output vertex indices
+    std::array<double, contact::max_patch>   patch_weights{};
     std::array<double, 3> displacement = {0, 0, 0}; // m, prescribed for that surface point
     std::array<double, 3> direction    = {0, 0, -1}; // unit push direction (unilateral)
     bool                  unilateral   = false;
@@ -81,9 +90,12 @@ namespace irdm
     /// True if a probe may touch the triangle: all its vertices are model inputs.
     bool
     can_touch(int triangle) const;
+    /// True if every vertex the probe spreads over is a model input.
+    bool
+    can_touch(const ProbeTarget &probe) const;
 
     /// One force-loop step with n_probes <= contact::max_probes probes. Returns false (and
-    /// applies no force) if a probe is on a triangle it cannot touch.
+    /// applies no force) if a probe is where it cannot touch (can_touch).
     bool
     step(const ProbeTarget *probes, int n_probes);
 

@@ -25,6 +25,8 @@ namespace irdm
     bool
     can_touch(int triangle) const;
     bool
+    can_touch(const ProbeTarget &probe) const;
+    bool
     step(const ProbeTarget *probes, int n_probes);
     void
     surface_displacement(double *u) const;

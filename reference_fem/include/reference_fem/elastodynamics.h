@@ -53,6 +53,19 @@ namespace irdm::fem
     double   seconds_eigen = 0, seconds_static = 0;
   };
 
+  /// The static compliance of a scene's probes at one time (ElasticDynamics::probe_compliance):
+  /// S = B K^-1 B^T (m/N), B each probe's spread over its vertices, and the driving-point
+  /// stiffness along each probe's direction, d^T S_pp^-1 d (N/m: the force needed per metre
+  /// of push when the probe holds all 3 components, as the probes of a scene do).
+  struct ProbeCompliance
+  {
+    std::vector<double>   compliance;   // 3P x 3P, row-major
+    std::vector<double>   stiffness;    // per probe, N/m
+    std::vector<unsigned> n_vertices;   // per probe: vertices its force spreads over
+    std::vector<std::array<double, 3>> point; // per probe: contact point (undeformed), m
+    double seconds = 0;                 // factorization and solves
+  };
+
   struct RunResult
   {
     std::vector<double> time;           // s, the output samples
@@ -141,6 +154,11 @@ namespace irdm::fem
     /// displacements at t: one output sample.
     RunResult
     solve_static(double t = 0) const;
+
+    /// Static compliance and driving-point stiffness of the scene's probes at time t (their
+    /// contact points and spreads at t; the probes' depths do not matter).
+    ProbeCompliance
+    probe_compliance(double t = 0) const;
 
     /// Lowest natural frequencies (Hz) of the undamped, fixed system (subspace iteration).
     std::vector<double>

@@ -16,7 +16,9 @@
 // with the lowest modes removed, diagonalized by Rayleigh-Ritz (modal truncation
 // augmentation), so the static compliance at the inputs stays exact and H is still a sum of
 // decoupled modes (the modal runtime runs it unchanged). Runs under mpirun: inputs are split
-// across ranks, rank 0 writes.
+// across ranks, rank 0 writes. With the same vertices in and out, H[s] is symmetric
+// (reciprocity): only the half from each input on is computed, the rest is filled by symmetry,
+// and the stored H[s] is exactly symmetric. One rank writes a batch while the next computes.
 #include <reference_fem/scene.h>
 
 #include <functional>

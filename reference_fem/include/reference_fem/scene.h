@@ -81,6 +81,10 @@ namespace irdm::fem
     History       path;  // m, points near the undeformed surface
     ScalarHistory depth; // m, along direction
     double        until = 1e300; // s: the probe lets go for good after this time
+    // m; > 0: a probe with a contact radius: its force spreads over the surface vertices
+    // within this distance of the contact point by smooth weights (geometry::radius_patch),
+    // so its force converges as the mesh is refined. 0: the point probe above.
+    double radius = 0;
   };
 
   /// A set of surface vertices: those of the named surfaces (all surfaces if none named),
