@@ -116,6 +116,8 @@ def main():
                 lines.append(f"| {label} | {deg} | {names} | {p:.2f} | {q_inf:.5g} | {100 * err:+.1f} % |")
     with open(out_md + ".part", "w") as fh:
         fh.write("\n".join(lines) + "\n")
+        fh.flush()
+        os.fsync(fh.fileno())
     os.replace(out_md + ".part", out_md)
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))

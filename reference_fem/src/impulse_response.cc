@@ -695,7 +695,8 @@ namespace irdm::fem
       // its first input from the blocks earlier chunks left for it (and its own block's lower
       // triangle from its upper), then the blocks it leaves for later chunks:
       // block[c2][c] = H[inputs of c][s][outputs of c2], [k][s][j].
-      std::vector<std::vector<std::vector<Scalar>>> block(symmetric ? n_chunks : 0);
+      std::vector<std::vector<std::vector<Scalar>>> block(
+        symmetric ? n_chunks : 0, std::vector<std::vector<Scalar>>(n_chunks));
       const auto complete = [&](const unsigned c, Scalar *data) {
         if (!symmetric)
           return;
@@ -729,10 +730,8 @@ namespace irdm::fem
               std::copy(data + r * nout + j0, data + r * nout + j0 + nj, to.data() + r * nj);
           }
       };
-      for (auto &b : block)
-        b.resize(n_chunks);
-      // Chunks to compute: those not written yet, and under reciprocity every chunk before
-      // them too (their blocks are needed; a resumed run recomputes them without writing).
+      // Chunks to compute: those not written yet; under reciprocity every chunk (a resumed run
+      // recomputes the written ones for the blocks they leave, without writing them again).
       std::vector<unsigned> todo;
       for (unsigned c = 0; c < n_chunks; ++c)
         if (!done[c] || symmetric)
