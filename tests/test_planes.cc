@@ -1,12 +1,15 @@
 // Virtual-DOF plane contact: the geodesic dome, the orientation mapping, and the runtime's
 // rigid-wall solve on a small precomputed model (the wall is met exactly, never pulls).
 #include <irdm/plane_interaction.h>
+#include <irdm_common/complementarity.h>
 #include <reference_fem/scene.h>
 #include <reference_fem/virtual_dof.h>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "irdm_test_util.h"
 
@@ -112,4 +115,73 @@ TEST(Planes, RuntimeReproducesThePrecomputedImpulse)
         EXPECT_NEAR(u[i], S[i] * F, 1e-6 * std::abs(F) + 1e-15);
     }
   std::printf("runtime impulse vs precompute: worst |F / F_k - 1| = %.3g\n", worst);
+}
+
+// The many-vertex contact solve (irdm_common/complementarity.h) on random problems: the result
+// satisfies the complementarity conditions to round-off, is unique (the same from any first
+// guess), and a warm start from the answer takes one round.
+TEST(Planes, ComplementaritySolverMeetsTheConditionsExactly)
+{
+  unsigned long long seed    = 12345;
+  const auto         uniform = [&] { // in [-1, 1)
+    seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(seed >> 11) / 4503599627370496.0 - 1;
+  };
+  for (const int n : {1, 7, 40, 150})
+    {
+      // W = A A^T / n + 0.01 I: symmetric positive definite, dense, off-diagonals of both signs.
+      std::vector<double> A(n * n), W(n * n, 0.0), q(n);
+      for (auto &a : A)
+        a = uniform();
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+          {
+            for (int k = 0; k < n; ++k)
+              W[i * n + j] += A[i * n + k] * A[j * n + k] / n;
+            W[i * n + j] += i == j ? 0.01 : 0;
+          }
+      for (auto &x : q)
+        x = uniform();
+      contact::ComplementaritySolver solver(n);
+      std::vector<double>            lambda(n), first(n);
+      std::vector<char>              active(n, 0);
+      const int rounds = solver.solve(n, W.data(), n, q.data(), active.data(), lambda.data());
+      ASSERT_GT(rounds, 0) << n;
+      double scale = 0;
+      int    n_active = 0;
+      for (int i = 0; i < n; ++i)
+        {
+          scale = std::max(scale, std::abs(q[i]));
+          n_active += active[i];
+        }
+      for (int i = 0; i < n; ++i)
+        {
+          double g = q[i];
+          for (int j = 0; j < n; ++j)
+            g += W[i * n + j] * lambda[j];
+          EXPECT_GE(lambda[i], 0);
+          EXPECT_GE(g, -1e-12 * scale);
+          EXPECT_LE(std::abs(lambda[i] * g), 1e-12 * scale * std::max(1.0, lambda[i]));
+          EXPECT_NEAR(g, solver.g(i), 1e-12 * scale);
+        }
+      if (n > 1)
+        {
+          EXPECT_GT(n_active, 0) << "a test with no contact at all tests little";
+          EXPECT_LT(n_active, n) << "nor one where every row is in contact";
+        }
+      first = lambda;
+      // From every row active: the same answer.
+      std::fill(active.begin(), active.end(), 1);
+      ASSERT_GT(solver.solve(n, W.data(), n, q.data(), active.data(), lambda.data()), 0);
+      for (int i = 0; i < n; ++i)
+        EXPECT_NEAR(lambda[i], first[i], 1e-10 * (1 + std::abs(first[i])));
+      // Warm: one round.
+      EXPECT_EQ(solver.solve(n, W.data(), n, q.data(), active.data(), lambda.data()), 1);
+    }
+  // A W that is not positive definite is refused, not solved into garbage.
+  contact::ComplementaritySolver solver(2);
+  const double W[4] = {1, 2, 2, 1}, q[2] = {-1, -1};
+  double       lambda[2];
+  char         active[2] = {1, 1};
+  EXPECT_EQ(solver.solve(2, W, 2, q, active, lambda), -1);
 }

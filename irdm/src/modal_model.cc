@@ -7,6 +7,7 @@
 #include <chrono>
 
 #include "probe_step.h"
+#include "vertex_contact_step.h"
 
 namespace irdm
 {
@@ -87,7 +88,7 @@ namespace irdm
     return out;
   }
 
-  ModalInteraction::ModalInteraction(const ModalModel &model)
+  ModalInteraction::ModalInteraction(const ModalModel &model, const VertexContactOptions &planes)
     : model_(model)
     , N_(model.n_modes)
     , M_(model.surface_modes)
@@ -102,6 +103,7 @@ namespace irdm
     force_now_.assign(model.n_inputs, 0.0);
     is_pushed_.assign(model.n_inputs, 0);
     pushed_.reserve(model.n_inputs);
+    vertex_contact_.reset(model, planes);
   }
 
   bool
@@ -116,64 +118,113 @@ namespace irdm
     return detail::can_touch(model_, probe);
   }
 
+  void
+  ModalInteraction::begin_step()
+  {
+    for (const unsigned k : pushed_)
+      force_now_[k] = 0, is_pushed_[k] = 0;
+    pushed_.clear();
+    // The state this step reaches if its force is zero (structure of arrays: vectorizes).
+    const double *c = coef_.data();
+    const size_t  N = N_;
+    for (size_t i = 0; i < N; ++i)
+      {
+        const double u = xu_[i], v = xv_[i], a = xa_[i], g = g_prev_[i];
+        fu_[i] = c[0 * N + i] * u + c[1 * N + i] * v + c[2 * N + i] * a + c[4 * N + i] * g;
+        fv_[i] = c[5 * N + i] * u + c[6 * N + i] * v + c[7 * N + i] * a + c[9 * N + i] * g;
+        fa_[i] = c[10 * N + i] * u + c[11 * N + i] * v + c[12 * N + i] * a + c[14 * N + i] * g;
+      }
+  }
+
+  void
+  ModalInteraction::end_step()
+  {
+    // Modal force of this step, then the state.
+    std::fill(g_prev_.begin(), g_prev_.end(), 0.0);
+    for (const unsigned k : pushed_)
+      VecMut(g_prev_.data(), N_) += force_now_[k] * Vec(&model_.input_shapes[static_cast<size_t>(k) * N_], N_);
+    const double *c = coef_.data();
+    const size_t  N = N_;
+    for (size_t i = 0; i < N; ++i)
+      {
+        xu_[i] = fu_[i] + c[3 * N + i] * g_prev_[i];
+        xv_[i] = fv_[i] + c[8 * N + i] * g_prev_[i];
+        xa_[i] = fa_[i] + c[13 * N + i] * g_prev_[i];
+      }
+    ++n_;
+  }
+
+  namespace
+  {
+    // The three callbacks of probe_step and VertexContact::step for a modal model.
+    struct ModalAccess
+    {
+      const ModalModel          &m;
+      const std::vector<double> &free_state; // fu_: this step's modal displacement, no force
+      std::vector<double>       &force_now;
+      std::vector<char>         &is_pushed;
+      std::vector<unsigned>     &pushed;
+
+      double
+      history(const unsigned i) const
+      {
+        return Vec(&m.input_shapes[static_cast<size_t>(i) * m.n_modes], m.n_modes)
+          .dot(Vec(free_state.data(), m.n_modes));
+      }
+      // The input DoF whose output is output DoF j (contact rows are outputs of inputs).
+      double
+      h0(const unsigned k, const unsigned j) const
+      {
+        const unsigned i = 3u * static_cast<unsigned>(m.output_input_index[j / 3]) + j % 3;
+        return m.h0_inputs[static_cast<size_t>(k) * m.n_inputs + i];
+      }
+      void
+      push(const unsigned k, const double f)
+      {
+        force_now[k] += f;
+        if (!is_pushed[k])
+          {
+            is_pushed[k] = 1;
+            pushed.push_back(k); // capacity reserved: never reallocates
+          }
+      }
+    };
+  } // namespace
+
   bool
   ModalInteraction::step(const ProbeTarget *probes, const int P)
   {
     for (int p = 0; p < P; ++p)
       if (!can_touch(probes[p]))
         return false;
-    for (const unsigned k : pushed_)
-      force_now_[k] = 0, is_pushed_[k] = 0;
-    pushed_.clear();
-    // The state this step reaches if its force is zero (structure of arrays: vectorizes).
-    {
-      const double *c = coef_.data();
-      const size_t  N = N_;
-      for (size_t i = 0; i < N; ++i)
-        {
-          const double u = xu_[i], v = xv_[i], a = xa_[i], g = g_prev_[i];
-          fu_[i] = c[0 * N + i] * u + c[1 * N + i] * v + c[2 * N + i] * a + c[4 * N + i] * g;
-          fv_[i] = c[5 * N + i] * u + c[6 * N + i] * v + c[7 * N + i] * a + c[9 * N + i] * g;
-          fa_[i] = c[10 * N + i] * u + c[11 * N + i] * v + c[12 * N + i] * a + c[14 * N + i] * g;
-        }
-    }
-    const unsigned nin = model_.n_inputs;
-    // The input DoF whose output is output DoF j (contact rows are outputs of inputs).
-    const auto input_of = [&](const unsigned j) {
-      return 3u * static_cast<unsigned>(model_.output_input_index[j / 3]) + j % 3;
-    };
+    begin_step();
+    ModalAccess a{model_, fu_, force_now_, is_pushed_, pushed_};
     detail::probe_step(
-      model_, probes, P,
-      [&](const unsigned i, unsigned) {
-        return Vec(&model_.input_shapes[static_cast<size_t>(i) * N_], N_).dot(Vec(fu_.data(), N_));
-      },
-      [&](const unsigned k, const unsigned j) {
-        return model_.h0_inputs[static_cast<size_t>(k) * nin + input_of(j)];
-      },
-      [&](const unsigned k, const double f) {
-        force_now_[k] += f;
-        if (!is_pushed_[k])
-          {
-            is_pushed_[k] = 1;
-            pushed_.push_back(k); // capacity reserved: never reallocates
-          }
-      },
-      results_);
-    // Modal force of this step, then the state.
-    std::fill(g_prev_.begin(), g_prev_.end(), 0.0);
-    for (const unsigned k : pushed_)
-      VecMut(g_prev_.data(), N_) += force_now_[k] * Vec(&model_.input_shapes[static_cast<size_t>(k) * N_], N_);
-    {
-      const double *c = coef_.data();
-      const size_t  N = N_;
-      for (size_t i = 0; i < N; ++i)
-        {
-          xu_[i] = fu_[i] + c[3 * N + i] * g_prev_[i];
-          xv_[i] = fv_[i] + c[8 * N + i] * g_prev_[i];
-          xa_[i] = fa_[i] + c[13 * N + i] * g_prev_[i];
-        }
-    }
-    ++n_;
+      model_, probes, P, [&](const unsigned i, unsigned) { return a.history(i); },
+      [&](const unsigned k, const unsigned j) { return a.h0(k, j); },
+      [&](const unsigned k, const double f) { a.push(k, f); }, results_);
+    end_step();
+    return true;
+  }
+
+  bool
+  ModalInteraction::step(const PlaneTarget *planes, const int n_planes)
+  {
+    begin_step();
+    ModalAccess a{model_, fu_, force_now_, is_pushed_, pushed_};
+    const bool ok = vertex_contact_.step(
+      model_, planes, n_planes, [&](const unsigned i, unsigned) { return a.history(i); },
+      [&](const unsigned k, const unsigned j) { return a.h0(k, j); },
+      [&](const unsigned k, const double f) { a.push(k, f); });
+    if (!ok)
+      {
+        // No force this step; the state is left as it was (the caller decides what to do).
+        for (const unsigned k : pushed_)
+          force_now_[k] = 0, is_pushed_[k] = 0;
+        pushed_.clear();
+        return false;
+      }
+    end_step();
     return true;
   }
 

@@ -174,26 +174,27 @@ namespace irdm
   }
 
   void
-  PlaneInteraction::map_direction(const std::array<double, 3> &d)
+  PlaneInteraction::map_direction(Mapped &wall, const std::array<double, 3> &d)
   {
-    if (weights_.n != 0 && d == direction_)
+    if (wall.weights.n != 0 && d == wall.direction)
       return;
-    weights_   = orientation_weights(m_, d, mapping_);
-    direction_ = d;
-    support_   = -1e300;
+    wall.weights   = orientation_weights(m_, d, mapping_);
+    wall.direction = d;
+    wall.support   = -1e300;
     for (unsigned i = 0; i < m_.n_surface; ++i)
       if (!m_.fixed[i])
         {
           const auto &x = m_.coordinates[i];
-          support_      = std::max(support_, d[0] * x[0] + d[1] * x[1] + d[2] * x[2]);
+          wall.support  = std::max(wall.support, d[0] * x[0] + d[1] * x[1] + d[2] * x[2]);
         }
-    rest_ = support_;
-    for (unsigned i = 0; i < weights_.n; ++i)
-      rest_ -= weights_.w[i] * (m_.first_contact[weights_.k[i]] - m_.rest_position[weights_.k[i]]);
+    wall.rest = wall.support;
+    for (unsigned i = 0; i < wall.weights.n; ++i)
+      wall.rest -= wall.weights.w[i] *
+                   (m_.first_contact[wall.weights.k[i]] - m_.rest_position[wall.weights.k[i]]);
   }
 
   void
-  PlaneInteraction::record(const double F)
+  PlaneInteraction::record(const double *F)
   {
     // This step's forces (zero for the others) in both copies of the ring.
     const unsigned T = m_.length, pos = n_ % T;
@@ -203,54 +204,98 @@ namespace irdm
           ring_[static_cast<size_t>(k) * 2 * T + pos]     = 0;
           ring_[static_cast<size_t>(k) * 2 * T + pos + T] = 0;
         }
-    if (F != 0)
-      for (unsigned i = 0; i < weights_.n; ++i)
-        {
-          const unsigned k = weights_.k[i];
-          ring_[static_cast<size_t>(k) * 2 * T + pos]     = weights_.w[i] * F;
-          ring_[static_cast<size_t>(k) * 2 * T + pos + T] = weights_.w[i] * F;
-          if (weights_.w[i] > 0)
-            last_active_[k] = n_ + 1;
-        }
+    for (int a = 0; a < n_walls_; ++a)
+      if (F[a] != 0)
+        for (unsigned i = 0; i < walls_[a].weights.n; ++i)
+          {
+            const unsigned k  = walls_[a].weights.k[i];
+            const double   fk = walls_[a].weights.w[i] * F[a];
+            ring_[static_cast<size_t>(k) * 2 * T + pos] += fk;
+            ring_[static_cast<size_t>(k) * 2 * T + pos + T] += fk;
+            if (walls_[a].weights.w[i] > 0)
+              last_active_[k] = n_ + 1;
+          }
     ++n_;
   }
 
-  void
-  PlaneInteraction::wall_terms(double &h, double &c) const
+  double
+  PlaneInteraction::wall_history(const Mapped &a) const
   {
-    h = c = 0;
-    for (unsigned i = 0; i < weights_.n; ++i)
+    double h = 0;
+    for (unsigned i = 0; i < a.weights.n; ++i)
+      h += a.weights.w[i] * history(a.weights.k[i]);
+    return h;
+  }
+
+  double
+  PlaneInteraction::feed_through(const Mapped &a, const Mapped &b) const
+  {
+    double c = 0;
+    for (unsigned i = 0; i < a.weights.n; ++i)
+      for (unsigned l = 0; l < b.weights.n; ++l)
+        c += a.weights.w[i] * b.weights.w[l] * m_.Y(b.weights.k[l], 0, a.weights.k[i]);
+    return c;
+  }
+
+  bool
+  PlaneInteraction::step(const VirtualDofWall *walls, const int n, double *force)
+  {
+    if (n < 0 || n > max_walls)
+      return false;
+    n_walls_ = n;
+    // Wall a holds its band: r_a - y_a may not pass w_a. With y_a = h_a + sum_b c_ab F_b and a
+    // compliant wall giving way by F_a / k_a, the band's overlap with the wall,
+    //   g_a = (h_a - (r_a - w_a)) + sum_b c_ab F_b + F_a / k_a >= 0,
+    // is complementary to F_a >= 0: the solver's g = W F + q with W = c + diag(1/k).
+    double W[max_walls * max_walls], q[max_walls], h[max_walls];
+    char   active[max_walls];
+    for (int a = 0; a < n; ++a)
       {
-        h += weights_.w[i] * history(weights_.k[i]);
-        for (unsigned l = 0; l < weights_.n; ++l)
-          c += weights_.w[i] * weights_.w[l] * m_.Y(weights_.k[l], 0, weights_.k[i]);
+        map_direction(walls_[a], walls[a].direction);
+        walls_[a].penetration = walls_[a].support - walls[a].position;
+        h[a]                  = wall_history(walls_[a]);
+        q[a]                  = -(walls_[a].rest - h[a] - walls[a].position);
+        active[a]             = q[a] < 0;
+        for (int b = 0; b <= a; ++b)
+          W[a * max_walls + b] = feed_through(walls_[a], walls_[b]);
+        if (walls[a].stiffness > 0)
+          W[a * max_walls + a] += 1 / walls[a].stiffness;
       }
+    if (n > 0 && solver_.solve(n, W, max_walls, q, active, force) < 0)
+      {
+        std::fill(force, force + n, 0.0); // time goes on, with no wall force
+        record(force);
+        return false;
+      }
+    for (int a = 0; a < n; ++a)
+      {
+        walls_[a].y = h[a];
+        for (int b = 0; b < n; ++b)
+          walls_[a].y += (a >= b ? W[a * max_walls + b] : W[b * max_walls + a]) * force[b];
+        if (walls[a].stiffness > 0)
+          walls_[a].y -= force[a] / walls[a].stiffness;
+      }
+    record(force);
+    return true;
   }
 
   double
   PlaneInteraction::step(const std::array<double, 3> &d, const double w)
   {
-    map_direction(d);
-    double h = 0, c = 0;
-    wall_terms(h, c);
-    penetration_ = support_ - w;
-    double F     = 0;
-    if (rest_ - h - w > 0 && c > 0)
-      F = (rest_ - h - w) / c;
-    y_ = h + c * F;
-    record(F);
+    const VirtualDofWall wall{d, w, 0};
+    double               F = 0;
+    step(&wall, 1, &F);
     return F;
   }
 
   void
   PlaneInteraction::apply(const std::array<double, 3> &d, const double F)
   {
-    map_direction(d);
-    double h = 0, c = 0;
-    wall_terms(h, c);
-    penetration_ = 0;
-    y_           = h + c * F;
-    record(F);
+    n_walls_ = 1;
+    map_direction(walls_[0], d);
+    walls_[0].penetration = 0;
+    walls_[0].y = wall_history(walls_[0]) + feed_through(walls_[0], walls_[0]) * F;
+    record(&F);
   }
 
   const std::vector<double> &

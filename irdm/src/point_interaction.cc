@@ -2,18 +2,21 @@
 #include <irdm_common/error.h>
 
 #include "probe_step.h"
+#include "vertex_contact_step.h"
 
 #include <algorithm>
 
 namespace irdm
 {
-  PointInteraction::PointInteraction(const ImpulseResponseModel &model, const unsigned taps)
+  PointInteraction::PointInteraction(const ImpulseResponseModel &model, const unsigned taps,
+                                     const VertexContactOptions &planes)
     : model_(model)
     , taps_(taps == 0 ? model.length : std::min(taps, model.length))
   {
     if (model.n_inputs == 0 || model.n_outputs == 0)
       throw InputError("model has no inputs or outputs");
     history_.reset(model.n_inputs, taps_, taps_);
+    vertex_contact_.reset(model, planes);
     const size_t n = model.n_inputs;
     if (n * n * taps_ * sizeof(double) <= (size_t(256) << 20))
       {
@@ -26,6 +29,14 @@ namespace irdm
                 h_cc_[(k * n + i) * taps_ + s] = model.h(k, s, j);
             }
       }
+  }
+
+  double
+  PointInteraction::history_row(const unsigned i, const unsigned j) const
+  {
+    return !h_cc_.empty()           ? history_at_contact(i)
+           : model_.double_storage ? history_at(model_.h_double.data(), j)
+                                    : history_at(model_.h_float.data(), j);
   }
 
   // As history_at, from the contiguous H_CC block.
@@ -99,16 +110,26 @@ namespace irdm
     history_.begin_step(n_, [](unsigned) {});
     detail::probe_step(
       model_, probes, P,
-      [&](const unsigned i, const unsigned j) {
-        return !h_cc_.empty()           ? history_at_contact(i)
-               : model_.double_storage ? history_at(model_.h_double.data(), j)
-                                        : history_at(model_.h_float.data(), j);
-      },
+      [&](const unsigned i, const unsigned j) { return history_row(i, j); },
       [&](const unsigned k, const unsigned j) { return model_.h(k, 0, j); },
       [&](const unsigned k, const double f) { history_.push(k, n_, f); },
       results_);
     ++n_;
     return true;
+  }
+
+  bool
+  PointInteraction::step(const PlaneTarget *planes, const int n_planes)
+  {
+    history_.begin_step(n_, [](unsigned) {});
+    const bool ok = vertex_contact_.step(
+      model_, planes, n_planes,
+      [&](const unsigned i, const unsigned j) { return history_row(i, j); },
+      [&](const unsigned k, const unsigned j) { return model_.h(k, 0, j); },
+      [&](const unsigned k, const double f) { history_.push(k, n_, f); });
+    if (ok)
+      ++n_;
+    return ok;
   }
 
   template <typename Scalar>

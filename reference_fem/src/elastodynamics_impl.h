@@ -68,6 +68,14 @@ namespace irdm::fem
           double scale) const;
   };
 
+  /// One plane's vertex contact at one step: force on the body (N), deepest penetration of
+  /// a free surface vertex (m; negative: the gap).
+  struct PlaneSample
+  {
+    Vec3   force{0, 0, 0};
+    double penetration = 0;
+  };
+
   class ElasticDynamics::Impl
   {
   public:
@@ -157,6 +165,11 @@ namespace irdm::fem
     /// displacement of the contact point (3).
     std::vector<std::array<double, 10>>
     solve_probes(double t, double scale, Vector<double> &u, Vector<double> &f) const;
+    /// Imposes the planes at time t by vertex contact on u (free solution in, solution out),
+    /// adds their forces to f (elastodynamics_planes.cc).
+    std::vector<PlaneSample>
+    solve_planes(double t, double scale, Vector<double> &u, Vector<double> &f) const;
+    std::vector<PlaneSample> last_planes; // the latest solve_planes() result
     std::vector<std::vector<types::global_dof_index>> fixed_dofs; // per fixed surface
     std::vector<types::global_dof_index> probe_dofs;
     std::vector<unsigned char> dof_component; // 0, 1, 2 = x, y, z

@@ -382,7 +382,14 @@ namespace irdm::fem
       if (h5)
         {
           for (const auto &p : planes)
-            h5->attribute("/planes/" + p, "penalty_Pa_m", r.plane_penalty.at(p));
+            {
+              // Which contact made the force: the face penalty, or vertex contact (linear).
+              const auto k = r.plane_vertex_stiffness.find(p);
+              if (k == r.plane_vertex_stiffness.end())
+                h5->attribute("/planes/" + p, "penalty_Pa_m", r.plane_penalty.at(p));
+              else
+                h5->attribute("/planes/" + p, "vertex_stiffness_N_m", k->second);
+            }
           for (const auto &v : vertices)
             h5->attribute("/vertices/" + v, "node_tag", r.vertex_node_tag.at(v));
           for (const auto &p : probes)

@@ -76,6 +76,12 @@ namespace irdm::fem
         out.probe_active[name].push_back(x[6] != 0);
         out.probe_displacement[name].push_back({x[7], x[8], x[9]});
       }
+    // Vertex contact (linear); the nonlinear solver records its own planes.
+    for (unsigned p = 0; scene.kinematics == Kinematics::linear && p < scene.planes.size(); ++p)
+      {
+        out.plane_force[scene.planes[p].name].push_back(last_planes[p].force);
+        out.plane_penetration[scene.planes[p].name].push_back(last_planes[p].penetration);
+      }
     if (!fixed_dofs.empty())
       {
         // Reaction = M a + C v + K u - f on the fixed DoFs (unconstrained matrices).
@@ -113,11 +119,13 @@ namespace irdm::fem
   {
     if (!(scene.duration > 0))
       throw InputError("scene '" + scene.name + "' gives no time.duration_s: nothing to run");
-    if (!scene.planes.empty() || scene.initial_velocity != Vec3{0, 0, 0})
-      throw InputError("scene '" + scene.name + "': planes and initial velocities are run by the "
+    if (scene.initial_velocity != Vec3{0, 0, 0})
+      throw InputError("scene '" + scene.name + "': initial velocities are run by the "
                        "nonlinear solver (NonlinearElasticity), not the linear one");
     RunResult out;
     init_result(out);
+    for (const auto &p : scene.planes)
+      out.plane_vertex_stiffness[p.name] = p.vertex_stiffness;
     out.setup_seconds         = setup_seconds;
     out.factorization_seconds = factorization_seconds;
 
@@ -161,6 +169,17 @@ namespace irdm::fem
         for (int d = 0; d < 3; ++d)
           last_probe[p][3 + d] = sp.point[d];
       }
+    {
+      // At rest: no plane force; the penetration is the undeformed surface's.
+      Vector<double> u0(u), f0(n_dofs);
+      last_planes = solve_planes(0.0, 1.0, u0, f0);
+      for (auto &p : last_planes)
+        p.force = {0, 0, 0};
+      for (unsigned p = 0; p < scene.planes.size(); ++p)
+        if (last_planes[p].penetration > 0)
+          throw InputError("plane '" + scene.planes[p].name + "' starts inside the body (by " +
+                           std::to_string(last_planes[p].penetration) + " m at t = 0)");
+    }
     record(u, v, a, f, lambda, 0.0, out);
     std::vector<std::pair<double, std::string>> vtu_records;
     if (scene.outputs.vtu_every > 0 && !scene.outputs.directory.empty())
@@ -200,6 +219,8 @@ namespace irdm::fem
           f_new[probe_dofs[i]] += lambda[i];
         if (!scene.probes.empty())
           last_probe = solve_probes(t, 1 - c.alpha_f, u_new, f_new);
+        if (!scene.planes.empty())
+          last_planes = solve_planes(t, 1 - c.alpha_f, u_new, f_new);
 
         // Newmark updates of acceleration and velocity.
         a_new = u_new;

@@ -636,7 +636,7 @@ namespace irdm::fem
     if (top.has("planes"))
       for (const auto &n : top.at("planes").array())
         {
-          n.allow_only({"name", "normal", "position", "penalty_Pa_m"});
+          n.allow_only({"name", "normal", "position", "penalty_Pa_m", "vertex_stiffness_N_m"});
           RigidPlane p;
           p.name            = unique(n, parse_name(n, "plane" + std::to_string(names.size())));
           const Vec3   d    = n.at("normal").vec3();
@@ -649,11 +649,24 @@ namespace irdm::fem
           for (const auto &x : samples)
             p.position.values.push_back(x.vec3());
           if (n.has("penalty_Pa_m"))
-            p.penalty = n.at("penalty_Pa_m").positive();
+            {
+              if (s.kinematics == Kinematics::linear)
+                fail(n.where + ".penalty_Pa_m", "is the nonlinear solver's face penalty; linear "
+                                                "kinematics touch by vertex: use "
+                                                "vertex_stiffness_N_m (absent: rigid)");
+              p.penalty = n.at("penalty_Pa_m").positive();
+            }
+          if (n.has("vertex_stiffness_N_m"))
+            {
+              if (s.kinematics != Kinematics::linear)
+                fail(n.where + ".vertex_stiffness_N_m", "is for linear kinematics (vertex "
+                                                        "contact); nonlinear uses penalty_Pa_m");
+              p.vertex_stiffness = n.at("vertex_stiffness_N_m").positive();
+            }
           s.planes.push_back(p);
         }
-    if (s.kinematics == Kinematics::linear && !s.planes.empty())
-      fail(top.where + ".planes", "plane contact needs \"kinematics\": \"nonlinear\"");
+    if (s.kinematics == Kinematics::linear && !s.planes.empty() && !s.probes.empty())
+      fail(top.where, "linear kinematics take either probes or planes in one scene, not both");
     if (s.kinematics == Kinematics::nonlinear && (!s.probes.empty() || !s.prescribed.empty()))
       fail(top.where, "nonlinear kinematics takes loads and planes, not probes or prescribed "
                       "displacements");

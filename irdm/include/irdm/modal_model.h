@@ -51,13 +51,21 @@ namespace irdm
   class ModalInteraction : public ProbeOutputs
   {
   public:
-    explicit ModalInteraction(const ModalModel &model);
+    explicit ModalInteraction(const ModalModel &model, const VertexContactOptions &planes = {});
     bool
     can_touch(int triangle) const;
     bool
     can_touch(const ProbeTarget &probe) const;
     bool
     step(const ProbeTarget *probes, int n_probes);
+    /// Many-vertex plane contact, as PointInteraction::step(const PlaneTarget *, int).
+    bool
+    step(const PlaneTarget *planes, int n_planes);
+    const VertexContact &
+    vertex_contact() const
+    {
+      return vertex_contact_;
+    }
     void
     surface_displacement(double *u) const;
 
@@ -71,5 +79,13 @@ namespace irdm
     std::vector<double>    force_now_;  // [input DoF] this step's force
     std::vector<unsigned>  pushed_;     // inputs with force this step
     std::vector<char>      is_pushed_;
+    VertexContact          vertex_contact_;
+
+    // The two halves of a step around its contact solve: the state with no force this step,
+    // then this step's force into the state.
+    void
+    begin_step();
+    void
+    end_step();
   };
 } // namespace irdm

@@ -17,6 +17,8 @@
 // depth. This is what the precompute did: its wall at first_contact_k - depth met a band resting
 // at r_k (docs/model-format.md).
 // The surface follows by convolution: u[n] = sum_k sum_s S_k[s] f_k[n - s].
+#include <irdm_common/complementarity.h>
+
 #include <array>
 #include <string>
 #include <vector>
@@ -69,18 +71,37 @@ namespace irdm
   orientation_weights(const VirtualDofModel &m, const std::array<double, 3> &d,
                       OrientationMapping mapping);
 
-  /// The force loop and the surface update of one wall against the model. No allocation after
-  /// construction.
+  /// One wall during one step: direction d (unit, from the object toward the wall), position
+  /// w (m; the wall occupies {x : d . x > w}), and stiffness (N/m of the virtual DOF; 0: rigid).
+  struct VirtualDofWall
+  {
+    std::array<double, 3> direction = {0, 0, -1};
+    double                position  = 0;
+    double                stiffness = 0;
+  };
+
+  /// The force loop and the surface update of up to max_walls walls against the model. Several
+  /// walls couple through the virtual DOFs' cross responses Y_jk: with the walls' forces F,
+  ///   y_a = h_a + sum_b c_ab F_b,  c_ab = sum_il w_ai w_bl Y_{k_ai k_bl}[0],
+  /// solved as a complementarity problem (irdm_common/complementarity.h). A compliant wall of
+  /// stiffness k adds 1/k to c_aa (implicit). No allocation after construction.
   class PlaneInteraction
   {
   public:
+    static constexpr int max_walls = 4;
+
     PlaneInteraction(const VirtualDofModel &model, OrientationMapping mapping);
 
-    /// One step: the wall at direction d (unit) and position w (m) during this step. Returns
-    /// the wall's force (N) along -d; penetration() is how far the undeformed surface would
-    /// pass the wall (m, negative: a gap).
+    /// One step with one rigid wall at direction d (unit) and position w (m). Returns the
+    /// wall's force (N) along -d; penetration() is how far the undeformed surface would pass
+    /// the wall (m, negative: a gap).
     double
     step(const std::array<double, 3> &d, double w);
+
+    /// One step with n <= max_walls walls; force[a] (N, along -d_a) out. Returns false if n is
+    /// out of range (no step taken) or the solve fails (the step is taken with no force).
+    bool
+    step(const VirtualDofWall *walls, int n, double *force);
 
     /// One step with a known wall force F (N, along -d) instead of a wall position: the force
     /// history and the surface follow it (open loop; to drive the model by a measured force).
@@ -91,22 +112,23 @@ namespace irdm
     const std::vector<double> &
     update_surface();
 
+    /// Of the first wall at the latest step.
     double
     penetration() const
     {
-      return penetration_;
+      return walls_[0].penetration;
     }
     /// r(d) for the latest step's direction: where the band rests along d (m).
     double
     rest_position() const
     {
-      return rest_;
+      return walls_[0].rest;
     }
     /// y(d) at the latest step: how far the surface at the wall has receded (m).
     double
     virtual_dof_displacement() const
     {
-      return y_;
+      return walls_[0].y;
     }
     unsigned
     steps() const
@@ -123,20 +145,28 @@ namespace irdm
     std::vector<double>   ring_;
     std::vector<unsigned> last_active_; // last step + 1 with f_k != 0 (0: never)
     std::vector<double>   surface_;
-    double                penetration_ = 0, y_ = 0;
-    // The wall's mapping and the surface's support along its direction, kept while the
+    // Per wall: its mapping and the surface's support along its direction, kept while the
     // direction does not change (a floor or a wall moving along its normal).
-    std::array<double, 3> direction_{};
-    OrientationWeights    weights_;
-    double                support_ = 0, rest_ = 0;
+    struct Mapped
+    {
+      std::array<double, 3> direction{};
+      OrientationWeights    weights;
+      double                support = 0, rest = 0, penetration = 0, y = 0;
+    };
+    std::array<Mapped, max_walls> walls_{};
+    int                           n_walls_ = 0;
+    contact::ComplementaritySolver solver_{max_walls};
 
     void
-    map_direction(const std::array<double, 3> &d); // weights_, support_ and rest_ for d
+    map_direction(Mapped &wall, const std::array<double, 3> &d);
     double
     history(unsigned j) const; // sum_{k, s >= 1} Y_jk[s] f_k[n - s], n the step being taken
     void
-    record(double F); // this step's force into the history, split by weights_; ++n_
-    void
-    wall_terms(double &h, double &c) const; // h(d) and c(d) of the mapped wall, this step
+    record(const double *F); // this step's wall forces into the history, split by the
+                             // weights; ++n_
+    double
+    wall_history(const Mapped &a) const; // h of a mapped wall, this step
+    double
+    feed_through(const Mapped &a, const Mapped &b) const; // c_ab
   };
 } // namespace irdm

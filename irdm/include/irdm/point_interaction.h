@@ -15,6 +15,7 @@
 // in the constructor.
 #include <irdm/force_history.h>
 #include <irdm/model.h>
+#include <irdm/vertex_contact.h>
 #include <irdm_common/contact.h>
 
 #include <array>
@@ -84,8 +85,10 @@ namespace irdm
   class PointInteraction : public ProbeOutputs
   {
   public:
-    /// taps: how many samples of each response to use (0: all; fewer truncates).
-    explicit PointInteraction(const ImpulseResponseModel &model, unsigned taps = 0);
+    /// taps: how many samples of each response to use (0: all; fewer truncates). planes: the
+    /// many-vertex plane contact's margin and capacity (irdm/vertex_contact.h).
+    explicit PointInteraction(const ImpulseResponseModel &model, unsigned taps = 0,
+                              const VertexContactOptions &planes = {});
 
     /// True if a probe may touch the triangle: all its vertices are model inputs.
     bool
@@ -98,6 +101,17 @@ namespace irdm
     /// applies no force) if a probe is where it cannot touch (can_touch).
     bool
     step(const ProbeTarget *probes, int n_probes);
+
+    /// One step against n_planes <= contact::max_planes planes instead of probes (many-vertex
+    /// contact, irdm/vertex_contact.h; results in vertex_contact()). Returns false (and
+    /// applies no force) if more vertices are near the planes than the capacity allows.
+    bool
+    step(const PlaneTarget *planes, int n_planes);
+    const VertexContact &
+    vertex_contact() const
+    {
+      return vertex_contact_;
+    }
 
     /// The full surface update: displacement of every output DoF after the last step (m).
     void
@@ -116,6 +130,9 @@ namespace irdm
 
     double
     history_at_contact(unsigned input_row) const;
+    // History at output DoF j, the output of input DoF i (from H_CC when it is kept).
+    double
+    history_row(unsigned i, unsigned j) const;
 
     const ImpulseResponseModel &model_;
     // H_CC: the responses of the inputs at the inputs, [k][i][s] contiguous in s, so that the
@@ -124,5 +141,6 @@ namespace irdm
     std::vector<double>         h_cc_;
     unsigned                    taps_;
     ForceHistory                history_; // taps slots per input, kept for taps steps
+    VertexContact               vertex_contact_;
   };
 } // namespace irdm

@@ -78,11 +78,13 @@ namespace irdm::fem
     std::map<std::string, std::vector<Vec3>> probe_contact_point; // m, undeformed (probes)
     std::map<std::string, std::vector<bool>> probe_active;        // in contact (probes)
     std::map<std::string, std::vector<Vec3>> fixed_reaction;      // N, total on each fixed surface
-    // Nonlinear mode: rigid planes and the energy terms besides kinetic and strain.
+    // Planes (nonlinear: face penalty; linear: vertex contact) and, nonlinear mode, the energy
+    // terms besides kinetic and strain.
     std::map<std::string, std::vector<Vec3>>   plane_force;       // N, on the body
     std::map<std::string, std::vector<double>> plane_penetration; // m, deepest surface vertex;
                                                                   // negative: the gap
-    std::map<std::string, double>              plane_penalty;     // Pa/m, as used
+    std::map<std::string, double> plane_penalty; // Pa/m as used (nonlinear); 0: vertex contact
+    std::map<std::string, double> plane_vertex_stiffness; // N/m (linear); 0: rigid
     std::vector<double> contact_energy; // J, penalty energy 1/2 k int pen^2 dA
     std::vector<double> gravity_energy; // J, potential of gravity, -f_g . u
     std::vector<Vec3>   linear_momentum; // N s, sum of M v per axis

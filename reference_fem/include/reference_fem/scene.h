@@ -105,11 +105,14 @@ namespace irdm::fem
     std::optional<VertexRegion> outputs; // default: every free surface vertex
   };
 
-  /// A rigid frictionless plane (floor, wall) the body may touch; nonlinear kinematics only.
-  /// The plane passes through position(t) with the unit normal `normal`, which points to the
-  /// side where the body is. A point x of the body surface penetrates by
-  /// normal . (position(t) - x) when that is positive; the plane then pushes it with the penalty
-  /// traction penalty * penetration * normal, integrated over the boundary faces.
+  /// A frictionless plane (floor, wall) the body may touch. The plane passes through
+  /// position(t) with the unit normal `normal`, which points to the side where the body is. A
+  /// point x of the body surface penetrates by normal . (position(t) - x) when that is positive.
+  /// Nonlinear kinematics: the plane pushes with the penalty traction
+  /// penalty * penetration * normal, integrated over the boundary faces. Linear kinematics:
+  /// vertex contact, the same the IRDM runtime does (irdm/vertex_contact.h): a normal force at
+  /// each free surface vertex, complementary to its gap (rigid), or vertex_stiffness times its
+  /// penetration solved implicitly (compliant).
   struct RigidPlane
   {
     std::string name;
@@ -117,6 +120,7 @@ namespace irdm::fem
     History     position;     // m, a point of the plane over time (its prescribed motion)
     double      penalty = 0;  // Pa/m (traction per metre of penetration); 0: the default
                               // 100 E / h (h: mean boundary edge length)
+    double      vertex_stiffness = 0; // N/m per vertex, linear kinematics; 0: rigid
   };
 
   struct ObservedVertex

@@ -1,0 +1,121 @@
+#pragma once
+// Many-vertex plane contact (issue 13): every free surface vertex of the model may touch any
+// of up to contact::max_planes frictionless planes (a floor and a wall at once), each moving as
+// the caller prescribes. Units SI. Frictionless: a plane pushes only along its normal.
+//
+// Each step, with the planes where they are at the end of the step:
+//   candidates  c = (plane p, vertex v) with n_p . (X_v - x_p) < margin (X_v undeformed): the
+//               rows that may touch; the rest are assumed far enough not to reach the plane
+//               within the step (the margin must exceed the surface's motion toward it);
+//   history     h_c = n_p . u_hist(v), u_hist = sum_{s>=1} H[s] f[n - s] at the candidate rows
+//               only (O(modes x candidates) from the modal model);
+//   gaps        q_c = n_p . (X_v + u_hist(v) - x_p), what the step reaches with no contact;
+//   feed-through W_cd = n_p^T H[0](v_c <- v_d) n_q, + 1/k_p on the diagonal for a compliant
+//               plane of per-vertex stiffness k_p (N/m; the force is k_p times the
+//               penetration, solved implicitly, so a stiff wall does not chatter);
+//   forces      lambda >= 0 complementary to g = W lambda + q >= 0
+//               (irdm_common/complementarity.h: block principal pivoting, exact to round-off,
+//               warm-started from the last step's contact set);
+//   history     f[n] += lambda_c n_p on vertex v_c.
+// The full surface follows on demand from the runtime's surface_displacement().
+//
+// A runtime kind (PointInteraction: the direct model; ModalInteraction: the modal one) owns one
+// VertexContact and drives it through detail::vertex_contact_step (irdm/src). Memory is sized
+// at construction: the step allocates nothing and takes no lock.
+#include <irdm/model.h>
+#include <irdm_common/complementarity.h>
+
+#include <array>
+#include <vector>
+
+namespace irdm
+{
+  namespace contact
+  {
+    constexpr int max_planes = 8;
+  }
+
+  /// A plane in the model's frame during one step.
+  struct PlaneTarget
+  {
+    std::array<double, 3> normal    = {0, 0, 1}; // unit, toward the body
+    std::array<double, 3> point     = {0, 0, 0}; // m, a point of the plane at the step's end
+    double                stiffness = 0;         // N/m per vertex; 0: rigid
+  };
+
+  struct VertexContactOptions
+  {
+    double   margin         = 0.005; // m, see above
+    unsigned max_candidates = 512;   // rows of the complementarity problem, at most
+  };
+
+  /// What a step gives, per plane.
+  struct PlaneContactResult
+  {
+    std::array<double, 3> force{}; // N, on the body
+    int    candidates  = 0;        // vertices near the plane
+    int    active      = 0;        // vertices it pushes
+    double penetration = 0;        // m, deepest n . (x_p - x) over its candidates after the step
+  };
+
+  class VertexContact
+  {
+  public:
+    void
+    reset(const ModelFrame &m, const VertexContactOptions &o)
+    {
+      options_ = o;
+      const size_t cap = o.max_candidates, n_vertices = m.n_outputs / 3;
+      solver_.reserve(static_cast<int>(cap));
+      plane_.assign(cap, 0);
+      vertex_.assign(cap, 0);
+      q_.assign(cap, 0.0);
+      lambda_.assign(cap, 0.0);
+      guess_.assign(cap, 0);
+      W_.assign(cap * cap, 0.0);
+      was_active_.assign(contact::max_planes * n_vertices, 0);
+      n_candidates_ = 0;
+      rounds_       = 0;
+    }
+
+    const PlaneContactResult &
+    plane(const int p) const
+    {
+      return results_[p];
+    }
+    /// Rounds of the complementarity solve at the latest step (0: no candidate).
+    int
+    rounds() const
+    {
+      return rounds_;
+    }
+    /// Candidate rows at the latest step.
+    int
+    candidates() const
+    {
+      return n_candidates_;
+    }
+    const VertexContactOptions &
+    options() const
+    {
+      return options_;
+    }
+
+    // The step, for the runtimes (irdm/src/vertex_contact_step.h).
+    template <class History, class FeedThrough, class Push>
+    bool
+    step(const ModelFrame &m, const PlaneTarget *planes, int n_planes, History &&history,
+         FeedThrough &&h0, Push &&push);
+
+  private:
+    VertexContactOptions                                  options_;
+    contact::ComplementaritySolver                        solver_;
+    std::vector<int>                                      plane_;  // [candidate]
+    std::vector<unsigned>                                 vertex_; // [candidate], output vertex
+    std::vector<double>                                   q_, lambda_, W_;
+    std::vector<char>                                     guess_;
+    std::vector<char> was_active_; // [plane][output vertex]: in contact at the last step
+    int               n_candidates_ = 0, rounds_ = 0;
+    std::array<PlaneContactResult, contact::max_planes> results_{};
+  };
+} // namespace irdm

@@ -1,0 +1,106 @@
+#pragma once
+// Internal: VertexContact::step (irdm/vertex_contact.h), the same for every model kind. The
+// kind supplies, as for probes (probe_step.h):
+//   history(i, j)  displacement of output DoF j (the output of input DoF i) from earlier forces;
+//   h0(k, j)       H[0] from input DoF k to output DoF j;
+//   push(k, f)     adds force f (N) on input DoF k to this step's sample.
+#include <irdm/vertex_contact.h>
+
+#include <algorithm>
+
+namespace irdm
+{
+  template <class History, class FeedThrough, class Push>
+  bool
+  VertexContact::step(const ModelFrame &m, const PlaneTarget *planes, const int n_planes,
+                      History &&history, FeedThrough &&h0, Push &&push)
+  {
+    if (n_planes < 0 || n_planes > contact::max_planes)
+      return false;
+    const unsigned n_vertices = m.n_outputs / 3;
+    const int      cap        = static_cast<int>(options_.max_candidates);
+    const auto     dot        = [](const std::array<double, 3> &a, const std::array<double, 3> &b) {
+      return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    };
+    // Candidates, with the last step's contact set as the solver's first guess.
+    int n = 0;
+    for (int p = 0; p < n_planes; ++p)
+      {
+        results_[p]       = PlaneContactResult{};
+        const double at   = dot(planes[p].normal, planes[p].point);
+        for (unsigned v = 0; v < n_vertices; ++v)
+          if (m.output_input_index[v] >= 0 &&
+              dot(planes[p].normal, m.output_coordinates[v]) - at < options_.margin)
+            {
+              if (n == cap)
+                {
+                  n_candidates_ = n;
+                  return false; // more than max_candidates: no force applied
+                }
+              plane_[n]  = p;
+              vertex_[n] = v;
+              guess_[n]  = was_active_[static_cast<size_t>(p) * n_vertices + v];
+              q_[n]      = dot(planes[p].normal, m.output_coordinates[v]) - at;
+              ++results_[p].candidates;
+              ++n;
+            }
+      }
+    n_candidates_ = n;
+    std::fill(was_active_.begin(), was_active_.end(), 0); // O(planes x vertices), cheap
+    rounds_ = 0;
+    if (n == 0)
+      return true;
+    const auto in_dof = [&](const int c, const int d) {
+      return 3u * static_cast<unsigned>(m.output_input_index[vertex_[c]]) + d;
+    };
+    const auto out_dof = [&](const int c, const int d) { return 3u * vertex_[c] + d; };
+    for (int c = 0; c < n; ++c)
+      {
+        const auto &nn = planes[plane_[c]].normal;
+        for (int d = 0; d < 3; ++d)
+          q_[c] += nn[d] * history(in_dof(c, d), out_dof(c, d));
+      }
+    // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b.
+    for (int c = 0; c < n; ++c)
+      {
+        const auto &nc = planes[plane_[c]].normal;
+        double     *w  = &W_[static_cast<size_t>(c) * cap];
+        for (int b = 0; b <= c; ++b)
+          {
+            const auto &nb = planes[plane_[b]].normal;
+            double      s  = 0;
+            for (int e = 0; e < 3; ++e)
+              {
+                const unsigned k = in_dof(b, e);
+                for (int d = 0; d < 3; ++d)
+                  s += nc[d] * nb[e] * h0(k, out_dof(c, d));
+              }
+            w[b] = s;
+          }
+        const double k = planes[plane_[c]].stiffness;
+        if (k > 0)
+          w[c] += 1 / k;
+      }
+    rounds_ = solver_.solve(n, W_.data(), cap, q_.data(), guess_.data(), lambda_.data());
+    if (rounds_ < 0)
+      return false;
+    for (int c = 0; c < n; ++c)
+      {
+        auto &r = results_[plane_[c]];
+        // The solve's gap includes a compliant plane's give lambda / k; the body's does not.
+        const double k = planes[plane_[c]].stiffness;
+        r.penetration  = std::max(r.penetration, (k > 0 ? lambda_[c] / k : 0) - solver_.g(c));
+        if (lambda_[c] <= 0)
+          continue;
+        const auto &nn = planes[plane_[c]].normal;
+        ++r.active;
+        was_active_[static_cast<size_t>(plane_[c]) * n_vertices + vertex_[c]] = 1;
+        for (int d = 0; d < 3; ++d)
+          {
+            r.force[d] += lambda_[c] * nn[d];
+            push(in_dof(c, d), lambda_[c] * nn[d]);
+          }
+      }
+    return true;
+  }
+} // namespace irdm
