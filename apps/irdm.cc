@@ -625,14 +625,16 @@ namespace
 
     // validate-planes
     irdm::validation::PlaneValidationOptions vp;
-    auto *validate_planes = app.add_subcommand("validate-planes", "virtual-DOF plane contact against the nonlinear FEM; reports/planes");
-    validate_planes->footer("Plane contact by virtual DOFs (seed 001) against the nonlinear reference FEM on the "
-      "grounded cat: a rigid wall pressing from the side, from the top, and from two "
-      "directions between the dome's at depths 2 to 20 mm, and hitting the side at 0.05 to "
-      "0.5 m/s (2 mm deep). Precomputes the virtual-DOF model first, or reuses --model when it "
-      "was made from the same scene, S and T (an existing --model of another kind or spec is "
-      "refused, never overwritten). Writes DIR/planes/planes.md, planes.csv, planes.png and "
-      "forces.csv.");
+    auto *validate_planes = app.add_subcommand("validate-planes", "plane contact (virtual DOFs, many-vertex contact) against the nonlinear FEM; reports/planes");
+    validate_planes->footer("Plane contact against the nonlinear reference FEM on the grounded cat, by virtual "
+      "DOFs (seed 001; vdof_nearest, vdof_interpolated) and by many-vertex contact "
+      "(vertex_contact_modal, vertex_contact_direct): a rigid wall pressing from the side, from "
+      "the top, from two directions between the dome's, and two walls at once, at depths 2 to "
+      "20 mm, and hitting the side at 0.05 to 0.5 m/s (2 mm deep). Precomputes the virtual-DOF "
+      "model and the every-surface-vertex model first, or reuses --model and --vertex-model "
+      "when made from the same scene and spec (an existing file of another kind or spec is "
+      "refused, never overwritten). Writes DIR/planes/planes.md, planes.csv (one row per case "
+      "and method), cases.csv, forces.csv and planes.png.");
     validate_planes->add_option("--scene", vp.scene, "the body (its probes are ignored)")
       ->capture_default_str()
       ->check(CLI::ExistingFile);
@@ -645,6 +647,23 @@ namespace
                                 "samples per response (the longest case is 0.6 s)")
       ->capture_default_str()
       ->check(CLI::Range(1u, 100000u));
+    validate_planes->add_option("--vertex-model", vp.vertex_model_file,
+                                "many-vertex contact model (every free surface vertex)")
+      ->capture_default_str();
+    validate_planes->add_option("--margin", vp.margin,
+                                "m; vertices within it of a wall are contact candidates")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+    validate_planes->add_option("--max-candidates", vp.max_candidates,
+                                "candidate vertices per step, at most")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 20000u));
+    validate_planes->add_option("--surface-modes", vp.surface_modes,
+                                "modes of the modal surface update (the force loop uses all)")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 1000000u));
+    validate_planes->add_flag("!--no-direct", vp.direct,
+                              "skip vertex_contact_direct (its H needs GBs of memory)");
 
     try
       {

@@ -60,13 +60,32 @@ namespace irdm
         for (int d = 0; d < 3; ++d)
           q_[c] += nn[d] * history(in_dof(c, d), out_dof(c, d));
       }
-    // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b.
+    // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b, copied
+    // from the last step where both rows were rows then and their planes are unchanged.
+    bool same_plane[contact::max_planes];
+    for (int p = 0; p < n_planes; ++p)
+      same_plane[p] = p < previous_.n_planes &&
+                      planes[p].normal == previous_.planes[p].normal &&
+                      planes[p].stiffness == previous_.planes[p].stiffness;
+    const auto old_row = [&](const int c) {
+      return same_plane[plane_[c]]
+               ? previous_.row_of[static_cast<size_t>(plane_[c]) * n_vertices + vertex_[c]]
+               : -1;
+    };
     for (int c = 0; c < n; ++c)
       {
         const auto &nc = planes[plane_[c]].normal;
         double     *w  = &W_[static_cast<size_t>(c) * cap];
+        const int   oc = old_row(c);
         for (int b = 0; b <= c; ++b)
           {
+            const int ob = oc < 0 ? -1 : old_row(b);
+            if (ob >= 0)
+              {
+                w[b] = oc >= ob ? previous_.W[static_cast<size_t>(oc) * cap + ob]
+                                : previous_.W[static_cast<size_t>(ob) * cap + oc];
+                continue;
+              }
             const auto &nb = planes[plane_[b]].normal;
             double      s  = 0;
             for (int e = 0; e < 3; ++e)
@@ -78,10 +97,23 @@ namespace irdm
             w[b] = s;
           }
         const double k = planes[plane_[c]].stiffness;
-        if (k > 0)
+        if (k > 0 && oc < 0)
           w[c] += 1 / k;
       }
-    rounds_ = solver_.solve(n, W_.data(), cap, q_.data(), guess_.data(), lambda_.data());
+    // These rows and W for the next step.
+    for (int c = 0; c < previous_.n; ++c)
+      previous_.row_of[static_cast<size_t>(previous_.plane[c]) * n_vertices + previous_.vertex[c]] = -1;
+    for (int c = 0; c < n; ++c)
+      {
+        previous_.row_of[static_cast<size_t>(plane_[c]) * n_vertices + vertex_[c]] = c;
+        previous_.plane[c]  = plane_[c];
+        previous_.vertex[c] = vertex_[c];
+      }
+    previous_.n        = n;
+    previous_.n_planes = n_planes;
+    std::copy(planes, planes + n_planes, previous_.planes.begin());
+    std::swap(W_, previous_.W); // the solver reads previous_.W below
+    rounds_ = solver_.solve(n, previous_.W.data(), cap, q_.data(), guess_.data(), lambda_.data());
     if (rounds_ < 0)
       return false;
     for (int c = 0; c < n; ++c)

@@ -76,6 +76,11 @@ namespace irdm
       was_active_.assign(contact::max_planes * n_vertices, 0);
       n_candidates_ = 0;
       rounds_       = 0;
+      previous_.plane.assign(cap, 0);
+      previous_.vertex.assign(cap, 0);
+      previous_.W.assign(cap * cap, 0.0);
+      previous_.row_of.assign(contact::max_planes * n_vertices, -1);
+      previous_.n = previous_.n_planes = 0;
     }
 
     const PlaneContactResult &
@@ -116,6 +121,18 @@ namespace irdm
     std::vector<char>                                     guess_;
     std::vector<char> was_active_; // [plane][output vertex]: in contact at the last step
     int               n_candidates_ = 0, rounds_ = 0;
+    // The last step's rows and W: W does not change while the rows and the planes' normals and
+    // stiffnesses do not (H[0] is constant), so the entries of rows kept are copied, not
+    // gathered again from H[0] (9 scattered reads each).
+    struct
+    {
+      std::vector<int>      plane;
+      std::vector<unsigned> vertex;
+      std::vector<double>   W;
+      std::vector<int>      row_of; // [plane][output vertex] -> row, -1: none
+      int                   n = 0, n_planes = 0;
+      std::array<PlaneTarget, contact::max_planes> planes{};
+    } previous_;
     std::array<PlaneContactResult, contact::max_planes> results_{};
   };
 } // namespace irdm

@@ -1,9 +1,10 @@
 #pragma once
-// Surface contact by virtual DOFs (seed 001) against the nonlinear reference FEM: a rigid wall
-// pressing the grounded cat from the side and from the top at increasing depths, and hitting
-// it from the side at increasing speeds. Errors of the wall force and of the surface
-// displacement, time per step of both methods (same run), and nearest against interpolated
-// orientation mapping. Writes reports/planes/.
+// Surface contact against the nonlinear reference FEM: rigid walls pressing the grounded cat
+// from the side, the top, between the dome's directions and from two sides at once at
+// increasing depths, and hitting it from the side at increasing speeds; by virtual DOFs
+// (seed 001, nearest and interpolated orientation mapping) and by many-vertex contact (modal
+// and direct model). Errors of the wall force, impulse and surface displacement, time per step
+// of every method (same run). Writes reports/planes/.
 #include <ostream>
 #include <string>
 
@@ -18,6 +19,14 @@ namespace irdm::validation
     // T, samples: 300 x 2 ms covers the longest case (0.6 s), so no force leaves the history
     // window during the comparison (no truncation error in it).
     unsigned    length       = 300;
+    // Many-vertex contact (issue 13): its model (every free surface vertex in and out, reused
+    // if it exists for this scene), the candidate margin and capacity, the modes of the
+    // surface update, and whether to run the direct model too (its H takes GBs).
+    std::string vertex_model_file = "out/models/cat_vertex.h5";
+    double      margin            = 0.005; // m
+    unsigned    max_candidates    = 512;
+    unsigned    surface_modes     = 100;
+    bool        direct            = true;
     std::string plot_script;        // python script for the charts; "" skips charts
   };
 
