@@ -93,6 +93,20 @@ operator delete[](void *p, const std::nothrow_t &) noexcept
 
 namespace
 {
+  // For each output DoF j of the model, its index in the FEM's surface arrays
+  // (r.surface_displacement[k][index[j]]), matched by node tag.
+  std::vector<unsigned>
+  fem_surface_index(const fem::RunResult &r, const ModelFrame &model)
+  {
+    std::map<long long, unsigned> at;
+    for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
+      at[r.surface.node_tags[i]] = i;
+    std::vector<unsigned> index(model.n_outputs);
+    for (unsigned j = 0; j < model.n_outputs; ++j)
+      index[j] = 3 * at.at(model.output_node_tags[j / 3]) + j % 3;
+    return index;
+  }
+
   // The largest difference, relative to the largest displacement, between the model's H and
   // stepping the FEM of the beam scene with a unit force sample on each input DoF of `inputs`
   // (held during step 0, i.e. the load at t = tau, zero at 0 and 2 tau), at every output and
@@ -115,13 +129,11 @@ namespace
         s.duration   = model.length * s.time_step;
         fem::ElasticDynamics fem(s);
         const auto           r = fem.run();
-        std::map<long long, unsigned> at;
-        for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
-          at[r.surface.node_tags[i]] = i;
+        const std::vector<unsigned> at = fem_surface_index(r, model);
         for (unsigned step = 0; step < model.length; ++step)
           for (unsigned j = 0; j < model.n_outputs; ++j)
             {
-              const double fem_u = r.surface_displacement[step + 1][3 * at[model.output_node_tags[j / 3]] + j % 3];
+              const double fem_u = r.surface_displacement[step + 1][at[j]];
               worst = std::max(worst, std::abs(fem_u - model.h(k, step, j)));
               scale = std::max(scale, std::abs(fem_u));
             }
@@ -193,9 +205,7 @@ namespace
     for (unsigned t = 0; t < model.triangles.size(); ++t)
       if (model.triangle_surface[t] == sides)
         cand.push_back(t), tris.push_back(model.triangles[t]);
-    std::map<long long, unsigned> at;
-    for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
-      at[r.surface.node_tags[i]] = i;
+    const std::vector<unsigned> at = fem_surface_index(r, model);
 
     PointInteraction    irdm(model);
     ModalInteraction    modal(modal_model);
@@ -240,7 +250,7 @@ namespace
         was_active = irdm.active(0);
         for (unsigned j = 0; j < model.n_outputs; ++j)
           {
-            const double fem_u = r.surface_displacement[n + 1][3 * at[model.output_node_tags[j / 3]] + j % 3];
+            const double fem_u = r.surface_displacement[n + 1][at[j]];
             umax = std::max(umax, std::abs(fem_u));
             uerr       = std::max(uerr, std::abs(u[j] - fem_u));
             uerr_modal = std::max(uerr_modal, std::abs(um[j] - fem_u));
@@ -344,9 +354,7 @@ namespace
     ImpulseResponseModel model       = make_model(scene, name + ".h5");
     const ModalModel     modal_model = make_modal_model(model, {model.modes.n_modes});
     const auto           r           = fem::ElasticDynamics(scene).run();
-    std::map<long long, unsigned> at;
-    for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
-      at[r.surface.node_tags[i]] = i;
+    const std::vector<unsigned> at = fem_surface_index(r, model);
 
     PointInteraction    direct(model);
     ModalInteraction    modal(modal_model);
@@ -393,7 +401,7 @@ namespace
         was_active = n_active;
         for (unsigned j = 0; j < model.n_outputs; ++j)
           {
-            const double fem_u = r.surface_displacement[n + 1][3 * at[model.output_node_tags[j / 3]] + j % 3];
+            const double fem_u = r.surface_displacement[n + 1][at[j]];
             umax       = std::max(umax, std::abs(fem_u));
             uerr       = std::max(uerr, std::abs(u[j] - fem_u));
             uerr_modal = std::max(uerr_modal, std::abs(um[j] - fem_u));

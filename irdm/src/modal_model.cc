@@ -154,42 +154,31 @@ namespace irdm
     ++n_;
   }
 
-  namespace
+  // The three callbacks of probe_step and VertexContact::step for the modal model.
+  double
+  ModalInteraction::history_row(const unsigned i) const
   {
-    // The three callbacks of probe_step and VertexContact::step for a modal model.
-    struct ModalAccess
-    {
-      const ModalModel          &m;
-      const std::vector<double> &free_state; // fu_: this step's modal displacement, no force
-      std::vector<double>       &force_now;
-      std::vector<char>         &is_pushed;
-      std::vector<unsigned>     &pushed;
+    return Vec(&model_.input_shapes[static_cast<size_t>(i) * N_], N_).dot(Vec(fu_.data(), N_));
+  }
 
-      double
-      history(const unsigned i) const
+  double
+  ModalInteraction::feed_through(const unsigned k, const unsigned j) const
+  {
+    // The input DoF whose output is output DoF j (contact rows are outputs of inputs).
+    const unsigned i = 3u * static_cast<unsigned>(model_.output_input_index[j / 3]) + j % 3;
+    return model_.h0_inputs[static_cast<size_t>(k) * model_.n_inputs + i];
+  }
+
+  void
+  ModalInteraction::push(const unsigned k, const double f)
+  {
+    force_now_[k] += f;
+    if (!is_pushed_[k])
       {
-        return Vec(&m.input_shapes[static_cast<size_t>(i) * m.n_modes], m.n_modes)
-          .dot(Vec(free_state.data(), m.n_modes));
+        is_pushed_[k] = 1;
+        pushed_.push_back(k); // capacity reserved: never reallocates
       }
-      // The input DoF whose output is output DoF j (contact rows are outputs of inputs).
-      double
-      h0(const unsigned k, const unsigned j) const
-      {
-        const unsigned i = 3u * static_cast<unsigned>(m.output_input_index[j / 3]) + j % 3;
-        return m.h0_inputs[static_cast<size_t>(k) * m.n_inputs + i];
-      }
-      void
-      push(const unsigned k, const double f)
-      {
-        force_now[k] += f;
-        if (!is_pushed[k])
-          {
-            is_pushed[k] = 1;
-            pushed.push_back(k); // capacity reserved: never reallocates
-          }
-      }
-    };
-  } // namespace
+  }
 
   bool
   ModalInteraction::step(const ProbeTarget *probes, const int P)
@@ -198,11 +187,10 @@ namespace irdm
       if (!can_touch(probes[p]))
         return false;
     begin_step();
-    ModalAccess a{model_, fu_, force_now_, is_pushed_, pushed_};
     detail::probe_step(
-      model_, probes, P, [&](const unsigned i, unsigned) { return a.history(i); },
-      [&](const unsigned k, const unsigned j) { return a.h0(k, j); },
-      [&](const unsigned k, const double f) { a.push(k, f); }, results_);
+      model_, probes, P, [&](const unsigned i, unsigned) { return history_row(i); },
+      [&](const unsigned k, const unsigned j) { return feed_through(k, j); },
+      [&](const unsigned k, const double f) { push(k, f); }, results_);
     end_step();
     return true;
   }
@@ -211,19 +199,12 @@ namespace irdm
   ModalInteraction::step(const PlaneTarget *planes, const int n_planes)
   {
     begin_step();
-    ModalAccess a{model_, fu_, force_now_, is_pushed_, pushed_};
-    const bool ok = vertex_contact_.step(
-      model_, planes, n_planes, [&](const unsigned i, unsigned) { return a.history(i); },
-      [&](const unsigned k, const unsigned j) { return a.h0(k, j); },
-      [&](const unsigned k, const double f) { a.push(k, f); });
-    if (!ok)
-      {
-        // No force this step; the state is left as it was (the caller decides what to do).
-        for (const unsigned k : pushed_)
-          force_now_[k] = 0, is_pushed_[k] = 0;
-        pushed_.clear();
-        return false;
-      }
+    // On failure nothing was pushed and the state is left as it was.
+    if (!vertex_contact_.step(
+          model_, planes, n_planes, [&](const unsigned i, unsigned) { return history_row(i); },
+          [&](const unsigned k, const unsigned j) { return feed_through(k, j); },
+          [&](const unsigned k, const double f) { push(k, f); }))
+      return false;
     end_step();
     return true;
   }

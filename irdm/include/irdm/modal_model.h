@@ -87,5 +87,13 @@ namespace irdm
     begin_step();
     void
     end_step();
+    // History at the output of input DoF i, H[0] from input DoF k to output DoF j, and a force
+    // on input DoF k into this step's sample (probe_step.h, vertex_contact_step.h).
+    double
+    history_row(unsigned i) const;
+    double
+    feed_through(unsigned k, unsigned j) const;
+    void
+    push(unsigned k, double f);
   };
 } // namespace irdm
