@@ -161,8 +161,16 @@ namespace
           peak = std::max(peak, std::sqrt(F[0] * F[0] + F[1] * F[1] + F[2] * F[2]));
         for (const double p : result.plane_penetration.at(name))
           deepest = std::max(deepest, p);
-        std::printf("plane %s: peak force %.6g N, deepest penetration %.4g m (penalty %.3g Pa/m)\n",
-                    name.c_str(), peak, deepest, result.plane_penalty.at(name));
+        std::printf("plane %s: peak force %.6g N, deepest penetration %.4g m ", name.c_str(),
+                    peak, deepest);
+        // Linear kinematics touch by vertex, nonlinear by face penalty.
+        const auto k = result.plane_vertex_stiffness.find(name);
+        if (k == result.plane_vertex_stiffness.end())
+          std::printf("(penalty %.3g Pa/m)\n", result.plane_penalty.at(name));
+        else if (k->second > 0)
+          std::printf("(vertex contact, %.3g N/m per vertex)\n", k->second);
+        else
+          std::printf("(vertex contact, rigid)\n");
       }
     if (!scene.outputs.directory.empty())
       std::printf("outputs in %s\n", scene.outputs.directory.c_str());

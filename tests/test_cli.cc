@@ -2,6 +2,7 @@
 // during simulate (exit 4, nothing under the final name), inputs never overwritten, commands
 // that are not parallel refused under mpirun. Runs the real binary (IRDM_CLI).
 #include <irdm/model.h>
+#include <irdm_common/error.h>
 #include <irdm_common/files.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
@@ -252,4 +253,32 @@ TEST(Cli, ARunLargerThanTheDiskIsRefusedBeforeItStarts)
   message << std::ifstream(err).rdbuf();
   EXPECT_NE(message.str().find("of disk"), std::string::npos) << message.str();
   EXPECT_TRUE(fs::is_empty(dir));
+}
+
+// Linear kinematics with planes (vertex contact): simulate runs, prints its summary and writes
+// the planes' force and penetration; the scene rules of the two plane contacts are enforced.
+TEST(Cli, SimulateRunsLinearPlanesByVertexContact)
+{
+  const std::string dir = tmp("linear_planes_out");
+  fs::remove_all(dir);
+  const std::string wall = R"(, "planes": [{"name": "wall", "normal": [-1, 0, 0], "vertex_stiffness_N_m": 20,
+      "position": {"times_s": [0, 0.05], "points_m": [[0.2502, 0, 0], [0.249, 0, 0]]}}])";
+  const std::string scene =
+    write_scene("cli_linear_planes", wall + R"(, "outputs": {"directory": ")" + dir + R"("})", 0.1);
+  EXPECT_EQ(status(std::string(IRDM_CLI) + " simulate " + scene + " --quiet"), 0);
+  std::ifstream csv(fs::path(dir) / "irdm_beam_series.csv");
+  std::string   header;
+  std::getline(csv, header);
+  EXPECT_NE(header.find("wall_Fx_N"), std::string::npos) << header;
+  EXPECT_NE(header.find("wall_penetration_m"), std::string::npos) << header;
+  // penalty_Pa_m belongs to nonlinear kinematics, vertex_stiffness_N_m to linear, and linear
+  // scenes take probes or planes, not both.
+  EXPECT_THROW(fem::parse_scene(beam_scene(R"(, "planes": [{"name": "w", "normal": [-1, 0, 0], "penalty_Pa_m": 1e5,
+      "position": {"times_s": [0], "points_m": [[0.26, 0, 0]]}}])"), "."), InputError);
+  EXPECT_THROW(fem::parse_scene(beam_scene(R"(, "kinematics": "nonlinear", "planes": [{"name": "w", "normal": [-1, 0, 0],
+      "vertex_stiffness_N_m": 20, "position": {"times_s": [0], "points_m": [[0.26, 0, 0]]}}])"), "."), InputError);
+  EXPECT_THROW(fem::parse_scene(beam_scene(wall + R"(, "probes": [{"name": "p", "surface": "sides",
+      "direction": [0, 0, -1], "path": {"times_s": [0], "points_m": [[0.2, 0.005, 0.01]]},
+      "depth": {"times_s": [0], "values_m": [0]}}])"), "."), InputError);
+  EXPECT_NO_THROW(fem::parse_scene(beam_scene(wall), "."));
 }
