@@ -58,4 +58,10 @@ mpirun --allow-run-as-root --oversubscribe -np 2 build/apps/irdm precompute-vdof
   --subdivisions "$subdivisions"
 build/apps/irdm validate-planes --model "$models/cat_vdof.h5" --length 300 \
   --vertex-model "$models/cat_vertex.h5" --subdivisions "$subdivisions" --out "$out"
+# The plane contact step at 25 to 200 candidates (Google Benchmark; 2 to 3 minutes, full study
+# only: scripts/benchmark.sh REPORT VERTEX_MODEL runs it on the quick model).
+if [ "$full" -eq 1 ]; then
+  build/benchmarks/irdm_plane_kernels "$models/cat_vertex.h5" "$out/planes/kernels.md" \
+    --benchmark_min_time=0.2 --benchmark_color=false
+fi
 echo "reports ($(( (SECONDS - start) / 60 )) min): $out/validation.md, $out/<scene>/report.md, $out/benchmarks.md, $out/fem-verification/report.md, $out/planes/planes.md"

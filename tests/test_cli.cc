@@ -12,6 +12,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -281,4 +283,17 @@ TEST(Cli, SimulateRunsLinearPlanesByVertexContact)
       "direction": [0, 0, -1], "path": {"times_s": [0], "points_m": [[0.2, 0.005, 0.01]]},
       "depth": {"times_s": [0], "values_m": [0]}}])"), "."), InputError);
   EXPECT_NO_THROW(fem::parse_scene(beam_scene(wall), "."));
+  // A turning plane (normal_path) is nonlinear only; its normals may not vanish or flip.
+  const auto turning = [&](const std::string &kinematics, const std::string &normals) {
+    return fem::parse_scene(beam_scene(kinematics + R"(, "planes": [{"name": "w", "normal": [-1, 0, 0],
+      "normal_path": {"times_s": [0, 1], "normals": )" + normals + R"(},
+      "position": {"times_s": [0], "points_m": [[0.26, 0, 0]]}}])"), ".");
+  };
+  EXPECT_THROW(turning("", "[[-1, 0, 0], [-1, 0.1, 0]]"), InputError);
+  EXPECT_THROW(turning(R"(, "kinematics": "nonlinear")", "[[-1, 0, 0], [0, 0, 0]]"), InputError);
+  EXPECT_THROW(turning(R"(, "kinematics": "nonlinear")", "[[-1, 0, 0], [1, 0.1, 0]]"), InputError);
+  const auto ok = turning(R"(, "kinematics": "nonlinear")", "[[-2, 0, 0], [-1, 1, 0]]");
+  const auto n  = ok.planes[0].normal_at(0.5); // halfway: (-1.5, 0.5, 0) made unit
+  EXPECT_NEAR(n[0], -1.5 / std::sqrt(2.5), 1e-15);
+  EXPECT_NEAR(n[1], 0.5 / std::sqrt(2.5), 1e-15);
 }

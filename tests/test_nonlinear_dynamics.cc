@@ -181,3 +181,45 @@ TEST(NonlinearDynamics, PlaneOnTheFixedSurfaceOnlyPushesNothing)
         }
     }
 }
+
+TEST(NonlinearDynamics, TurningFloorPushesAlongItsNormalAtEachTime)
+{
+  // The ball falls onto a floor that turns from -3 to +3 degrees about y during the contact
+  // (normal_path, given unnormalized). A frictionless penalty floor pushes along its normal
+  // at that time, so the floor force is parallel to normal_at(t) at every step, and the
+  // ball's momentum changes by the floor's impulse.
+  const double v = 0.1, dt = 0.002;
+  Scene        s   = ball(IRDM_MESH_DIR "/ball.msh", v, dt, 0.14);
+  const double deg = M_PI / 180;
+  s.planes[0].normal_path.times  = {0, 0.14};
+  s.planes[0].normal_path.values = {{-3 * std::sin(3 * deg), 0, 3 * std::cos(3 * deg)},
+                                    {2 * std::sin(3 * deg), 0, 2 * std::cos(3 * deg)}};
+  const auto   r = NonlinearElasticity(s).run();
+  const auto  &F = r.plane_force.at("floor");
+  double       worst_angle = 0, impulse_x = 0, impulse_z = 0, peak = 0;
+  for (std::size_t k = 0; k < F.size(); ++k)
+    {
+      const auto   n  = s.planes[0].normal_at(r.time[k]);
+      const double f  = std::sqrt(F[k][0] * F[k][0] + F[k][1] * F[k][1] + F[k][2] * F[k][2]);
+      peak            = std::max(peak, f);
+      if (f > 0) // |F x n| / |F|: the sine of the angle (acos near 1 loses digits)
+        worst_angle = std::max(worst_angle, std::hypot(F[k][1] * n[2] - F[k][2] * n[1],
+                                                       F[k][2] * n[0] - F[k][0] * n[2],
+                                                       F[k][0] * n[1] - F[k][1] * n[0]) / f);
+      if (k > 0)
+        {
+          impulse_x += 0.5 * dt * (F[k - 1][0] + F[k][0]);
+          impulse_z += 0.5 * dt * (F[k - 1][2] + F[k][2]);
+        }
+    }
+  const auto &p = r.linear_momentum;
+  std::printf("turning floor: peak %.4g N, worst angle to the normal %.2e rad, impulse (%.4g, "
+              "%.4g) N s, momentum change (%.4g, %.4g)\n", peak, worst_angle, impulse_x,
+              impulse_z, p.back()[0] - p[0][0], p.back()[2] - p[0][2]);
+  ASSERT_GT(peak, 0);
+  EXPECT_LT(worst_angle, 1e-9);
+  // The floor turned while it pushed: the sideways impulse is not zero.
+  EXPECT_GT(std::abs(impulse_x), 1e-3 * impulse_z);
+  EXPECT_NEAR(p.back()[0] - p[0][0], impulse_x, 1e-6 * impulse_z);
+  EXPECT_NEAR(p.back()[2] - p[0][2], impulse_z, 1e-6 * impulse_z);
+}

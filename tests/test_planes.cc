@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "irdm_test_util.h"
@@ -89,6 +90,69 @@ TEST(Planes, RigidWallIsMetExactlyAndNeverPulls)
   // The wall pushes on several steps of the ramp (it also bounces off: y overshoots the wall
   // between pushes, which the checks above allow).
   EXPECT_GT(touching, 3u);
+}
+
+TEST(Planes, SameContactMappingBlendsOnlyWhereTheWallTouches)
+{
+  // interpolated_same_contact keeps, of the interpolation's virtual DOFs, exactly those whose
+  // first-contact vertex the wall along d reaches within the band, with weights renormalized.
+  const VirtualDofModel m = beam_vdof_model("beam_vdof_map.h5", 5);
+  const auto along = [&](const std::array<double, 3> &d, const std::array<double, 3> &x) {
+    return d[0] * x[0] + d[1] * x[1] + d[2] * x[2];
+  };
+  const auto first_contact = [&](const std::array<double, 3> &d) {
+    unsigned best = 0;
+    for (unsigned i = 0; i < m.n_surface; ++i)
+      if (!m.fixed[i] && (m.fixed[best] || along(d, m.coordinates[i]) > along(d, m.coordinates[best])))
+        best = i;
+    return m.coordinates[best];
+  };
+  unsigned dropped = 0, blended = 0;
+  for (int a = 0; a < 24; ++a)
+    for (int b = 1; b < 12; ++b)
+      {
+        const double th = M_PI * b / 12, ph = 2 * M_PI * a / 24;
+        const std::array<double, 3> d = {std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th)};
+        const auto all  = orientation_weights(m, d, OrientationMapping::interpolated);
+        const auto same = orientation_weights(m, d, OrientationMapping::interpolated_same_contact);
+        const double support = along(d, first_contact(d));
+        double       sum_all = 0, sum_same = 0;
+        for (unsigned i = 0; i < all.n; ++i)
+          {
+            if (!(all.w[i] > 0))
+              continue;
+            const bool touches = along(d, first_contact(m.directions[all.k[i]])) >= support - m.band;
+            const auto kept    = std::find(same.k.begin(), same.k.begin() + same.n, all.k[i]);
+            if (touches)
+              {
+                ASSERT_NE(kept, same.k.begin() + same.n);
+                sum_all += all.w[i];
+              }
+            else
+              {
+                EXPECT_EQ(kept, same.k.begin() + same.n);
+                ++dropped;
+              }
+          }
+        ASSERT_GE(same.n, 1u);
+        for (unsigned i = 0; i < same.n; ++i)
+          sum_same += same.w[i];
+        EXPECT_NEAR(sum_same, 1, 1e-14);
+        if (sum_all > 0) // the kept weights keep their ratios
+          for (unsigned i = 0; i < same.n; ++i)
+            for (unsigned j = 0; j < all.n; ++j)
+              {
+                if (all.k[j] == same.k[i])
+                  {
+                    EXPECT_NEAR(same.w[i], all.w[j] / sum_all, 1e-14);
+                  }
+              }
+        blended += same.n > 1;
+      }
+  std::printf("same-contact mapping over 264 directions: %u virtual DOFs dropped, %u blends kept\n",
+              dropped, blended);
+  EXPECT_GT(dropped, 0u);
+  EXPECT_GT(blended, 0u);
 }
 
 TEST(Planes, RuntimeReproducesThePrecomputedImpulse)

@@ -41,3 +41,35 @@ ax[1].set_title("Wall impact from the side")
 ax[1].legend(fontsize=7)
 fig.tight_layout()
 fig.savefig(d + "/planes.png", dpi=110)
+
+# Compliant walls: error against the wall stiffness (stiffness.csv), rigid at the right.
+import os
+
+if os.path.exists(d + "/stiffness.csv"):
+    sweep = list(csv.DictReader(open(d + "/stiffness.csv")))
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
+    names = sorted({x["case"] for x in sweep})
+    k_max = max(float(x["stiffness_N_m"]) for x in sweep)
+    rigid_x = 10 * k_max
+    for colour, name in zip(("C0", "C1", "C2", "C3", "C4", "C5"), names):
+        for method, style in (("vertex_contact_modal", "s-"), ("vdof_nearest", "o--")):
+            r = sorted((x for x in sweep if x["case"] == name and x["method"] == method),
+                       key=lambda x: float(x["stiffness_N_m"]))
+            rigid = [x for x in rows if x["case"] == name and x["method"] == method]
+            for a, key in enumerate(("force_error", "impulse_error", "displacement_error")):
+                k = [float(x["stiffness_N_m"]) for x in r] + [rigid_x] * len(rigid)
+                e = [100 * float(x[key]) for x in r] + [100 * float(x[key]) for x in rigid]
+                ax[a].plot(k, e, style, color=colour, ms=4, label=f"{name}, {method}")
+                fem = [x for x in r if x["fem_equivalent"] == "1"]
+                if fem:
+                    ax[a].plot([float(fem[0]["stiffness_N_m"])], [100 * float(fem[0][key])],
+                               "k*", ms=10)
+    for a, key in enumerate(("force", "impulse", "displacement")):
+        ax[a].set_xscale("log")
+        ax[a].set_yscale("log")
+        ax[a].set_xlabel(f"wall stiffness (N/m; rigid at {rigid_x:g}; star: FEM penalty equivalent)")
+        ax[a].set_ylabel(f"{key} error (%)")
+        ax[a].set_title(f"Compliant wall: {key} error vs nonlinear FEM")
+    ax[0].legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(d + "/stiffness.png", dpi=110)

@@ -104,6 +104,7 @@ namespace irdm
     is_pushed_.assign(model.n_inputs, 0);
     pushed_.reserve(model.n_inputs);
     vertex_contact_.reset(model, planes);
+    projected_.assign(static_cast<size_t>(planes.max_candidates) * N_, 0.0); // 8 MB at 512 x 2037
   }
 
   bool
@@ -162,6 +163,19 @@ namespace irdm
   }
 
   double
+  ModalInteraction::history_along(const unsigned in_vertex, const std::array<double, 3> &n,
+                                  const int slot, const bool fresh)
+  {
+    double *row = &projected_[static_cast<size_t>(slot) * N_];
+    if (fresh)
+      {
+        const double *phi = &model_.input_shapes[static_cast<size_t>(3 * in_vertex) * N_];
+        VecMut(row, N_) = n[0] * Vec(phi, N_) + n[1] * Vec(phi + N_, N_) + n[2] * Vec(phi + 2 * N_, N_);
+      }
+    return Vec(row, N_).dot(Vec(fu_.data(), N_));
+  }
+
+  double
   ModalInteraction::feed_through(const unsigned k, const unsigned j) const
   {
     // The input DoF whose output is output DoF j (contact rows are outputs of inputs).
@@ -201,7 +215,9 @@ namespace irdm
     begin_step();
     // On failure nothing was pushed and the state is left as it was.
     if (!vertex_contact_.step(
-          model_, planes, n_planes, [&](const unsigned i, unsigned) { return history_row(i); },
+          model_, planes, n_planes,
+          [&](const unsigned vi, unsigned, const std::array<double, 3> &n, const int slot,
+              const bool fresh) { return history_along(vi, n, slot, fresh); },
           [&](const unsigned k, const unsigned j) { return feed_through(k, j); },
           [&](const unsigned k, const double f) { push(k, f); }))
       return false;

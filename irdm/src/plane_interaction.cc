@@ -20,6 +20,10 @@ namespace irdm
     VirtualDofModel m;
     m.time_step  = r.double_attribute("/", "time_step_s");
     m.mesh_hash  = r.string_attribute("/", "mesh_hash");
+    if (r.has_attribute("/", "band_m"))
+      m.band = r.double_attribute("/", "band_m");
+    if (!(m.band >= 0) || !std::isfinite(m.band))
+      throw InputError("'" + path + "': band_m must be >= 0");
     m.integrator = r.string_attribute("/", "integrator");
     if (!(m.time_step > 0) || !std::isfinite(m.time_step))
       throw InputError("'" + path + "': time_step_s must be > 0");
@@ -106,6 +110,9 @@ namespace irdm
   }
 
   OrientationWeights
+  orientation_weights_same_contact(const VirtualDofModel &m, const std::array<double, 3> &d);
+
+  OrientationWeights
   orientation_weights(const VirtualDofModel &m, const std::array<double, 3> &d,
                       const OrientationMapping mapping)
   {
@@ -113,6 +120,8 @@ namespace irdm
     const auto dot = [](const std::array<double, 3> &a, const std::array<double, 3> &b) {
       return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     };
+    if (mapping == OrientationMapping::interpolated_same_contact)
+      return orientation_weights_same_contact(m, d);
     if (mapping == OrientationMapping::nearest)
       {
         unsigned best = 0;
@@ -147,6 +156,51 @@ namespace irdm
           }
       }
     throw InputError("orientation_weights: no dome triangle contains the direction");
+  }
+
+  namespace
+  {
+    /// The free surface vertex farthest along d, and how far (m).
+    std::pair<unsigned, double>
+    support_of(const VirtualDofModel &m, const std::array<double, 3> &d)
+    {
+      std::pair<unsigned, double> best{0, -1e300};
+      for (unsigned i = 0; i < m.n_surface; ++i)
+        if (!m.fixed[i])
+          {
+            const auto  &x = m.coordinates[i];
+            const double s = d[0] * x[0] + d[1] * x[1] + d[2] * x[2];
+            if (s > best.second)
+              best = {i, s};
+          }
+      return best;
+    }
+  } // namespace
+
+  OrientationWeights
+  orientation_weights_same_contact(const VirtualDofModel &m, const std::array<double, 3> &d)
+  {
+    const auto blend   = orientation_weights(m, d, OrientationMapping::interpolated);
+    const auto support = support_of(m, d).second;
+    OrientationWeights out;
+    double             sum = 0;
+    for (unsigned i = 0; i < blend.n; ++i)
+      {
+        if (!(blend.w[i] > 0))
+          continue;
+        const auto &x = m.coordinates[support_of(m, m.directions[blend.k[i]]).first];
+        if (d[0] * x[0] + d[1] * x[1] + d[2] * x[2] < support - m.band)
+          continue; // virtual DOF k first touches where this wall does not
+        out.k[out.n] = blend.k[i];
+        out.w[out.n] = blend.w[i];
+        sum += blend.w[i];
+        ++out.n;
+      }
+    if (out.n == 0)
+      return orientation_weights(m, d, OrientationMapping::nearest);
+    for (unsigned i = 0; i < out.n; ++i)
+      out.w[i] /= sum;
+    return out;
   }
 
   PlaneInteraction::PlaneInteraction(const VirtualDofModel &model, const OrientationMapping mapping)

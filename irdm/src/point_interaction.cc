@@ -124,7 +124,10 @@ namespace irdm
     history_.begin_step(n_, [](unsigned) {});
     const bool ok = vertex_contact_.step(
       model_, planes, n_planes,
-      [&](const unsigned i, const unsigned j) { return history_row(i, j); },
+      [&](const unsigned vi, const unsigned vo, const std::array<double, 3> &n, int, bool) {
+        return n[0] * history_row(3 * vi, 3 * vo) + n[1] * history_row(3 * vi + 1, 3 * vo + 1) +
+               n[2] * history_row(3 * vi + 2, 3 * vo + 2);
+      },
       [&](const unsigned k, const unsigned j) { return model_.h(k, 0, j); },
       [&](const unsigned k, const double f) { history_.push(k, n_, f); });
     if (ok)

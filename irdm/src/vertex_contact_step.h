@@ -1,7 +1,8 @@
 #pragma once
 // Internal: VertexContact::step (irdm/vertex_contact.h), the same for every model kind. The
-// kind supplies, as for probes (probe_step.h):
-//   history(i, j)  displacement of output DoF j (the output of input DoF i) from earlier forces;
+// kind supplies:
+//   history(vi, vo, n, slot, fresh)  n . (displacement of output vertex vo, the output of input
+//                  vertex vi, from earlier forces); slot and fresh as in vertex_contact.h;
 //   h0(k, j)       H[0] from input DoF k to output DoF j;
 //   push(k, f)     adds force f (N) on input DoF k to this step's sample.
 #include <irdm/vertex_contact.h>
@@ -54,14 +55,8 @@ namespace irdm
       return 3u * static_cast<unsigned>(m.output_input_index[vertex_[c]]) + d;
     };
     const auto out_dof = [&](const int c, const int d) { return 3u * vertex_[c] + d; };
-    for (int c = 0; c < n; ++c)
-      {
-        const auto &nn = planes[plane_[c]].normal;
-        for (int d = 0; d < 3; ++d)
-          q_[c] += nn[d] * history(in_dof(c, d), out_dof(c, d));
-      }
-    // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b, copied
-    // from the last step where both rows were rows then and their planes are unchanged.
+    // Rows kept from the last step (same plane normal and stiffness) keep their W entries and
+    // their slot; new rows take free slots.
     bool same_plane[contact::max_planes];
     for (int p = 0; p < n_planes; ++p)
       same_plane[p] = p < previous_.n_planes &&
@@ -72,6 +67,29 @@ namespace irdm
                ? previous_.row_of[static_cast<size_t>(plane_[c]) * n_vertices + vertex_[c]]
                : -1;
     };
+    std::fill(slot_taken_.begin(), slot_taken_.end(), 0);
+    for (int c = 0; c < n; ++c)
+      {
+        const int oc = old_row(c);
+        slot_[c]     = oc >= 0 ? previous_.slot[oc] : -1;
+        if (oc >= 0)
+          slot_taken_[slot_[c]] = 1;
+      }
+    for (int c = 0, free_slot = 0; c < n; ++c)
+      {
+        const bool fresh = slot_[c] < 0;
+        if (fresh)
+          {
+            while (slot_taken_[free_slot])
+              ++free_slot;
+            slot_[c]               = free_slot;
+            slot_taken_[free_slot] = 1;
+          }
+        q_[c] += history(static_cast<unsigned>(m.output_input_index[vertex_[c]]), vertex_[c],
+                         planes[plane_[c]].normal, slot_[c], fresh);
+      }
+    // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b, copied
+    // from the last step where both rows were rows then.
     for (int c = 0; c < n; ++c)
       {
         const auto &nc = planes[plane_[c]].normal;
@@ -108,6 +126,7 @@ namespace irdm
         previous_.row_of[static_cast<size_t>(plane_[c]) * n_vertices + vertex_[c]] = c;
         previous_.plane[c]  = plane_[c];
         previous_.vertex[c] = vertex_[c];
+        previous_.slot[c]   = slot_[c];
       }
     previous_.n        = n;
     previous_.n_planes = n_planes;

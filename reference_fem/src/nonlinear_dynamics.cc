@@ -42,10 +42,10 @@ namespace irdm::fem
       {
         Tensor<1, 3> n;
         Point<3>     x0;
-        const Vec3   at = planes[p].position.at(t);
+        const Vec3   at = planes[p].position.at(t), normal = planes[p].normal_at(t);
         for (unsigned d = 0; d < 3; ++d)
           {
-            n[d]  = planes[p].normal[d];
+            n[d]  = normal[d];
             x0[d] = at[d];
           }
         const double k     = penalty[p];

@@ -58,6 +58,16 @@ namespace irdm::fem
     return (1 - w) * values[k] + w * values[k + 1 < values.size() ? k + 1 : k];
   }
 
+  Vec3
+  RigidPlane::normal_at(const double t) const
+  {
+    if (normal_path.times.empty())
+      return normal;
+    const Vec3   n = normal_path.at(t);
+    const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    return {n[0] / l, n[1] / l, n[2] / l};
+  }
+
   History
   History::constant(const Vec3 &v)
   {
@@ -636,7 +646,8 @@ namespace irdm::fem
     if (top.has("planes"))
       for (const auto &n : top.at("planes").array())
         {
-          n.allow_only({"name", "normal", "position", "penalty_Pa_m", "vertex_stiffness_N_m"});
+          n.allow_only({"name", "normal", "normal_path", "position", "penalty_Pa_m",
+                        "vertex_stiffness_N_m"});
           RigidPlane p;
           p.name            = unique(n, parse_name(n, "plane" + std::to_string(names.size())));
           const Vec3   d    = n.at("normal").vec3();
@@ -648,6 +659,29 @@ namespace irdm::fem
           parse_samples(n.at("position"), "points_m", p.position.times, samples);
           for (const auto &x : samples)
             p.position.values.push_back(x.vec3());
+          if (n.has("normal_path"))
+            {
+              if (s.kinematics == Kinematics::linear)
+                fail(n.where + ".normal_path", "is for nonlinear kinematics (a turning plane); "
+                                               "linear plane contact keeps its normal");
+              samples.clear();
+              parse_samples(n.at("normal_path"), "normals", p.normal_path.times, samples);
+              for (const auto &x : samples)
+                {
+                  const Vec3 v = x.vec3();
+                  if (!(std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) > 1e-6))
+                    fail(n.where + ".normal_path", "normals must not be zero");
+                  p.normal_path.values.push_back(v);
+                }
+              // Consecutive normals more than 90 degrees apart would pass through zero.
+              for (size_t i = 1; i < p.normal_path.values.size(); ++i)
+                {
+                  const Vec3 &a = p.normal_path.values[i - 1], &b = p.normal_path.values[i];
+                  if (!(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] > 0))
+                    fail(n.where + ".normal_path", "consecutive normals must be less than 90 "
+                                                   "degrees apart");
+                }
+            }
           if (n.has("penalty_Pa_m"))
             {
               if (s.kinematics == Kinematics::linear)

@@ -48,10 +48,14 @@ namespace irdm::validation
     struct Case
     {
       std::string         kind, name;
-      std::vector<Vec3>   d; // per wall
+      std::vector<Vec3>   d; // per wall, at t = 0
       double              depth = 0, speed = 0; // m, m/s (what is varied)
       std::vector<double> times, penetration;
       double              duration = 0;
+      // A turning wall: d rotated about turn_axis by turn_deg(t) (degrees, linear between
+      // turn_times); empty: d fixed.
+      Vec3                turn_axis{0, 0, 1};
+      std::vector<double> turn_times, turn_deg;
     };
 
     /// The methods compared, in report order.
@@ -62,12 +66,16 @@ namespace irdm::validation
     struct MethodResult
     {
       bool   ran = false;
+      double stiffness = 0; // N/m: per vertex (vertex contact) or per virtual DOF; 0 rigid
       double force_error = 0; // relative L2 of the total wall force along -d, over the history
       // |sum F_IRDM - sum F_FEM| / sum F_FEM: the impulse the walls give, which bouncing
       // contact (chatter at a single vertex) does not scramble as the L2 does.
       double impulse_error      = 0;
       double displacement_error = 0; // relative L2 over surface and time
       int    contact_vertices_max = -1; // vertex contact: most vertices pushed at once
+      int    candidates_max = -1, rounds_max = -1; // vertex contact: rows, solver rounds
+      double max_penetration = 0; // m: vertex contact, deepest vertex past a wall; virtual
+                                  // DOFs, the band past a compliant wall (F / k)
       double force_us = 0, surface_us = 0;
       // Finite throughout, no failed step, and the surface within 10 times the FEM's largest
       // displacement (a run that blows up or locks up is not stable).
@@ -87,6 +95,12 @@ namespace irdm::validation
       unsigned newton = 0;
       std::vector<double>                             F_fem; // per step, total along -d
       std::array<MethodResult, method_names.size()>   method;
+      MethodResult same_contact; // virtual DOFs, interpolated_same_contact (one fixed wall)
+      // The linear FEM with the same vertex contact (fixed walls): what any linear model with
+      // this contact reaches, IRDM's exact reference (vertex_contact_direct equals it).
+      MethodResult linear_fem;
+      double       linear_fem_seconds = 0;
+      double       vertex_stiffness = 0; // N/m, of vertex contact's walls in the table
     };
 
     Case
@@ -121,6 +135,25 @@ namespace irdm::validation
       return c;
     }
 
+    /// A wall on the side that turns from -angle to +angle about z while held at the depth:
+    /// its contact patch slides over the surface.
+    Case
+    slide(const Vec3 &d, const double depth, const double angle_deg)
+    {
+      Case c;
+      c.kind  = "slide_side";
+      c.name  = c.kind + "_" + std::to_string(static_cast<int>(std::round(depth * 1000))) + "mm";
+      c.d     = {d};
+      c.depth = depth;
+      // In over 0.1 s, turned from -angle to +angle by 0.45 s, out by 0.55 s, free to 0.6 s.
+      c.times       = {0, 0.1, 0.45, 0.55};
+      c.penetration = {0, depth, depth, -0.01};
+      c.duration    = 0.6;
+      c.turn_times  = {0, 0.1, 0.45};
+      c.turn_deg    = {-angle_deg, -angle_deg, angle_deg};
+      return c;
+    }
+
     std::string
     vec_text(const Vec3 &v)
     {
@@ -139,6 +172,23 @@ namespace irdm::validation
       const auto   i = std::upper_bound(t.begin(), t.end(), x) - t.begin();
       const double a = (x - t[i - 1]) / (t[i] - t[i - 1]);
       return (1 - a) * v[i - 1] + a * v[i];
+    }
+
+    /// Wall a's direction at time t (unit).
+    Vec3
+    direction(const Case &c, const size_t a, const double t)
+    {
+      if (c.turn_times.empty())
+        return c.d[a];
+      // Rodrigues: d cos + (k x d) sin + k (k . d)(1 - cos), k the unit axis.
+      const double th = interp(c.turn_times, c.turn_deg, t) * M_PI / 180;
+      const Vec3  &d = c.d[a], &k = c.turn_axis;
+      const Vec3   kxd = {k[1] * d[2] - k[2] * d[1], k[2] * d[0] - k[0] * d[2], k[0] * d[1] - k[1] * d[0]};
+      const double kd  = dot(k, d), co = std::cos(th), si = std::sin(th);
+      Vec3         r;
+      for (int i = 0; i < 3; ++i)
+        r[i] = d[i] * co + kxd[i] * si + k[i] * kd * (1 - co);
+      return r;
     }
   } // namespace
 
@@ -262,6 +312,9 @@ namespace irdm::validation
         c.d.push_back(side);
         cases.push_back(c);
       }
+    // A tilted wall whose contact patch slides over the side: it turns 50 degrees about z.
+    for (const double depth : {0.005, 0.01})
+      cases.push_back(slide(side, depth, 25));
 
     // 1b. The vertex-contact model: every free surface vertex an input and an output, the
     // linear FEM's impulse responses (reused when made from this scene with this length).
@@ -323,25 +376,52 @@ namespace irdm::validation
           n += uf[i] * uf[i];
         }
     };
+    // The FEM penalty's per-vertex equivalent needs the mean lumped area of the free vertices.
+    double mean_vertex_area = 0;
+    {
+      std::vector<double> area(vertex_model.n_outputs / 3, 0.0);
+      for (const auto &t : vertex_model.triangles)
+        {
+          const auto &a = vertex_model.output_coordinates[t[0]], &b = vertex_model.output_coordinates[t[1]],
+                     &q = vertex_model.output_coordinates[t[2]];
+          const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{q[0] - a[0], q[1] - a[1], q[2] - a[2]};
+          const Vec3 x{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+          for (const unsigned i : t)
+            area[i] += std::sqrt(dot(x, x)) / 6;
+        }
+      unsigned n_free = 0;
+      for (unsigned v = 0; v < area.size(); ++v)
+        if (vertex_model.output_input_index[v] >= 0)
+          mean_vertex_area += area[v], ++n_free;
+      mean_vertex_area /= std::max(n_free, 1u);
+    }
+    struct SweepRow
+    {
+      std::string  c, method;
+      double       k;
+      bool         fem_equivalent;
+      MethodResult result;
+    };
+    std::vector<SweepRow> sweep;
     std::vector<Row> rows;
     for (const auto &c : cases)
       {
         Row row;
         row.c = c;
         const size_t n_walls = c.d.size();
-        // Each wall's position from the free vertices' support (the fixed base is the ground's).
-        std::vector<double> support(n_walls);
-        row.on_dome = true;
+        // Each wall's position from the free vertices' support along its direction at the
+        // time (the fixed base is the ground's).
+        row.on_dome = c.turn_times.empty();
         for (size_t a = 0; a < n_walls; ++a)
           {
-            support[a]      = dot(c.d[a], model.coordinates[support_vertex(c.d[a])]);
             double best_dot = -1;
             for (const auto &dk : model.directions)
               best_dot = std::max(best_dot, dot(dk, c.d[a]));
             row.on_dome = row.on_dome && best_dot > 1 - 1e-12;
           }
         const auto wall_at = [&](const size_t a, const double t) {
-          return support[a] - interp(c.times, c.penetration, t);
+          const Vec3 d = direction(c, a, t);
+          return dot(d, model.coordinates[support_vertex(d)]) - interp(c.times, c.penetration, t);
         };
         // FEM: each wall the plane through w(t) d with normal -d, sampled at every step.
         fem::Scene s = body;
@@ -357,8 +437,14 @@ namespace irdm::validation
             for (unsigned k = 0; k <= N; ++k)
               {
                 const double w = wall_at(a, k * tau);
+                const Vec3   d = direction(c, a, k * tau);
                 wall.position.times.push_back(k * tau);
-                wall.position.values.push_back({w * c.d[a][0], w * c.d[a][1], w * c.d[a][2]});
+                wall.position.values.push_back({w * d[0], w * d[1], w * d[2]});
+                if (!c.turn_times.empty())
+                  {
+                    wall.normal_path.times.push_back(k * tau);
+                    wall.normal_path.values.push_back({-d[0], -d[1], -d[2]});
+                  }
               }
             s.planes.push_back(wall);
           }
@@ -372,7 +458,7 @@ namespace irdm::validation
           {
             for (size_t a = 0; a < n_walls; ++a)
               {
-                row.F_fem[k] -= dot(fem_r.plane_force.at(s.planes[a].name)[k], c.d[a]);
+                row.F_fem[k] -= dot(fem_r.plane_force.at(s.planes[a].name)[k], direction(c, a, k * tau));
                 row.fem_max_penetration = std::max(
                   row.fem_max_penetration, fem_r.plane_penetration.at(s.planes[a].name)[k]);
               }
@@ -423,39 +509,52 @@ namespace irdm::validation
           m.force_us           = 1e6 * t_force / N;
           m.surface_us         = 1e6 * t_surface / N;
         };
-        // Virtual DOFs, both mappings.
+        // Virtual DOFs (mapping 0 nearest, 1 interpolated, 2 interpolated_same_contact), wall
+        // stiffness k (0: rigid).
+        const auto run_vdof = [&](MethodResult &m, const int mapping, const double k) {
+          PlaneInteraction run(model, mapping == 0   ? OrientationMapping::nearest
+                                      : mapping == 1 ? OrientationMapping::interpolated
+                                                     : OrientationMapping::interpolated_same_contact);
+          std::array<VirtualDofWall, PlaneInteraction::max_walls> walls;
+          std::array<double, PlaneInteraction::max_walls>         force{};
+          m.stiffness = k;
+          run_method(
+            m,
+            [&](const double t, double &F) {
+              for (size_t a = 0; a < n_walls; ++a)
+                walls[a] = {direction(c, a, t), wall_at(a, t), k};
+              const bool ok = run.step(walls.data(), static_cast<int>(n_walls), force.data());
+              F             = 0;
+              for (size_t a = 0; a < n_walls; ++a)
+                {
+                  F += force[a];
+                  if (k > 0)
+                    m.max_penetration = std::max(m.max_penetration, force[a] / k);
+                }
+              return ok;
+            },
+            [&]() -> const std::vector<double> & { return run.update_surface(); });
+        };
         for (int mapping = 0; mapping < 2; ++mapping)
           {
-            PlaneInteraction run(model, mapping == 0 ? OrientationMapping::nearest
-                                                     : OrientationMapping::interpolated);
-            std::array<VirtualDofWall, PlaneInteraction::max_walls> walls;
-            std::array<double, PlaneInteraction::max_walls>         force{};
-            run_method(
-              row.method[mapping],
-              [&](const double t, double &F) {
-                for (size_t a = 0; a < n_walls; ++a)
-                  walls[a] = {c.d[a], wall_at(a, t), 0};
-                const bool ok = run.step(walls.data(), static_cast<int>(n_walls), force.data());
-                F             = 0;
-                for (size_t a = 0; a < n_walls; ++a)
-                  F += force[a];
-                return ok;
-              },
-              [&]() -> const std::vector<double> & { return run.update_surface(); });
+            run_vdof(row.method[mapping], mapping, 0);
             log << " ." << std::flush;
           }
         // Vertex contact, from the modal and the direct model. Its surface holds the free
         // surface vertices; the FEM's order is restored for the comparison (fixed: zero).
         std::vector<double> u_out(vertex_model.n_outputs), u_fem_order(3 * fem_r.surface.node_tags.size());
-        const auto vertex_step = [&](auto &runtime, MethodResult &m) {
+        const auto vertex_step = [&](auto &runtime, MethodResult &m, const double k) {
           std::array<PlaneTarget, contact::max_planes> targets;
-          m.contact_vertices_max = 0;
-          return [&runtime, &m, targets, &c, &wall_at, n_walls](const double t, double &F) mutable {
+          m.contact_vertices_max = m.candidates_max = m.rounds_max = 0;
+          m.stiffness = k;
+          return [&runtime, &m, targets, &c, &wall_at, n_walls, k](const double t, double &F) mutable {
             for (size_t a = 0; a < n_walls; ++a)
               {
                 const double w = wall_at(a, t);
-                targets[a].normal = {-c.d[a][0], -c.d[a][1], -c.d[a][2]};
-                targets[a].point  = {w * c.d[a][0], w * c.d[a][1], w * c.d[a][2]};
+                const Vec3   d = direction(c, a, t);
+                targets[a].normal    = {-d[0], -d[1], -d[2]};
+                targets[a].point     = {w * d[0], w * d[1], w * d[2]};
+                targets[a].stiffness = k;
               }
             const bool ok = runtime.step(targets.data(), static_cast<int>(n_walls));
             F             = 0;
@@ -463,10 +562,13 @@ namespace irdm::validation
             for (size_t a = 0; a < n_walls; ++a)
               {
                 const auto &r = runtime.vertex_contact().plane(static_cast<int>(a));
-                F -= dot(r.force, c.d[a]);
+                F += dot(r.force, targets[a].normal);
                 active += r.active;
+                m.max_penetration = std::max(m.max_penetration, r.penetration);
               }
             m.contact_vertices_max = std::max(m.contact_vertices_max, active);
+            m.candidates_max = std::max(m.candidates_max, runtime.vertex_contact().candidates());
+            m.rounds_max     = std::max(m.rounds_max, runtime.vertex_contact().rounds());
             return ok;
           };
         };
@@ -478,15 +580,61 @@ namespace irdm::validation
             return u_fem_order;
           };
         };
-        {
+        const auto run_vertex_modal = [&](MethodResult &m, const double k) {
           ModalInteraction run(modal_model, vco);
-          run_method(row.method[2], vertex_step(run, row.method[2]), vertex_surface(run));
-          log << " ." << std::flush;
-        }
+          run_method(m, vertex_step(run, m, k), vertex_surface(run));
+        };
+        const double penalty = fem_r.plane_penalty.at(s.planes[0].name);
+        row.vertex_stiffness = o.vertex_stiffness < 0 ? penalty * mean_vertex_area : o.vertex_stiffness;
+        run_vertex_modal(row.method[2], row.vertex_stiffness);
+        log << " ." << std::flush;
         if (o.direct)
           {
             PointInteraction run(vertex_model, 0, vco);
-            run_method(row.method[3], vertex_step(run, row.method[3]), vertex_surface(run));
+            run_method(row.method[3], vertex_step(run, row.method[3], row.vertex_stiffness),
+                       vertex_surface(run));
+          }
+        if (n_walls == 1 && c.turn_times.empty())
+          run_vdof(row.same_contact, 2, 0);
+        if (c.turn_times.empty()) // linear planes keep their normal
+          {
+            fem::Scene ls = s;
+            ls.kinematics = fem::Kinematics::linear;
+            for (auto &p : ls.planes)
+              p.penalty = 0, p.vertex_stiffness = row.vertex_stiffness;
+            const auto t1  = Clock::now();
+            const auto lin = fem::ElasticDynamics(ls).run();
+            row.linear_fem_seconds = since(t1);
+            unsigned k = 0;
+            run_method(
+              row.linear_fem,
+              [&](double, double &F) {
+                ++k;
+                F = 0;
+                for (size_t a = 0; a < n_walls; ++a)
+                  F -= dot(lin.plane_force.at(ls.planes[a].name)[k], c.d[a]);
+                return true;
+              },
+              [&]() -> const std::vector<double> & { return lin.surface_displacement[k]; });
+            log << " linear FEM " << row.linear_fem_seconds << " s" << std::flush;
+          }
+        // Compliant walls on the sweep's cases: vdof_nearest and vertex_contact_modal.
+        if (std::find(o.sweep_cases.begin(), o.sweep_cases.end(), c.name) != o.sweep_cases.end())
+          {
+            auto ks = o.stiffness_sweep;
+            ks.push_back(penalty * mean_vertex_area);
+            for (const double k : ks)
+              {
+                SweepRow sr{c.name, "vertex_contact_modal", k, k == ks.back(), {}};
+                run_vertex_modal(sr.result, k);
+                sweep.push_back(sr);
+                if (k == ks.back())
+                  continue; // the FEM equivalent is per vertex only
+                sr = {c.name, "vdof_nearest", k, false, {}};
+                run_vdof(sr.result, 0, k);
+                sweep.push_back(sr);
+              }
+            log << " sweep" << std::flush;
           }
         if (n_walls == 1)
           {
@@ -494,7 +642,7 @@ namespace irdm::validation
             double           eu = 0, nu = 0;
             for (unsigned k = 1; k <= N; ++k)
               {
-                run.apply(c.d[0], row.F_fem[k]);
+                run.apply(direction(c, 0, k * tau), row.F_fem[k]);
                 add_surface_error(run.update_surface(), fem_r.surface_displacement[k], eu, nu);
               }
             row.open_loop_displacement_error = std::sqrt(eu / std::max(nu, 1e-300));
@@ -508,6 +656,92 @@ namespace irdm::validation
       }
 
     // 3. Report.
+    // Why interpolating between orientations can be worse than the nearest one: per one-wall
+    // fixed case, the three virtual DOFs the interpolation blends, how far apart their
+    // first-contact vertices are (the cat is not convex), and the blend's feed-through and
+    // static compliance against the nearest virtual DOF's.
+    struct MappingRow
+    {
+      std::string name;
+      double      spread = 0, feedthrough_ratio = 0, static_ratio = 0;
+      unsigned    distinct_first_contacts = 0;
+      const Row  *row = nullptr;
+    };
+    std::vector<MappingRow> mapping;
+    for (const auto &r : rows)
+      {
+        if (r.c.d.size() != 1 || !r.c.turn_times.empty())
+          continue;
+        MappingRow mr;
+        mr.name          = r.c.name;
+        mr.row           = &r;
+        const auto near  = orientation_weights(model, r.c.d[0], OrientationMapping::nearest);
+        const auto blend = orientation_weights(model, r.c.d[0], OrientationMapping::interpolated);
+        const unsigned own = support_vertex(r.c.d[0]);
+        std::vector<unsigned> firsts;
+        for (unsigned i = 0; i < blend.n; ++i)
+          {
+            if (!(blend.w[i] > 0))
+              continue; // on a dome direction the blend is that one virtual DOF
+            const unsigned v = support_vertex(model.directions[blend.k[i]]);
+            if (std::find(firsts.begin(), firsts.end(), v) == firsts.end())
+              firsts.push_back(v);
+            const auto &x = model.coordinates[v], &y = model.coordinates[own];
+            mr.spread = std::max(mr.spread, std::sqrt((x[0] - y[0]) * (x[0] - y[0]) +
+                                                      (x[1] - y[1]) * (x[1] - y[1]) +
+                                                      (x[2] - y[2]) * (x[2] - y[2])));
+          }
+        mr.distinct_first_contacts = static_cast<unsigned>(firsts.size());
+        double c0 = 0, cs = 0;
+        for (unsigned i = 0; i < blend.n; ++i)
+          for (unsigned l = 0; l < blend.n; ++l)
+            for (unsigned t = 0; t < model.length; ++t)
+              {
+                const double y = blend.w[i] * blend.w[l] * model.Y(blend.k[l], t, blend.k[i]);
+                cs += y;
+                if (t == 0)
+                  c0 += y;
+              }
+        double n0 = 0, ns = 0;
+        for (unsigned t = 0; t < model.length; ++t)
+          {
+            const double y = model.Y(near.k[0], t, near.k[0]);
+            ns += y;
+            if (t == 0)
+              n0 += y;
+          }
+        mr.feedthrough_ratio = c0 / n0;
+        mr.static_ratio      = cs / ns;
+        mapping.push_back(mr);
+      }
+    {
+      std::ostringstream csv;
+      csv << "case,distinct_first_contacts,first_contact_spread_m,feedthrough_ratio,"
+             "static_compliance_ratio,nearest_impulse_error,interpolated_impulse_error,"
+             "nearest_displacement_error,interpolated_displacement_error,"
+             "same_contact_impulse_error,same_contact_displacement_error,same_contact_force_error,"
+             "open_loop_displacement_error\n";
+      for (const auto &m : mapping)
+        csv << m.name << "," << m.distinct_first_contacts << "," << m.spread << ","
+            << m.feedthrough_ratio << "," << m.static_ratio << ","
+            << m.row->method[0].impulse_error << "," << m.row->method[1].impulse_error << ","
+            << m.row->method[0].displacement_error << "," << m.row->method[1].displacement_error
+            << "," << m.row->same_contact.impulse_error << ","
+            << m.row->same_contact.displacement_error << "," << m.row->same_contact.force_error
+            << "," << m.row->open_loop_displacement_error << "\n";
+      write_text_file((fs::path(dir) / "mapping.csv").string(), csv.str());
+    }
+    {
+      std::ostringstream csv;
+      csv << "case,method,stiffness_N_m,fem_equivalent,force_error,impulse_error,"
+             "displacement_error,max_penetration_m,contact_vertices_max,stable\n";
+      for (const auto &w : sweep)
+        csv << w.c << "," << w.method << "," << w.k << "," << (w.fem_equivalent ? 1 : 0) << ","
+            << w.result.force_error << "," << w.result.impulse_error << ","
+            << w.result.displacement_error << "," << w.result.max_penetration << ","
+            << w.result.contact_vertices_max << "," << (w.result.stable ? 1 : 0) << "\n";
+      write_text_file((fs::path(dir) / "stiffness.csv").string(), csv.str());
+    }
     {
       std::ostringstream csv;
       csv << "case,method,force_error,impulse_error,displacement_error,contact_vertices_max,"
@@ -530,12 +764,23 @@ namespace irdm::validation
     {
       std::ostringstream csv;
       csv << "case,kind,walls,dx,dy,dz,on_dome,depth_m,speed_m_s,fem_peak_force_N,"
-             "fem_max_penetration_m,open_loop_displacement_error,fem_newton_iterations\n";
+             "fem_max_penetration_m,open_loop_displacement_error,fem_newton_iterations,"
+             "vertex_stiffness_N_m,linear_fem_force_error,linear_fem_impulse_error,"
+             "linear_fem_displacement_error\n";
       for (const auto &r : rows)
-        csv << r.c.name << "," << r.c.kind << "," << r.c.d.size() << "," << r.c.d[0][0] << ","
-            << r.c.d[0][1] << "," << r.c.d[0][2] << "," << r.on_dome << "," << r.c.depth << ","
-            << r.c.speed << "," << r.fem_peak_force << "," << r.fem_max_penetration << ","
-            << r.open_loop_displacement_error << "," << r.newton << "\n";
+        {
+          csv << r.c.name << "," << r.c.kind << "," << r.c.d.size() << "," << r.c.d[0][0] << ","
+              << r.c.d[0][1] << "," << r.c.d[0][2] << "," << r.on_dome << "," << r.c.depth << ","
+              << r.c.speed << "," << r.fem_peak_force << "," << r.fem_max_penetration << ","
+              << r.open_loop_displacement_error << "," << r.newton << "," << r.vertex_stiffness
+              << ",";
+          if (r.linear_fem.ran)
+            csv << r.linear_fem.force_error << "," << r.linear_fem.impulse_error << ","
+                << r.linear_fem.displacement_error;
+          else
+            csv << ",,";
+          csv << "\n";
+        }
       write_text_file((fs::path(dir) / "cases.csv").string(), csv.str());
     }
     {
@@ -580,7 +825,15 @@ namespace irdm::validation
        << ") may touch; normal forces complementary to the gaps through the feed-through "
        << "N^T H[0] N, solved exactly by block principal pivoting, warm-started (stopping rule: "
        << "no row violates lambda >= 0 or g >= 0 beyond 1e-12 of the problem's scale); "
-       << "candidates are the vertices within " << 1e3 * o.margin << " mm of a wall. Modal: "
+       << "candidates are the vertices within " << 1e3 * o.margin << " mm of a wall. Their "
+       << "walls in this table: "
+       << (rows.empty() || rows[0].vertex_stiffness == 0
+             ? std::string("rigid")
+             : std::to_string(rows[0].vertex_stiffness) + " N/m per vertex, compliant" +
+                 (o.vertex_stiffness < 0 ? " (the FEM penalty's per-vertex equivalent: the "
+                                           "truth's own wall compliance)"
+                                         : ""))
+       << "; the rigid wall and others are in the compliant-wall section below. Modal: "
        << modal_model.n_modes << " modes in the force loop (all), " << modal_model.surface_modes
        << " in the surface update plus the static correction. Direct: the full H ("
        << vertex_model.bytes() / 1e9 << " GB as float)."
@@ -599,12 +852,16 @@ namespace irdm::validation
        << " (the centre of a dome triangle next to the side whose virtual DOFs first touch "
        << "different body parts), between " << vec_text(between) << " (the centre of a dome "
        << "triangle whose virtual DOFs and centre all first touch the same vertex); "
-       << "`top_and_side`: two walls at once. FEM pen.: the deepest penetration of the FEM's "
+       << "`top_and_side`: two walls at once; `slide_side`: the side wall tilted 25 degrees "
+       << "about z, pressed in, then turned to +25 degrees while held at the depth, so that "
+       << "its contact patch slides over the surface (the FEM's plane turns with it). Vertex "
+       << "contact: `vertices` is the most vertices pushed at once, `cand.` the most "
+       << "candidate rows, `rounds` the most block-pivoting rounds of one step's solve. FEM pen.: the deepest penetration of the FEM's "
        << "penalty wall into the free surface, small against p. Stable: finite, no failed step, "
        << "the surface within 10 times the FEM's largest displacement.\n\n"
        << "| case | FEM peak force (N) | FEM pen. (mm) | method | force err | impulse err | "
-          "displ. err | vertices | force us/step | surface us/step | stable |\n"
-       << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "displ. err | vertices | cand. | rounds | force us/step | surface us/step | stable |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const auto &r : rows)
       for (size_t m = 0; m < method_names.size(); ++m)
         {
@@ -617,6 +874,8 @@ namespace irdm::validation
              << " | " << method_names[m] << " | " << 100 * x.force_error << " % | "
              << 100 * x.impulse_error << " % | " << 100 * x.displacement_error << " % | "
              << (x.contact_vertices_max >= 0 ? std::to_string(x.contact_vertices_max) : "") << " | "
+             << (x.candidates_max >= 0 ? std::to_string(x.candidates_max) : "") << " | "
+             << (x.rounds_max >= 0 ? std::to_string(x.rounds_max) : "") << " | "
              << x.force_us << " | " << x.surface_us << " | " << (x.stable ? "yes" : "**no**")
              << " |\n";
         }
@@ -626,7 +885,98 @@ namespace irdm::validation
     for (const auto &r : rows)
       if (r.open_loop_displacement_error >= 0)
         md << "| " << r.c.name << " | " << 100 * r.open_loop_displacement_error << " % |\n";
-    md << "\n![error against depth and speed](planes.png)\n";
+    md << "\nThe linear FEM with the same vertex contact and wall stiffness, against the "
+          "nonlinear FEM (fixed walls): the error any linear model with this contact has, "
+          "IRDM's exact reference (vertex_contact_direct reproduces it to round-off, "
+          "`Runtime.UntruncatedVertexContactReproducesTheFem`). Where vertex contact misses "
+          "the goal and this misses it too, the error is the linear model's, not IRDM's.\n\n"
+       << "| case | force err | impulse err | displ. err | vertex_contact_modal displ. err | "
+          "linear FEM s |\n|---|---|---|---|---|---|\n";
+    for (const auto &r : rows)
+      if (r.linear_fem.ran)
+        md << "| " << r.c.name << " | " << 100 * r.linear_fem.force_error << " % | "
+           << 100 * r.linear_fem.impulse_error << " % | " << 100 * r.linear_fem.displacement_error
+           << " % | " << 100 * r.method[2].displacement_error << " % | " << r.linear_fem_seconds
+           << " |\n";
+    md << "\n![error against depth and speed](planes.png)\n\n"
+       << "## Compliant walls\n\nThe same cases with a wall of finite stiffness k (N/m per "
+       << "vertex for vertex contact, per virtual DOF for virtual DOFs), solved implicitly "
+       << "through the feed-through; `stiffness.csv`. k = 0 is the rigid wall of the table "
+       << "above. The FEM's own wall is a penalty of ";
+    {
+      double penalty = 0;
+      for (const auto &w : sweep)
+        if (w.fem_equivalent)
+          penalty = w.k / mean_vertex_area;
+      md << penalty << " Pa/m (100 E / h); times the mean vertex area " << mean_vertex_area * 1e6
+         << " mm^2 it is " << penalty * mean_vertex_area
+         << " N/m per vertex (`fem_equivalent` = 1). Max pen.: vertex contact, the deepest "
+            "vertex past the wall; virtual DOFs, F / k.\n\n"
+         << "| case | method | k (N/m) | force err | impulse err | displ. err | max pen. (mm) | "
+            "vertices | stable |\n|---|---|---|---|---|---|---|---|---|\n";
+    }
+    for (const auto &w : sweep)
+      md << "| " << w.c << " | " << w.method << " | " << w.k << (w.fem_equivalent ? " (FEM)" : "")
+         << " | " << 100 * w.result.force_error << " % | " << 100 * w.result.impulse_error
+         << " % | " << 100 * w.result.displacement_error << " % | "
+         << 1e3 * w.result.max_penetration << " | "
+         << (w.result.contact_vertices_max >= 0 ? std::to_string(w.result.contact_vertices_max) : "")
+         << " | " << (w.result.stable ? "yes" : "**no**") << " |\n";
+    md << "\n![error against wall stiffness](stiffness.png)\n\n"
+       << "## Which method to pick\n\nPer case, the method with the smallest of the larger of "
+       << "its impulse and displacement errors (this run):\n\n| case | best method | impulse err | "
+       << "displ. err | force err |\n|---|---|---|---|---|\n";
+    for (const auto &r : rows)
+      {
+        size_t best = 0;
+        double best_err = 1e300;
+        for (size_t m = 0; m < method_names.size(); ++m)
+          if (r.method[m].ran && r.method[m].stable &&
+              std::max(r.method[m].impulse_error, r.method[m].displacement_error) < best_err)
+            {
+              best     = m;
+              best_err = std::max(r.method[m].impulse_error, r.method[m].displacement_error);
+            }
+        md << "| " << r.c.name << " | " << method_names[best] << " | "
+           << 100 * r.method[best].impulse_error << " % | "
+           << 100 * r.method[best].displacement_error << " % | "
+           << 100 * r.method[best].force_error << " % |\n";
+      }
+    md << "\nGeneral rule, from the tables above: many-vertex contact from the modal model "
+          "(`vertex_contact_modal`) for floors and walls at any depth and for several walls at "
+          "once, with a compliant wall of about the truth's contact stiffness per vertex (the "
+          "compliant-wall section: a rigid wall chatters at the vertex that first touches); "
+          "`vertex_contact_direct` gives the same forces where its H fits in memory but costs "
+          "T x inputs per candidate row. Virtual DOFs only within about a millimetre of first "
+          "contact at a dome direction, nearest mapping, or interpolated where the three "
+          "virtual DOFs first touch the same place (`interpolated_same_contact` checks this). "
+          "The modal and the direct model give the same forces; the modal surface update, with "
+          "its few modes, is the less accurate where few vertices carry the force or the "
+          "contact is short (impacts): raise --surface-modes there. Where the linear FEM with "
+          "the same contact misses as much as vertex contact (the linear-FEM table), no linear "
+          "model holds and the nonlinear FEM is needed.\n\n"
+       << "## Nearest against interpolated orientation\n\nPer one-wall case: how many distinct "
+       << "first-contact vertices the three blended virtual DOFs have, the farthest of them from "
+       << "the case's own first-contact vertex, and the blend's feed-through c(d) and static "
+       << "compliance (sum over s) against the nearest virtual DOF's (`mapping.csv`). Blending "
+       << "splits the wall force over three virtual DOFs; where their bands lie apart, their "
+       << "cross responses are weak, the blend's compliance falls below any one of theirs, and "
+       << "the wall is held by a force spread over places the wall does not touch. `same "
+       << "contact`: the mapping `interpolated_same_contact`, which blends only the virtual DOFs "
+       << "whose first-contact vertex the wall along d touches within the band (" << 1e3 * model.band
+       << " mm).\n\n"
+       << "| case | distinct first contacts | spread (mm) | feed-through ratio | static ratio | "
+          "impulse err nearest | impulse err interp. | impulse err same contact | displ. err "
+          "nearest | displ. err interp. | displ. err same contact |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const auto &m : mapping)
+      md << "| " << m.name << " | " << m.distinct_first_contacts << " | " << 1e3 * m.spread
+         << " | " << m.feedthrough_ratio << " | " << m.static_ratio << " | "
+         << 100 * m.row->method[0].impulse_error << " % | " << 100 * m.row->method[1].impulse_error
+         << " % | " << 100 * m.row->same_contact.impulse_error << " % | "
+         << 100 * m.row->method[0].displacement_error << " % | "
+         << 100 * m.row->method[1].displacement_error << " % | "
+         << 100 * m.row->same_contact.displacement_error << " % |\n";
     write_text_file((fs::path(dir) / "planes.md").string(), md.str());
     if (!o.plot_script.empty())
       {

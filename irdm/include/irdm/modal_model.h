@@ -80,6 +80,9 @@ namespace irdm
     std::vector<unsigned>  pushed_;     // inputs with force this step
     std::vector<char>      is_pushed_;
     VertexContact          vertex_contact_;
+    // Per plane-contact slot, the row n^T Phi_v (N modes) of its candidate: the history along
+    // the normal is then one dot product with fu_ (VertexContact::step's slots).
+    std::vector<double>    projected_;
 
     // The two halves of a step around its contact solve: the state with no force this step,
     // then this step's force into the state.
@@ -91,6 +94,8 @@ namespace irdm
     // on input DoF k into this step's sample (probe_step.h, vertex_contact_step.h).
     double
     history_row(unsigned i) const;
+    double
+    history_along(unsigned in_vertex, const std::array<double, 3> &normal, int slot, bool fresh);
     double
     feed_through(unsigned k, unsigned j) const;
     void

@@ -41,6 +41,7 @@ namespace irdm
     std::vector<char>                    fixed;       // per surface vertex: on a fixed surface
     std::vector<std::array<unsigned, 3>> triangles;
     std::string                          mesh_hash, integrator;
+    double                               band = 0.001; // m, band_m of the precompute
 
     double
     Y(unsigned k, unsigned s, unsigned j) const
@@ -56,8 +57,15 @@ namespace irdm
 
   enum class OrientationMapping
   {
-    nearest,     // the closest dome direction only
-    interpolated // barycentric among the three directions of the dome triangle around d
+    nearest,      // the closest dome direction only
+    interpolated, // barycentric among the three directions of the dome triangle around d
+    // As interpolated, but only among those of the three whose first-contact vertex the wall
+    // along d itself touches within the band (d . X_first >= support(d) - band), weights
+    // renormalized; none: nearest. On a body that is not convex, neighbouring directions can
+    // first touch different body parts; blending them splits the wall force over places the
+    // wall does not touch, and their weak cross responses make the blended wall too stiff
+    // (reports/planes/planes.md, "Nearest against interpolated orientation").
+    interpolated_same_contact
   };
 
   struct OrientationWeights

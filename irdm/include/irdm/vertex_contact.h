@@ -8,7 +8,9 @@
 //               rows that may touch; the rest are assumed far enough not to reach the plane
 //               within the step (the margin must exceed the surface's motion toward it);
 //   history     h_c = n_p . u_hist(v), u_hist = sum_{s>=1} H[s] f[n - s] at the candidate rows
-//               only (O(modes x candidates) from the modal model);
+//               only (O(modes x candidates) from the modal model, which keeps each row's
+//               projection n_p^T Phi_v in a slot while the row stays a candidate: one dot
+//               product per kept row instead of three);
 //   gaps        q_c = n_p . (X_v + u_hist(v) - x_p), what the step reaches with no contact;
 //   feed-through W_cd = n_p^T H[0](v_c <- v_d) n_q, + 1/k_p on the diagonal for a compliant
 //               plane of per-vertex stiffness k_p (N/m; the force is k_p times the
@@ -69,6 +71,8 @@ namespace irdm
       solver_.reserve(static_cast<int>(cap));
       plane_.assign(cap, 0);
       vertex_.assign(cap, 0);
+      slot_.assign(cap, 0);
+      slot_taken_.assign(cap, 0);
       q_.assign(cap, 0.0);
       lambda_.assign(cap, 0.0);
       guess_.assign(cap, 0);
@@ -78,6 +82,7 @@ namespace irdm
       rounds_       = 0;
       previous_.plane.assign(cap, 0);
       previous_.vertex.assign(cap, 0);
+      previous_.slot.assign(cap, 0);
       previous_.W.assign(cap * cap, 0.0);
       previous_.row_of.assign(contact::max_planes * n_vertices, -1);
       previous_.n = previous_.n_planes = 0;
@@ -106,7 +111,10 @@ namespace irdm
       return options_;
     }
 
-    // The step, for the runtimes (irdm/src/vertex_contact_step.h).
+    // The step, for the runtimes (irdm/src/vertex_contact_step.h). history(in_vertex,
+    // out_vertex, normal, slot, fresh) returns normal . u_hist(out_vertex); slot (0 <=
+    // slot < max_candidates) stays the row's while it stays a candidate with the same plane
+    // normal, fresh says it was just given (a runtime may cache per slot, see ModalInteraction).
     template <class History, class FeedThrough, class Push>
     bool
     step(const ModelFrame &m, const PlaneTarget *planes, int n_planes, History &&history,
@@ -117,6 +125,8 @@ namespace irdm
     contact::ComplementaritySolver                        solver_;
     std::vector<int>                                      plane_;  // [candidate]
     std::vector<unsigned>                                 vertex_; // [candidate], output vertex
+    std::vector<int>                                      slot_;   // [candidate]
+    std::vector<char>                                     slot_taken_; // [slot]
     std::vector<double>                                   q_, lambda_, W_;
     std::vector<char>                                     guess_;
     std::vector<char> was_active_; // [plane][output vertex]: in contact at the last step
@@ -128,6 +138,7 @@ namespace irdm
     {
       std::vector<int>      plane;
       std::vector<unsigned> vertex;
+      std::vector<int>      slot;
       std::vector<double>   W;
       std::vector<int>      row_of; // [plane][output vertex] -> row, -1: none
       int                   n = 0, n_planes = 0;

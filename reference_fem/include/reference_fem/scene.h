@@ -117,10 +117,16 @@ namespace irdm::fem
   {
     std::string name;
     Vec3        normal;       // unit, toward the body
+    History     normal_path;  // optional (nonlinear): a turning plane's normal over time,
+                              // interpolated then made unit; empty: `normal` throughout
     History     position;     // m, a point of the plane over time (its prescribed motion)
     double      penalty = 0;  // Pa/m (traction per metre of penetration); 0: the default
                               // 100 E / h (h: mean boundary edge length)
     double      vertex_stiffness = 0; // N/m per vertex, linear kinematics; 0: rigid
+
+    /// The unit normal at time t (s).
+    Vec3
+    normal_at(double t) const;
   };
 
   struct ObservedVertex

@@ -1,12 +1,14 @@
 #pragma once
 // Surface contact against the nonlinear reference FEM: rigid walls pressing the grounded cat
 // from the side, the top, between the dome's directions and from two sides at once at
-// increasing depths, and hitting it from the side at increasing speeds; by virtual DOFs
+// increasing depths, turning on the side so that the contact patch slides, and hitting it
+// from the side at increasing speeds; rigid and compliant walls; by virtual DOFs
 // (seed 001, nearest and interpolated orientation mapping) and by many-vertex contact (modal
 // and direct model). Errors of the wall force, impulse and surface displacement, time per step
 // of every method (same run). Writes reports/planes/.
 #include <ostream>
 #include <string>
+#include <vector>
 
 namespace irdm::validation
 {
@@ -27,6 +29,15 @@ namespace irdm::validation
     unsigned    max_candidates    = 512;
     unsigned    surface_modes     = 100;
     bool        direct            = true;
+    // Vertex contact's walls in the main table: N/m per vertex; < 0: the FEM penalty's
+    // per-vertex equivalent (the truth's own wall compliance); 0: rigid.
+    double      vertex_stiffness  = -1;
+    // Compliant walls: these stiffnesses (N/m, per vertex and per virtual DOF) on the cases
+    // named (0: rigid); the vertex sweep adds the FEM penalty's per-vertex
+    // equivalent (penalty x mean vertex area).
+    std::vector<double>      stiffness_sweep = {0, 10, 30, 100, 300, 1000, 3000, 10000, 100000};
+    std::vector<std::string> sweep_cases     = {"press_side_5mm", "press_top_5mm",
+                                                "impact_side_100mm_s", "slide_side_5mm"};
     std::string plot_script;        // python script for the charts; "" skips charts
   };
 
