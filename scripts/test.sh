@@ -8,3 +8,5 @@ IRDM_WERROR=ON scripts/build.sh
 (cd build && ctest --output-on-failure -j2)
 # The loaders, writers and runtime again under AddressSanitizer and UBSan (build-sanitize/).
 scripts/sanitize.sh
+# The two asynchronous loops under ThreadSanitizer (build-tsan/).
+scripts/tsan.sh

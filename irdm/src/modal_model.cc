@@ -1,7 +1,7 @@
 #include <irdm/modal_model.h>
 #include <irdm_common/error.h>
 
-#include <Eigen/Core>
+#include <Eigen/Dense>
 
 #include <algorithm>
 #include <chrono>
@@ -27,7 +27,12 @@ namespace irdm
                        "precompute it again with this version");
     if (o.surface_modes < 1 || o.surface_modes > md.n_modes)
       throw InputError("modal model: surface modes must be 1 .. " + std::to_string(md.n_modes));
+    const unsigned force_modes = o.force_modes == 0 ? md.n_modes : o.force_modes;
+    if (force_modes < o.surface_modes || force_modes > md.n_modes)
+      throw InputError("modal model: force-loop modes must be " + std::to_string(o.surface_modes) +
+                       " (the surface modes) .. " + std::to_string(md.n_modes));
     ModalModel out;
+    out.force_modes = force_modes;
     static_cast<ModelFrame &>(out) = m;
     const unsigned N = md.n_modes, M = o.surface_modes, T = m.length;
     const unsigned nin = m.n_inputs, nout = m.n_outputs;
@@ -47,6 +52,30 @@ namespace irdm
     for (unsigned k = 0; k < nin; ++k)
       for (unsigned i = 0; i < nin; ++i)
         out.h0_inputs[static_cast<size_t>(k) * nin + i] = m.h(k, 0, output_of(i));
+    // A force loop with K < N modes: the modes beyond K respond quasi-statically to this
+    // step's force (mode-acceleration method), so the feed-through trades their one-step
+    // response q_i[0] for their static compliance 1 / omega_i^2 (M-orthonormal shapes):
+    // H[0] + sum_{i >= K} phi_i phi_i^T (1 / omega_i^2 - q_i[0]). A held force then meets the
+    // body's full static compliance.
+    if (force_modes < N)
+      {
+        using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+        const unsigned  D = N - force_modes;
+        Eigen::VectorXd c(D);
+        for (unsigned i = 0; i < D; ++i)
+          {
+            const unsigned mode  = force_modes + i;
+            const double   omega = 2 * 3.141592653589793 * md.frequency_hz[mode];
+            if (!(omega > 0))
+              throw InputError("modal model: mode " + std::to_string(mode) +
+                               " has no positive frequency; keep every mode in the force loop");
+            c[i] = 1 / (omega * omega) - md.step[15 * static_cast<size_t>(mode) + 3];
+          }
+        const Eigen::Map<const RowMajor> phi(out.input_shapes.data(), nin, N);
+        const RowMajor dropped = phi.rightCols(D);
+        Eigen::Map<RowMajor>(out.h0_inputs.data(), nin, nin).noalias() +=
+          dropped * c.asDiagonal() * dropped.transpose();
+      }
 
     // Static gain of each surface mode over the model's length: sum_{s<T} q_i[s].
     std::vector<double> gain(M, 0.0);
@@ -90,9 +119,13 @@ namespace irdm
 
   ModalInteraction::ModalInteraction(const ModalModel &model, const VertexContactOptions &planes)
     : model_(model)
-    , N_(model.n_modes)
+    , N_(model.force_modes)
     , M_(model.surface_modes)
+    , stride_(model.n_modes)
   {
+    if (N_ == 0 || N_ > model.n_modes || M_ > N_)
+      throw InputError("modal interaction: the model needs 1 <= surface modes <= force-loop "
+                       "modes <= modes (make_modal_model)");
     for (auto *v : {&xu_, &xv_, &xa_, &fu_, &fv_, &fa_})
       v->assign(N_, 0.0);
     coef_.resize(15 * static_cast<size_t>(N_));
@@ -143,7 +176,7 @@ namespace irdm
     // Modal force of this step, then the state.
     std::fill(g_prev_.begin(), g_prev_.end(), 0.0);
     for (const unsigned k : pushed_)
-      VecMut(g_prev_.data(), N_) += force_now_[k] * Vec(&model_.input_shapes[static_cast<size_t>(k) * N_], N_);
+      VecMut(g_prev_.data(), N_) += force_now_[k] * Vec(&model_.input_shapes[k * stride_], N_);
     const double *c = coef_.data();
     const size_t  N = N_;
     for (size_t i = 0; i < N; ++i)
@@ -159,7 +192,7 @@ namespace irdm
   double
   ModalInteraction::history_row(const unsigned i) const
   {
-    return Vec(&model_.input_shapes[static_cast<size_t>(i) * N_], N_).dot(Vec(fu_.data(), N_));
+    return Vec(&model_.input_shapes[i * stride_], N_).dot(Vec(fu_.data(), N_));
   }
 
   double
@@ -169,8 +202,9 @@ namespace irdm
     double *row = &projected_[static_cast<size_t>(slot) * N_];
     if (fresh)
       {
-        const double *phi = &model_.input_shapes[static_cast<size_t>(3 * in_vertex) * N_];
-        VecMut(row, N_) = n[0] * Vec(phi, N_) + n[1] * Vec(phi + N_, N_) + n[2] * Vec(phi + 2 * N_, N_);
+        const double *phi = &model_.input_shapes[3 * in_vertex * stride_];
+        VecMut(row, N_) = n[0] * Vec(phi, N_) + n[1] * Vec(phi + stride_, N_) +
+                          n[2] * Vec(phi + 2 * stride_, N_);
       }
     return Vec(row, N_).dot(Vec(fu_.data(), N_));
   }
@@ -225,20 +259,70 @@ namespace irdm
     return true;
   }
 
+  namespace
+  {
+    // u = Phi_M u_modal + E f: the M surface modes, and the static correction of the modes
+    // beyond M for this step's force (force(i) on input DoF inputs[i]).
+    template <typename Force>
+    void
+    surface_kernel(const ModalModel &model, const double *modal_u, const unsigned *inputs,
+                   const unsigned n_pushed, const Force &force, double *u)
+    {
+      const size_t nout = model.n_outputs;
+      // shapes is [output][mode] row-major, i.e. Phi_M^T column-major.
+      Eigen::Map<Eigen::VectorXd>(u, nout).noalias() =
+        Eigen::Map<const Eigen::MatrixXd>(model.shapes.data(), model.surface_modes, nout)
+          .transpose() *
+        Vec(modal_u, model.surface_modes);
+      for (unsigned i = 0; i < n_pushed; ++i)
+        {
+          const double f = force(i);
+          const float *e = &model.residual[static_cast<size_t>(inputs[i]) * nout];
+          for (size_t j = 0; j < nout; ++j)
+            u[j] += e[j] * f;
+        }
+    }
+  } // namespace
+
   void
   ModalInteraction::surface_displacement(double *u) const
   {
-    const size_t nout = model_.n_outputs;
-    // u = Phi_M u_modal: shapes is [output][mode] row-major, i.e. Phi_M^T column-major.
-    Eigen::Map<Eigen::VectorXd>(u, nout).noalias() =
-      Eigen::Map<const Eigen::MatrixXd>(model_.shapes.data(), M_, nout).transpose() *
-      Vec(xu_.data(), M_);
-    for (const unsigned k : pushed_) // static correction of the modes beyond M
+    surface_kernel(model_, xu_.data(), pushed_.data(), static_cast<unsigned>(pushed_.size()),
+                   [&](const unsigned i) { return force_now_[pushed_[i]]; }, u);
+  }
+
+  void
+  ModalInteraction::save_surface_state(ModalSurfaceState &state) const
+  {
+    if (state.modal_displacement.size() != M_ || state.pushed_inputs.size() < pushed_.size())
+      throw InputError("save_surface_state: the state was not made for this model");
+    state.steps = n_;
+    std::copy_n(xu_.data(), M_, state.modal_displacement.data());
+    state.n_pushed = static_cast<unsigned>(pushed_.size());
+    for (unsigned i = 0; i < state.n_pushed; ++i)
       {
-        const double f = force_now_[k];
-        const float *e = &model_.residual[static_cast<size_t>(k) * nout];
-        for (size_t j = 0; j < nout; ++j)
-          u[j] += e[j] * f;
+        state.pushed_inputs[i] = pushed_[i];
+        state.pushed_forces[i] = force_now_[pushed_[i]];
       }
+  }
+
+  ModalSurfaceState
+  make_surface_state(const ModalModel &model)
+  {
+    ModalSurfaceState s;
+    s.modal_displacement.assign(model.surface_modes, 0.0);
+    s.pushed_inputs.assign(model.n_inputs, 0);
+    s.pushed_forces.assign(model.n_inputs, 0.0);
+    return s;
+  }
+
+  void
+  surface_displacement(const ModalModel &model, const ModalSurfaceState &state, double *u)
+  {
+    if (state.modal_displacement.size() != model.surface_modes ||
+        state.pushed_inputs.size() < state.n_pushed)
+      throw InputError("surface_displacement: the state was not made for this model");
+    surface_kernel(model, state.modal_displacement.data(), state.pushed_inputs.data(),
+                   state.n_pushed, [&](const unsigned i) { return state.pushed_forces[i]; }, u);
   }
 } // namespace irdm

@@ -20,17 +20,24 @@ namespace irdm
   struct ModalModelOptions
   {
     unsigned surface_modes = 100; // M lowest modes in the full surface update
+    // K lowest modes in the force loop's history (0: every mode, the exact model). Fewer
+    // make the force step cheaper; the modes beyond K then respond quasi-statically to the
+    // step's force (their static compliance joins the feed-through). K >= M.
+    unsigned force_modes = 0;
   };
 
   struct ModalModel : ModelFrame
   {
     unsigned            n_modes = 0, surface_modes = 0;
+    unsigned            force_modes = 0; // K: modes in the force loop's history (<= n_modes)
     double              highest_frequency_hz = 0; // of the surface modes
     double              build_seconds        = 0;
     std::vector<double> shapes;       // [output DoF][surface mode]
     std::vector<double> input_shapes; // [input DoF][mode], every mode
     std::vector<double> step;         // [mode][3 x 5], as ModalData::step
-    std::vector<double> h0_inputs;    // H[0] from input DoF k to the output of input DoF i, [k][i]
+    std::vector<double> h0_inputs;    // the force loop's feed-through, input DoF k to the output
+                                      // of input DoF i, [k][i]: H[0] (with K < N modes, plus
+                                      // the dropped modes' static correction)
     std::vector<float>  residual;     // static correction E, [input DoF][output DoF]
     /// Bytes in memory.
     double
@@ -45,6 +52,27 @@ namespace irdm
   /// than it has.
   ModalModel
   make_modal_model(const ImpulseResponseModel &model, const ModalModelOptions &options);
+
+  /// What the full surface update needs of a modal runtime's state after a step: the M
+  /// surface modes' displacements and the step's forces (for the static correction). The
+  /// deformation thread of the two-loop runtime reads it (irdm/surface_exchange.h). Sized by
+  /// make_surface_state, so that filling it allocates nothing.
+  struct ModalSurfaceState
+  {
+    long long             steps = 0; // steps taken: the state at time steps * time_step
+    std::vector<double>   modal_displacement; // [surface mode]
+    std::vector<unsigned> pushed_inputs;      // input DoFs with force this step
+    std::vector<double>   pushed_forces;      // N, the force on each of them
+    unsigned              n_pushed = 0;
+  };
+
+  ModalSurfaceState
+  make_surface_state(const ModalModel &model);
+
+  /// The full surface update from a saved state: displacement of every output DoF (m).
+  /// Allocates nothing.
+  void
+  surface_displacement(const ModalModel &model, const ModalSurfaceState &state, double *u);
 
   /// Point interaction run from a modal model; same interface and guarantees as
   /// PointInteraction (step() and surface_displacement() allocate nothing).
@@ -68,10 +96,15 @@ namespace irdm
     }
     void
     surface_displacement(double *u) const;
+    /// Copies what surface_displacement needs into state (made by make_surface_state for
+    /// this model). Allocates nothing.
+    void
+    save_surface_state(ModalSurfaceState &state) const;
 
   private:
     const ModalModel      &model_;
-    unsigned               N_, M_;
+    unsigned               N_, M_; // force-loop modes (K), surface modes
+    size_t                 stride_; // modes per row of input_shapes (all of the model's)
     std::vector<double>    coef_;          // step matrices, [entry of 3 x 5][mode]
     std::vector<double>    xu_, xv_, xa_;  // [mode] state (u, v, a) after the last step
     std::vector<double>    fu_, fv_, fa_;  // [mode] this step's state without its force

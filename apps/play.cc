@@ -1,0 +1,558 @@
+// irdm play: a force thread and a deformation thread in real time (seed 001 section 4.2).
+//
+//   force thread        every 1 / rate: sleep to the deadline (absolute, CLOCK_MONOTONIC), one
+//                       runtime step (contact solve and force history, all modes), save the
+//                       surface state into the triple buffer's back slot, publish.
+//   deformation thread  every 1 / display rate: take the newest state if one arrived, full
+//                       surface update (M modes and the static correction).
+//
+// The device is a point probe on one model vertex. It prescribes that vertex's displacement
+// (device tip minus the vertex's rest position) while the tip is behind the rest surface along
+// the vertex normal, and lets go otherwise: the press scenes' bilateral probe that lets go.
+// One model step per force tick: at a rate other than 1 / time_step the trajectory plays at
+// rate * time_step times real speed (said in play.md). Nothing in either loop allocates or
+// locks; every buffer is sized before the threads start.
+#include "play.h"
+
+#include <irdm/modal_model.h>
+#include <irdm/model.h>
+#include <irdm/point_interaction.h>
+#include <irdm/surface_exchange.h>
+#include <irdm_common/csv.h>
+#include <irdm_common/error.h>
+#include <irdm_common/files.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <time.h>
+
+namespace irdm::play
+{
+  namespace
+  {
+    namespace fs = std::filesystem;
+    using Vec3   = std::array<double, 3>;
+
+    std::int64_t
+    now_ns()
+    {
+      timespec t{};
+      clock_gettime(CLOCK_MONOTONIC, &t);
+      return static_cast<std::int64_t>(t.tv_sec) * 1000000000 + t.tv_nsec;
+    }
+
+    void
+    sleep_until_ns(const std::int64_t deadline)
+    {
+      timespec t{};
+      t.tv_sec  = deadline / 1000000000;
+      t.tv_nsec = deadline % 1000000000;
+      while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, nullptr) == EINTR)
+        {
+        }
+    }
+
+    // The calling thread on one CPU and, where the system allows, at real-time priority.
+    // Returns what was granted, for the report.
+    std::string
+    make_real_time(const int cpu, const int priority)
+    {
+      std::string granted;
+      if (cpu >= 0)
+        {
+          cpu_set_t set;
+          CPU_ZERO(&set);
+          CPU_SET(cpu, &set);
+          granted += pthread_setaffinity_np(pthread_self(), sizeof(set), &set) == 0
+                       ? "pinned to CPU " + std::to_string(cpu)
+                       : "not pinned (refused)";
+        }
+      else
+        granted += "not pinned";
+      sched_param param{};
+      param.sched_priority = priority;
+      granted += pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0
+                   ? ", SCHED_FIFO " + std::to_string(priority)
+                   : ", normal priority (SCHED_FIFO refused)";
+      return granted;
+    }
+
+    struct Trajectory
+    {
+      std::vector<double> time; // s
+      std::vector<Vec3>   tip;  // m
+    };
+
+    Trajectory
+    read_trajectory(const std::string &path)
+    {
+      std::ifstream in(path);
+      if (!in)
+        throw InputError("--trajectory: cannot read " + path);
+      std::string line;
+      if (!std::getline(in, line))
+        throw InputError("--trajectory: " + path + " is empty");
+      std::vector<std::string> header;
+      {
+        std::stringstream ss(line);
+        std::string       name;
+        while (std::getline(ss, name, ','))
+          header.push_back(name.substr(0, name.find_last_not_of(" \r") + 1));
+      }
+      std::array<int, 4> column{-1, -1, -1, -1};
+      const std::array<const char *, 4> names{"time_s", "x_m", "y_m", "z_m"};
+      for (int c = 0; c < 4; ++c)
+        for (size_t h = 0; h < header.size(); ++h)
+          if (header[h] == names[c])
+            column[c] = static_cast<int>(h);
+      for (int c = 0; c < 4; ++c)
+        if (column[c] < 0)
+          throw InputError("--trajectory: " + path + " has no column '" + names[c] +
+                           "' (needs time_s,x_m,y_m,z_m)");
+      Trajectory t;
+      for (int row = 2; std::getline(in, line); ++row)
+        {
+          if (line.empty() || line == "\r")
+            continue;
+          std::vector<double> values;
+          std::stringstream   ss(line);
+          std::string         cell;
+          while (std::getline(ss, cell, ','))
+            {
+              size_t used = 0;
+              double v    = 0;
+              try
+                {
+                  v = std::stod(cell, &used);
+                }
+              catch (const std::exception &)
+                {
+                  used = 0;
+                }
+              if (used == 0 || !std::isfinite(v))
+                throw InputError("--trajectory: " + path + " line " + std::to_string(row) +
+                                 ": '" + cell + "' is not a finite number");
+              values.push_back(v);
+            }
+          if (values.size() != header.size())
+            throw InputError("--trajectory: " + path + " line " + std::to_string(row) + " has " +
+                             std::to_string(values.size()) + " values, the header " +
+                             std::to_string(header.size()));
+          if (!t.time.empty() && values[column[0]] <= t.time.back())
+            throw InputError("--trajectory: " + path + " line " + std::to_string(row) +
+                             ": time_s must increase");
+          t.time.push_back(values[column[0]]);
+          t.tip.push_back({values[column[1]], values[column[2]], values[column[3]]});
+        }
+      if (t.time.size() < 2)
+        throw InputError("--trajectory: " + path + " needs at least two samples");
+      return t;
+    }
+
+    Vec3
+    tip_at(const Trajectory &t, const double time)
+    {
+      if (time <= t.time.front())
+        return t.tip.front();
+      if (time >= t.time.back())
+        return t.tip.back();
+      const size_t i = static_cast<size_t>(
+        std::upper_bound(t.time.begin(), t.time.end(), time) - t.time.begin() - 1);
+      const double w = (time - t.time[i]) / (t.time[i + 1] - t.time[i]);
+      Vec3         x;
+      for (int d = 0; d < 3; ++d)
+        x[d] = (1 - w) * t.tip[i][d] + w * t.tip[i + 1][d];
+      return x;
+    }
+
+    // Outward unit normal at an output vertex: the area-weighted mean of its triangles'.
+    Vec3
+    vertex_normal(const ModelFrame &m, const unsigned v)
+    {
+      Vec3 n{0, 0, 0};
+      for (const auto &tri : m.triangles)
+        if (tri[0] == v || tri[1] == v || tri[2] == v)
+          {
+            const auto &a = m.output_coordinates[tri[0]], &b = m.output_coordinates[tri[1]],
+                       &c = m.output_coordinates[tri[2]];
+            const Vec3 e{b[0] - a[0], b[1] - a[1], b[2] - a[2]},
+              f{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+            n[0] += e[1] * f[2] - e[2] * f[1];
+            n[1] += e[2] * f[0] - e[0] * f[2];
+            n[2] += e[0] * f[1] - e[1] * f[0];
+          }
+      const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      if (!(l > 0))
+        throw InputError("play: vertex " + std::to_string(v) + " lies on no model triangle");
+      return {n[0] / l, n[1] / l, n[2] / l};
+    }
+
+    double
+    percentile(std::vector<double> v, const double p)
+    {
+      if (v.empty())
+        return 0;
+      std::sort(v.begin(), v.end());
+      const size_t i = std::min(v.size() - 1, static_cast<size_t>(std::ceil(p * v.size())) - (p > 0));
+      return v[i];
+    }
+
+    std::string
+    fmt(const double x, const char *f = "%.3g")
+    {
+      char b[64];
+      std::snprintf(b, sizeof b, f, x);
+      return b;
+    }
+
+    // The surface as an ASCII VTU: deformed points, triangles, and the displacement (m).
+    std::string
+    vtu(const ModelFrame &m, const double *u)
+    {
+      const size_t       nv = m.output_coordinates.size(), nt = m.triangles.size();
+      std::ostringstream s;
+      s.precision(9);
+      s << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\">\n"
+        << "<UnstructuredGrid><Piece NumberOfPoints=\"" << nv << "\" NumberOfCells=\"" << nt
+        << "\">\n<Points><DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+      for (size_t v = 0; v < nv; ++v)
+        s << m.output_coordinates[v][0] + u[3 * v] << ' ' << m.output_coordinates[v][1] + u[3 * v + 1]
+          << ' ' << m.output_coordinates[v][2] + u[3 * v + 2] << '\n';
+      s << "</DataArray></Points>\n<Cells><DataArray type=\"Int64\" Name=\"connectivity\" "
+           "format=\"ascii\">\n";
+      for (const auto &t : m.triangles)
+        s << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';
+      s << "</DataArray><DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
+      for (size_t t = 0; t < nt; ++t)
+        s << 3 * (t + 1) << '\n';
+      s << "</DataArray><DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n";
+      for (size_t t = 0; t < nt; ++t)
+        s << "5\n";
+      s << "</DataArray></Cells>\n<PointData Vectors=\"displacement_m\"><DataArray "
+           "type=\"Float64\" Name=\"displacement_m\" NumberOfComponents=\"3\" format=\"ascii\">\n";
+      for (size_t v = 0; v < nv; ++v)
+        s << u[3 * v] << ' ' << u[3 * v + 1] << ' ' << u[3 * v + 2] << '\n';
+      s << "</DataArray></PointData>\n</Piece></UnstructuredGrid>\n</VTKFile>\n";
+      return s.str();
+    }
+
+    // Counts per log-spaced bin, 10 per decade from 0.01 us to 100 ms.
+    struct Histogram
+    {
+      static constexpr int bins = 70;
+      static double
+      low(const int b)
+      {
+        return 0.01 * std::pow(10.0, b / 10.0);
+      }
+      static std::vector<double>
+      count(const std::vector<double> &us)
+      {
+        std::vector<double> c(bins, 0.0);
+        for (const double x : us)
+          {
+            const int b = x <= 0.01 ? 0 : static_cast<int>(std::floor(10 * std::log10(x / 0.01)));
+            c[std::clamp(b, 0, bins - 1)] += 1;
+          }
+        return c;
+      }
+    };
+  } // namespace
+
+  int
+  run_play(const PlayOptions &o, std::ostream &out)
+  {
+    // Inputs first, all checked before any work.
+    if (!(o.display_hz > 0 && o.display_hz <= 10000))
+      throw InputError("--display-hz must be in (0, 10000]");
+    check_output_folder("--out", o.out_dir);
+    const fs::path dir(o.out_dir);
+    for (const auto &name : {"forces.csv", "histogram.csv", "play.md"})
+      check_output_file("--out", (dir / name).string(), {o.model, o.trajectory});
+    OutputLock lock((dir / "play").string());
+    const Trajectory trajectory = read_trajectory(o.trajectory);
+
+    if (!o.quiet)
+      out << "loading " << o.model << "\n" << std::flush;
+    const ImpulseResponseModel model = load_model(o.model);
+    ModalModelOptions          mo;
+    mo.surface_modes = std::min<unsigned>(o.surface_modes, std::max(1u, model.modes.n_modes));
+    mo.force_modes   = o.force_modes == 0 ? 0 : std::max(o.force_modes, mo.surface_modes);
+    const ModalModel modal = make_modal_model(model, mo);
+    const double     tau   = model.time_step;
+    const double     rate  = o.rate_hz > 0 ? o.rate_hz : 1 / tau;
+    if (rate > 100000)
+      throw InputError("--rate-hz must be at most 100000");
+    const double speed = rate * tau; // trajectory time per real time
+
+    // The probed vertex: given, or the input vertex nearest the first sample.
+    unsigned vertex = 0;
+    if (o.vertex >= 0)
+      {
+        if (o.vertex >= static_cast<long>(model.output_coordinates.size()) ||
+            model.output_input_index[o.vertex] < 0)
+          throw InputError("--vertex " + std::to_string(o.vertex) +
+                           " is not a model input vertex (a probe can touch only inputs)");
+        vertex = static_cast<unsigned>(o.vertex);
+      }
+    else
+      {
+        double best = 1e300;
+        for (unsigned v = 0; v < model.output_coordinates.size(); ++v)
+          if (model.output_input_index[v] >= 0)
+            {
+              double d = 0;
+              for (int k = 0; k < 3; ++k)
+                d += std::pow(model.output_coordinates[v][k] - trajectory.tip[0][k], 2);
+              if (d < best)
+                best = d, vertex = v;
+            }
+      }
+    const Vec3 normal = vertex_normal(model, vertex), rest = model.output_coordinates[vertex];
+
+    // Every step's probe, made before the loop.
+    const double duration = trajectory.time.back() - trajectory.time.front();
+    const long   n_steps  = static_cast<long>(std::floor(duration / tau + 1e-9));
+    if (n_steps < 1)
+      throw InputError("--trajectory: shorter than one model step (" + fmt(tau) + " s)");
+    // The probe touches where the device crossed the rest surface: from then on it prescribes
+    // the vertex's displacement as the device's motion since that crossing (continuous at
+    // first touch, drags along while pressed), and lets go when the device is back outside.
+    std::vector<ProbeTarget> probes(n_steps);
+    std::vector<double>      present(n_steps);
+    Vec3                     touch{0, 0, 0};
+    for (long n = 0; n < n_steps; ++n)
+      {
+        const Vec3   tip   = tip_at(trajectory, trajectory.time.front() + (n + 1) * tau);
+        ProbeTarget &p     = probes[n];
+        double       depth = 0;
+        for (int d = 0; d < 3; ++d)
+          depth -= (tip[d] - rest[d]) * normal[d];
+        p.n_patch           = 1;
+        p.patch_vertices[0] = vertex;
+        p.patch_weights[0]  = 1;
+        p.present           = depth > 0;
+        if (p.present && (n == 0 || !probes[n - 1].present))
+          for (int d = 0; d < 3; ++d) // where the tip crossed the tangent plane
+            touch[d] = tip[d] + depth * normal[d];
+        for (int d = 0; d < 3; ++d)
+          {
+            p.direction[d]    = -normal[d];
+            p.displacement[d] = p.present ? tip[d] - touch[d] : 0;
+          }
+        present[n] = p.present;
+      }
+
+    // Per-step records, and the deformation thread's, sized before the threads start.
+    std::vector<double> force_x(n_steps), force_y(n_steps), force_z(n_steps),
+      step_us(n_steps), late_us(n_steps);
+    std::vector<std::int64_t> wake_ns(n_steps);
+    const long display_ticks = static_cast<long>(std::ceil(n_steps / rate * o.display_hz)) + 2;
+    const long frame_stride  = std::max<long>(1, (display_ticks + o.max_frames - 1) / std::max(1u, o.max_frames));
+    std::vector<double>    update_us(display_ticks, 0.0), frame_u;
+    std::vector<long long> frame_step;
+    frame_u.assign(static_cast<size_t>((display_ticks / frame_stride + 1)) * model.n_outputs, 0.0);
+    frame_step.assign(display_ticks / frame_stride + 1, 0);
+    long                n_updates = 0, n_frames = 0, display_tick_count = 0;
+    std::vector<double> surface(model.n_outputs);
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 && !o.quiet)
+      out << "note: memory not locked (mlockall refused); page faults may add latency\n";
+
+    ModalInteraction                runtime(modal);
+    TripleBuffer<ModalSurfaceState> exchange(make_surface_state(modal));
+    std::atomic<bool>               force_done{false};
+    long                            missed = 0;
+    std::string                     force_rt, display_rt;
+    const int                       n_cpus = static_cast<int>(std::thread::hardware_concurrency());
+    const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(1e9 / rate));
+    const std::int64_t display_ns = static_cast<std::int64_t>(std::llround(1e9 / o.display_hz));
+    const std::int64_t start      = now_ns() + 50000000; // 50 ms to let both threads settle
+
+    if (!o.quiet)
+      out << "playing " << n_steps << " steps at " << fmt(rate) << " Hz (" << fmt(n_steps / rate)
+          << " s), display at " << fmt(o.display_hz) << " Hz, probe on vertex " << vertex << "\n"
+          << std::flush;
+
+    std::thread force([&] {
+      force_rt = make_real_time(o.pin && n_cpus > 1 ? n_cpus - 1 : -1, 80);
+      for (long n = 0; n < n_steps; ++n)
+        {
+          const std::int64_t deadline = start + n * period_ns;
+          sleep_until_ns(deadline);
+          const std::int64_t wake = now_ns();
+          runtime.step(&probes[n], 1);
+          runtime.save_surface_state(exchange.back());
+          exchange.publish();
+          const std::int64_t done = now_ns();
+          const auto        &f    = runtime.force(0);
+          force_x[n] = f[0], force_y[n] = f[1], force_z[n] = f[2];
+          wake_ns[n] = wake;
+          step_us[n] = 1e-3 * static_cast<double>(done - wake);
+          late_us[n] = 1e-3 * static_cast<double>(wake - deadline);
+          if (done > deadline + period_ns)
+            ++missed;
+        }
+      force_done.store(true, std::memory_order_release);
+    });
+    std::thread deformation([&] {
+      display_rt = make_real_time(o.pin && n_cpus > 1 ? 0 : -1, 70);
+      for (long tick = 0; tick < display_ticks; ++tick)
+        {
+          sleep_until_ns(start + tick * display_ns);
+          const bool finished = force_done.load(std::memory_order_acquire);
+          if (exchange.update())
+            {
+              const std::int64_t t0 = now_ns();
+              surface_displacement(modal, exchange.front(), surface.data());
+              update_us[n_updates++] = 1e-3 * static_cast<double>(now_ns() - t0);
+              if (display_tick_count++ % frame_stride == 0)
+                {
+                  std::copy(surface.begin(), surface.end(),
+                            &frame_u[static_cast<size_t>(n_frames) * model.n_outputs]);
+                  frame_step[n_frames++] = exchange.front().steps;
+                }
+            }
+          else if (finished)
+            break;
+        }
+    });
+    force.join();
+    deformation.join();
+    munlockall();
+
+    // Period jitter: each tick's wake-to-wake time against the nominal period.
+    std::vector<double> jitter_us;
+    for (long n = 1; n < n_steps; ++n)
+      jitter_us.push_back(1e-3 * static_cast<double>(wake_ns[n] - wake_ns[n - 1] - period_ns));
+    std::vector<double> abs_jitter(jitter_us.size());
+    std::transform(jitter_us.begin(), jitter_us.end(), abs_jitter.begin(),
+                   [](double x) { return std::abs(x); });
+    update_us.resize(n_updates);
+
+    // The same probes offline with every mode in the force loop: the exact model (the modal
+    // realization with all modes reproduces H and the FEM, tests/test_irdm.cc).
+    double force_error = -1;
+    if (o.check)
+      {
+        ModalModelOptions all = mo;
+        all.force_modes       = 0;
+        const ModalModel exact_model = mo.force_modes == 0 ? ModalModel{} : make_modal_model(model, all);
+        ModalInteraction exact(mo.force_modes == 0 ? modal : exact_model);
+        double           diff = 0, norm = 0;
+        for (long n = 0; n < n_steps; ++n)
+          {
+            exact.step(&probes[n], 1);
+            const auto &f  = exact.force(0);
+            const Vec3  fr = {force_x[n], force_y[n], force_z[n]};
+            for (int d = 0; d < 3; ++d)
+              diff += std::pow(fr[d] - f[d], 2), norm += f[d] * f[d];
+          }
+        force_error = norm > 0 ? std::sqrt(diff / norm) : std::sqrt(diff);
+      }
+
+    // Outputs.
+    std::vector<double> step_index(n_steps), time_s(n_steps), dx(n_steps), dy(n_steps), dz(n_steps);
+    for (long n = 0; n < n_steps; ++n)
+      {
+        step_index[n] = static_cast<double>(n);
+        time_s[n]     = (n + 1) * tau;
+        dx[n]         = rest[0] + probes[n].displacement[0];
+        dy[n]         = rest[1] + probes[n].displacement[1];
+        dz[n]         = rest[2] + probes[n].displacement[2];
+      }
+    write_csv((dir / "forces.csv").string(),
+              {"step", "time_s", "device_x_m", "device_y_m", "device_z_m", "present", "force_x_N",
+               "force_y_N", "force_z_N", "force_step_us", "wake_late_us"},
+              {step_index, time_s, dx, dy, dz, present, force_x, force_y, force_z, step_us, late_us});
+    {
+      std::vector<double> lo(Histogram::bins), hi(Histogram::bins);
+      for (int b = 0; b < Histogram::bins; ++b)
+        lo[b] = Histogram::low(b), hi[b] = Histogram::low(b + 1);
+      write_csv((dir / "histogram.csv").string(),
+                {"bin_low_us", "bin_high_us", "force_step", "period_jitter_abs", "surface_update"},
+                {lo, hi, Histogram::count(step_us), Histogram::count(abs_jitter),
+                 Histogram::count(update_us)});
+    }
+    fs::create_directories(dir / "surface");
+    std::ostringstream pvd;
+    pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n<Collection>\n";
+    for (long f = 0; f < n_frames; ++f)
+      {
+        char name[64];
+        std::snprintf(name, sizeof name, "surface_%04ld.vtu", f);
+        write_text_file((dir / "surface" / name).string(),
+                        vtu(model, &frame_u[static_cast<size_t>(f) * model.n_outputs]));
+        pvd << "<DataSet timestep=\"" << frame_step[f] * tau << "\" file=\"" << name << "\"/>\n";
+      }
+    pvd << "</Collection>\n</VTKFile>\n";
+    write_text_file((dir / "surface" / "surface.pvd").string(), pvd.str());
+
+    const double count_present = static_cast<double>(std::count(present.begin(), present.end(), 1.0));
+    double peak_force = 0;
+    for (long n = 0; n < n_steps; ++n)
+      peak_force = std::max(peak_force, std::sqrt(force_x[n] * force_x[n] + force_y[n] * force_y[n] +
+                                                   force_z[n] * force_z[n]));
+    const double missed_fraction = static_cast<double>(missed) / n_steps;
+    const double achieved_display =
+      n_updates > 0 ? n_updates / (static_cast<double>(n_steps) / rate) : 0;
+    std::ostringstream md;
+    md << "# irdm play\n\n"
+       << "Model `" << o.model << "`: " << model.n_inputs / 3 << " input vertices, "
+       << model.n_outputs / 3 << " surface vertices, " << modal.force_modes << " of its "
+       << modal.n_modes << " modes in the force loop"
+       << (modal.force_modes == modal.n_modes ? " (all: the exact model's forces), "
+                                              : " (the rest quasi-static: their static compliance joins the feed-through), ")
+       << modal.surface_modes
+       << " in the surface update plus the static correction; time step " << fmt(tau * 1e3)
+       << " ms. Trajectory `" << o.trajectory << "`, " << fmt(duration) << " s; probe on vertex "
+       << vertex << " at (" << fmt(rest[0], "%.4f") << ", " << fmt(rest[1], "%.4f") << ", "
+       << fmt(rest[2], "%.4f") << ") m, outward normal (" << fmt(normal[0], "%.2f") << ", "
+       << fmt(normal[1], "%.2f") << ", " << fmt(normal[2], "%.2f") << "), bilateral while the "
+       << "device is behind the rest surface along it (" << fmt(100 * count_present / n_steps)
+       << " % of the steps).\n\n"
+       << "Force loop at " << fmt(rate) << " Hz (" << n_steps << " steps; one model step per tick, "
+       << (std::abs(speed - 1) < 1e-9 ? "real time" : "the trajectory plays at " + fmt(speed) + "x real time")
+       << "), " << force_rt << ". Deformation loop at " << fmt(o.display_hz) << " Hz, "
+       << display_rt << "; it updated the surface " << n_updates << " times (" << fmt(achieved_display)
+       << " Hz). Shared state: a triple buffer (irdm/surface_exchange.h). Machine: " << n_cpus
+       << " CPUs.\n\n"
+       << "| | p50 | p99 | p99.9 | max |\n|---|---|---|---|---|\n"
+       << "| force step (us) | " << fmt(percentile(step_us, 0.5)) << " | " << fmt(percentile(step_us, 0.99))
+       << " | " << fmt(percentile(step_us, 0.999)) << " | " << fmt(percentile(step_us, 1.0)) << " |\n"
+       << "| loop period jitter, abs (us) | " << fmt(percentile(abs_jitter, 0.5)) << " | "
+       << fmt(percentile(abs_jitter, 0.99)) << " | " << fmt(percentile(abs_jitter, 0.999)) << " | "
+       << fmt(percentile(abs_jitter, 1.0)) << " |\n"
+       << "| wake-up lateness (us) | " << fmt(percentile(late_us, 0.5)) << " | " << fmt(percentile(late_us, 0.99))
+       << " | " << fmt(percentile(late_us, 0.999)) << " | " << fmt(percentile(late_us, 1.0)) << " |\n"
+       << "| surface update (us) | " << fmt(percentile(update_us, 0.5)) << " | "
+       << fmt(percentile(update_us, 0.99)) << " | " << fmt(percentile(update_us, 0.999)) << " | "
+       << fmt(percentile(update_us, 1.0)) << " |\n\n"
+       << "Missed deadlines (a step finished after the next tick was due): " << missed << " of "
+       << n_steps << " (" << fmt(100 * missed_fraction) << " %).\n\n";
+    if (force_error >= 0)
+      md << "Force against the exact model (the same probes offline with every mode in the "
+         << "force loop; relative L2 over the run): " << fmt(force_error)
+         << (modal.force_modes == modal.n_modes ? " (the same model: a determinism check)" : "")
+         << ". Peak force " << fmt(peak_force) << " N.\n\n";
+    md << "Files: `forces.csv` (per step: device, force, force_step_us, wake_late_us), "
+       << "`histogram.csv` (log bins, 10 per decade), `surface/surface.pvd` (" << n_frames
+       << " VTU frames of the deformed surface for ParaView; displacement_m per vertex).\n";
+    write_text_file((dir / "play.md").string(), md.str());
+    out << md.str();
+    return missed_fraction > 0.001 ? 3 : 0;
+  }
+} // namespace irdm::play

@@ -1,0 +1,30 @@
+#pragma once
+// irdm play: the seed's two asynchronous loops (seed 001 section 4.2) in real time, driven by a
+// recorded device trajectory. Uses only the runtime (irdm/, no deal.II).
+#include <ostream>
+#include <string>
+
+namespace irdm::play
+{
+  struct PlayOptions
+  {
+    std::string model;      // impulse-response model with its modal realization
+    std::string trajectory; // CSV: time_s,x_m,y_m,z_m (device tip, model frame, m)
+    std::string out_dir = "play";
+    double      rate_hz    = 0;   // force loop; 0: 1 / the model's time step (real time)
+    double      display_hz = 100; // deformation loop
+    unsigned    surface_modes = 100;
+    unsigned    force_modes   = 0; // force-loop modes; 0: all (the exact model)
+    long        vertex        = -1; // probed output vertex; -1: nearest the first sample
+    unsigned    max_frames    = 100; // VTU frames kept (evenly spaced over the run)
+    bool        check         = true; // replay offline with every mode (the exact model)
+    bool        pin           = true; // pin the force thread to the last CPU
+    bool        quiet         = false;
+  };
+
+  /// Runs the two loops and writes DIR/forces.csv, histogram.csv, play.md and
+  /// surface/surface.pvd with its VTU frames. Returns the exit status (0, or 3 if the loop
+  /// missed more than 0.1 % of its deadlines). InputError on bad input.
+  int
+  run_play(const PlayOptions &options, std::ostream &out);
+} // namespace irdm::play
