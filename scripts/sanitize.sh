@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 cmake -S . -B build-sanitize -G Ninja -DCMAKE_BUILD_TYPE=Release -DIRDM_SANITIZE=ON \
   -DIRDM_WERROR=ON >/dev/null
-ninja -C build-sanitize -j"$(nproc)" robustness_tests runtime_tests irdm
+ninja -C build-sanitize -j"$(nproc)" robustness_tests two_loop_tests runtime_tests irdm
 # Leaks are checked in the deal.II-free tests only: MPI and PETSc keep allocations to exit.
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export IRDM_FUZZ_SECONDS=${IRDM_FUZZ_SECONDS:-20}
