@@ -158,37 +158,33 @@ namespace irdm
     throw InputError("orientation_weights: no dome triangle contains the direction");
   }
 
-  namespace
+  SurfaceSupport
+  surface_support(const VirtualDofModel &m, const std::array<double, 3> &d)
   {
-    /// The free surface vertex farthest along d, and how far (m).
-    std::pair<unsigned, double>
-    support_of(const VirtualDofModel &m, const std::array<double, 3> &d)
-    {
-      std::pair<unsigned, double> best{0, -1e300};
-      for (unsigned i = 0; i < m.n_surface; ++i)
-        if (!m.fixed[i])
-          {
-            const auto  &x = m.coordinates[i];
-            const double s = d[0] * x[0] + d[1] * x[1] + d[2] * x[2];
-            if (s > best.second)
-              best = {i, s};
-          }
-      return best;
-    }
-  } // namespace
+    SurfaceSupport best;
+    for (unsigned i = 0; i < m.n_surface; ++i)
+      if (!m.fixed[i])
+        {
+          const auto  &x = m.coordinates[i];
+          const double s = d[0] * x[0] + d[1] * x[1] + d[2] * x[2];
+          if (s > best.distance)
+            best = {i, s};
+        }
+    return best;
+  }
 
   OrientationWeights
   orientation_weights_same_contact(const VirtualDofModel &m, const std::array<double, 3> &d)
   {
     const auto blend   = orientation_weights(m, d, OrientationMapping::interpolated);
-    const auto support = support_of(m, d).second;
+    const double support = surface_support(m, d).distance;
     OrientationWeights out;
     double             sum = 0;
     for (unsigned i = 0; i < blend.n; ++i)
       {
         if (!(blend.w[i] > 0))
           continue;
-        const auto &x = m.coordinates[support_of(m, m.directions[blend.k[i]]).first];
+        const auto &x = m.coordinates[surface_support(m, m.directions[blend.k[i]]).vertex];
         if (d[0] * x[0] + d[1] * x[1] + d[2] * x[2] < support - m.band)
           continue; // virtual DOF k first touches where this wall does not
         out.k[out.n] = blend.k[i];
@@ -234,14 +230,8 @@ namespace irdm
       return;
     wall.weights   = orientation_weights(m_, d, mapping_);
     wall.direction = d;
-    wall.support   = -1e300;
-    for (unsigned i = 0; i < m_.n_surface; ++i)
-      if (!m_.fixed[i])
-        {
-          const auto &x = m_.coordinates[i];
-          wall.support  = std::max(wall.support, d[0] * x[0] + d[1] * x[1] + d[2] * x[2]);
-        }
-    wall.rest = wall.support;
+    wall.support   = surface_support(m_, d).distance;
+    wall.rest      = wall.support;
     for (unsigned i = 0; i < wall.weights.n; ++i)
       wall.rest -= wall.weights.w[i] *
                    (m_.first_contact[wall.weights.k[i]] - m_.rest_position[wall.weights.k[i]]);

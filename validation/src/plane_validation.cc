@@ -259,17 +259,7 @@ namespace irdm::validation
     //   to the next (the cat is not convex);
     // - between: one whose centre and three virtual DOFs all first touch the same vertex (of
     //   those, the centre closest to the side direction).
-    const auto support_vertex = [&](const Vec3 &d) {
-      unsigned best    = 0;
-      double   top_dot = -1e300;
-      for (unsigned i = 0; i < model.n_surface; ++i)
-        if (!model.fixed[i] && dot(d, model.coordinates[i]) > top_dot)
-          {
-            top_dot = dot(d, model.coordinates[i]);
-            best    = i;
-          }
-      return best;
-    };
+    const auto support_vertex = [&](const Vec3 &d) { return surface_support(model, d).vertex; };
     const auto centre = [&](const std::array<unsigned, 3> &t) {
       Vec3 c{0, 0, 0};
       for (const unsigned k : t)

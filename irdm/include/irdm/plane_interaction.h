@@ -79,6 +79,16 @@ namespace irdm
   orientation_weights(const VirtualDofModel &m, const std::array<double, 3> &d,
                       OrientationMapping mapping);
 
+  /// The support of the undeformed body along d: the free surface vertex farthest along d,
+  /// and d . X there (m). The vertex a wall moving along -d first touches.
+  struct SurfaceSupport
+  {
+    unsigned vertex   = 0;
+    double   distance = -1e300;
+  };
+  SurfaceSupport
+  surface_support(const VirtualDofModel &m, const std::array<double, 3> &d);
+
   /// One wall during one step: direction d (unit, from the object toward the wall), position
   /// w (m; the wall occupies {x : d . x > w}), and stiffness (N/m of the virtual DOF; 0: rigid).
   struct VirtualDofWall
