@@ -725,6 +725,13 @@ namespace
     play->add_option("--frames", po.max_frames, "VTU frames written, at most")
       ->capture_default_str()
       ->check(CLI::Range(0u, 100000u));
+    play->add_option("--coupling-stiffness", po.coupling_stiffness,
+                     "virtual coupling spring between device and vertex, N/m (with "
+                     "--coupling-damping; both 0: the rigid probe)")
+      ->check(CLI::Range(0.0, 1e12));
+    play->add_option("--coupling-damping", po.coupling_damping,
+                     "virtual coupling damper, N s/m")
+      ->check(CLI::Range(0.0, 1e12));
     play->add_option("--out", po.out_dir, "output folder")->capture_default_str();
     play->add_flag("!--no-check", po.check, "skip the offline replay with the exact model");
     play->add_flag("!--no-pin", po.pin, "do not pin the threads to CPUs");

@@ -357,6 +357,27 @@ namespace irdm::play
         present[n] = p.present;
       }
 
+    // With a virtual coupling each step's probe prescribes the coupling's target (from the
+    // device now and one step before, and the vertex one step before) behind its compliance;
+    // arithmetic only, done in the force loop. The device's own motion stays in `device`.
+    const contact::Coupling coupling{o.coupling_stiffness, o.coupling_damping};
+    std::vector<Vec3>       device(n_steps);
+    for (long n = 0; n < n_steps; ++n)
+      {
+        device[n] = probes[n].displacement;
+        if (!coupling.rigid())
+          {
+            probes[n].unilateral = true;
+            probes[n].compliance = coupling.compliance(tau);
+          }
+      }
+    const auto couple = [&](const long n, const Vec3 &u_before) {
+      if (!coupling.rigid())
+        probes[n].displacement =
+          coupling.target(device[n], n > 0 ? device[n - 1] : Vec3{0, 0, 0}, u_before, tau);
+      return &probes[n];
+    };
+
     // Per-step records, and the deformation thread's, sized before the threads start.
     std::vector<double> force_x(n_steps), force_y(n_steps), force_z(n_steps),
       step_us(n_steps), late_us(n_steps);
@@ -394,7 +415,7 @@ namespace irdm::play
           const std::int64_t deadline = start + n * period_ns;
           sleep_until_ns(deadline);
           const std::int64_t wake = now_ns();
-          runtime.step(&probes[n], 1);
+          runtime.step(couple(n, runtime.probe_displacement(0)), 1);
           runtime.save_surface_state(exchange.back());
           exchange.publish();
           const std::int64_t done = now_ns();
@@ -455,7 +476,7 @@ namespace irdm::play
         double           diff = 0, norm = 0;
         for (long n = 0; n < n_steps; ++n)
           {
-            exact.step(&probes[n], 1);
+            exact.step(couple(n, exact.probe_displacement(0)), 1);
             const auto &f  = exact.force(0);
             const Vec3  fr = {force_x[n], force_y[n], force_z[n]};
             for (int d = 0; d < 3; ++d)
@@ -470,9 +491,9 @@ namespace irdm::play
       {
         step_index[n] = static_cast<double>(n);
         time_s[n]     = (n + 1) * tau;
-        dx[n]         = rest[0] + probes[n].displacement[0];
-        dy[n]         = rest[1] + probes[n].displacement[1];
-        dz[n]         = rest[2] + probes[n].displacement[2];
+        dx[n]         = rest[0] + device[n][0];
+        dy[n]         = rest[1] + device[n][1];
+        dz[n]         = rest[2] + device[n][2];
       }
     write_csv((dir / "forces.csv").string(),
               {"step", "time_s", "device_x_m", "device_y_m", "device_z_m", "present", "force_x_N",
@@ -521,8 +542,12 @@ namespace irdm::play
        << " ms. Trajectory `" << o.trajectory << "`, " << fmt(duration) << " s; probe on vertex "
        << vertex << " at (" << fmt(rest[0], "%.4f") << ", " << fmt(rest[1], "%.4f") << ", "
        << fmt(rest[2], "%.4f") << ") m, outward normal (" << fmt(normal[0], "%.2f") << ", "
-       << fmt(normal[1], "%.2f") << ", " << fmt(normal[2], "%.2f") << "), bilateral while the "
-       << "device is behind the rest surface along it (" << fmt(100 * count_present / n_steps)
+       << fmt(normal[1], "%.2f") << ", " << fmt(normal[2], "%.2f") << "), "
+       << (coupling.rigid() ? std::string("rigid and bilateral")
+                            : "coupled to the device by a spring of " + fmt(coupling.stiffness) +
+                                " N/m and a damper of " + fmt(coupling.damping) +
+                                " N s/m (implicit, unilateral on the coupled force)")
+       << " while the device is behind the rest surface along it (" << fmt(100 * count_present / n_steps)
        << " % of the steps).\n\n"
        << "Force loop at " << fmt(rate) << " Hz (" << n_steps << " steps; one model step per tick, "
        << (std::abs(speed - 1) < 1e-9 ? "real time" : "the trajectory plays at " + fmt(speed) + "x real time")

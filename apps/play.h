@@ -20,6 +20,10 @@ namespace irdm::play
     bool        check         = true; // replay offline with every mode (the exact model)
     bool        pin           = true; // pin the force thread to the last CPU
     bool        quiet         = false;
+    // Virtual coupling (contact::Coupling): the device pulls the probed vertex through a spring
+    // (N/m) and damper (N s/m), unilateral on the coupled force. Both 0: the rigid probe.
+    double coupling_stiffness = 0;
+    double coupling_damping   = 0;
   };
 
   /// Runs the two loops and writes DIR/forces.csv, histogram.csv, play.md and

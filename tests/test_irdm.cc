@@ -209,6 +209,11 @@ namespace
 
     PointInteraction    irdm(model);
     ModalInteraction    modal(modal_model);
+    // A virtual coupling (scene key probes[].coupling): each runtime's target from its own
+    // last probe displacement, as the FEM's from its own.
+    const contact::Coupling coupling{scene.probes[0].coupling_stiffness,
+                                     scene.probes[0].coupling_damping};
+    std::array<double, 3>   u_irdm{}, u_modal{};
     std::vector<double> u(model.n_outputs), um(model.n_outputs);
     double fmax = 0, ferr = 0, umax = 0, uerr = 0, uerr_modal = 0;
     int    switches = 0, most_vertices = 0;
@@ -226,16 +231,27 @@ namespace
                                                   target.patch_vertices.data(),
                                                   target.patch_weights.data(), contact::max_patch);
         most_vertices = std::max(most_vertices, p.radius > 0 ? target.n_patch : 3);
+        std::array<double, 3> device, device_before;
         for (int d = 0; d < 3; ++d)
-          target.displacement[d] = p.depth.at(t) * p.direction[d];
+          {
+            device[d]        = p.depth.at(t) * p.direction[d];
+            device_before[d] = p.depth.at(t - scene.time_step) * p.direction[d];
+          }
         target.direction    = p.direction;
         target.unilateral   = true;
+        target.compliance   = coupling.compliance(scene.time_step);
+        ProbeTarget target_modal = target;
+        target.displacement = coupling.target(device, device_before, u_irdm, scene.time_step);
+        target_modal.displacement =
+          coupling.target(device, device_before, u_modal, scene.time_step);
         g_count_allocations = true;
         const bool stepped  = irdm.step(&target, 1);
         irdm.surface_displacement(u.data());
-        const bool stepped_modal = modal.step(&target, 1);
+        const bool stepped_modal = modal.step(&target_modal, 1);
         modal.surface_displacement(um.data());
         g_count_allocations = false;
+        u_irdm  = irdm.probe_displacement(0);
+        u_modal = modal.probe_displacement(0);
         EXPECT_TRUE(stepped && stepped_modal);
         if (!stepped || !stepped_modal)
           return most_vertices;
@@ -320,6 +336,17 @@ TEST(Runtime, UntruncatedIrdmReproducesTheFem)
   EXPECT_EQ(expect_irdm_reproduces_the_fem(moving_press, "exact"), 3);
 }
 
+// A device coupled to the probed point by a spring and a damper (virtual coupling, solved
+// implicitly through the feed-through; issue 15), unilateral on the coupled force: the FEM
+// with the same coupling, to round-off.
+TEST(Runtime, UntruncatedIrdmReproducesTheFemWithAVirtualCoupling)
+{
+  EXPECT_EQ(expect_irdm_reproduces_the_fem(
+              moving_press + R"(, "coupling": {"stiffness_N_m": 200, "damping_N_s_m": 0.5})",
+              "coupled"),
+            3);
+}
+
 // A probe with a contact radius (issue 16): its force spreads over every surface vertex within
 // 12 mm by the smooth weights of geometry::radius_patch, in the FEM and in the runtimes alike,
 // and the patch changes as the probe slides.
@@ -360,23 +387,45 @@ namespace
     ModalInteraction    modal(modal_model);
     std::vector<double> u(model.n_outputs), um(model.n_outputs);
     double fmax = 0, ferr = 0, umax = 0, uerr = 0, uerr_modal = 0, deepest = 0;
+    // Device-held plates (planes[].coupling): each plate's point one step before, per runtime.
+    std::array<std::array<double, 3>, 2> plate_direct, plate_modal;
+    for (int p = 0; p < 2; ++p)
+      plate_direct[p] = plate_modal[p] = scene.planes[p].position.at(0.0);
+    const auto plate_after = [](const PlaneTarget &target, const PlaneContactResult &r) {
+      std::array<double, 3> x = target.point;
+      for (int d = 0; d < 3; ++d)
+        x[d] -= target.coupling_compliance * r.force[d];
+      return x;
+    };
     int    most_active = 0, switches = 0, was_active = 0;
     for (unsigned n = 0; n < scene.n_steps(); ++n)
       {
         const double t = (n + 1) * scene.time_step;
-        std::array<PlaneTarget, 2> targets;
+        std::array<PlaneTarget, 2> targets, targets_modal;
         for (int p = 0; p < 2; ++p)
           {
-            targets[p].normal    = scene.planes[p].normal;
-            targets[p].point     = scene.planes[p].position.at(t);
-            targets[p].stiffness = scene.planes[p].vertex_stiffness;
+            const auto             &pl = scene.planes[p];
+            const contact::Coupling coupling{pl.coupling_stiffness, pl.coupling_damping};
+            targets[p].normal              = pl.normal;
+            targets[p].stiffness           = pl.vertex_stiffness;
+            targets[p].coupling_compliance = coupling.compliance(scene.time_step);
+            targets_modal[p]               = targets[p];
+            targets[p].point       = coupling.target(pl.position.at(t), pl.position.at(t - scene.time_step),
+                                                     plate_direct[p], scene.time_step);
+            targets_modal[p].point = coupling.target(pl.position.at(t), pl.position.at(t - scene.time_step),
+                                                     plate_modal[p], scene.time_step);
           }
         g_count_allocations = true;
         const bool stepped = direct.step(targets.data(), 2);
         direct.surface_displacement(u.data());
-        const bool stepped_modal = modal.step(targets.data(), 2);
+        const bool stepped_modal = modal.step(targets_modal.data(), 2);
         modal.surface_displacement(um.data());
         g_count_allocations = false;
+        for (int p = 0; p < 2; ++p)
+          {
+            plate_direct[p] = plate_after(targets[p], direct.vertex_contact().plane(p));
+            plate_modal[p]  = plate_after(targets_modal[p], modal.vertex_contact().plane(p));
+          }
         EXPECT_TRUE(stepped && stepped_modal);
         if (!stepped || !stepped_modal)
           return 0;
@@ -417,8 +466,8 @@ namespace
     EXPECT_LT(ferr / fmax, 1e-9);
     EXPECT_LT(uerr / umax, 1e-9);
     EXPECT_LT(uerr_modal / umax, 1e-6); // the modal surface's static residual is stored in float
-    if (stiffness_field.empty())
-      EXPECT_LT(deepest, 1e-12); // a rigid plane is met, not passed
+    if (stiffness_field.empty() || stiffness_field.find("vertex_stiffness") == std::string::npos)
+      EXPECT_LT(deepest, 1e-12); // a rigid plane (or plate) is met, not passed
     else
       EXPECT_GT(deepest, 1e-5); // a compliant one gives way
     return most_active;
@@ -435,6 +484,16 @@ TEST(Runtime, UntruncatedVertexContactReproducesTheFem)
 TEST(Runtime, UntruncatedCompliantVertexContactReproducesTheFem)
 {
   EXPECT_GE(expect_vertex_contact_reproduces_the_fem(R"(, "vertex_stiffness_N_m": 20)", "vertex_compliant"), 10); // measured 12
+}
+
+// Device-held plates (virtual coupling, issue 15): each plane is pulled toward its prescribed
+// motion by a spring and damper along its normal, solved implicitly with the contact (W + 1/c
+// on every pair of its rows), so it stands back where the body pushes hard.
+TEST(Runtime, UntruncatedVertexContactWithCoupledPlatesReproducesTheFem)
+{
+  EXPECT_GE(expect_vertex_contact_reproduces_the_fem(
+              R"(, "coupling": {"stiffness_N_m": 30, "damping_N_s_m": 0.2})", "vertex_coupled"),
+            4);
 }
 
 TEST(Runtime, LoaderRejectsBadFiles)

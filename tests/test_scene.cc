@@ -127,6 +127,28 @@ TEST(Scene, RejectsMissingMeshAndInconsistentKeys)
   expect_error(v2, "unknown format");
 }
 
+// Virtual coupling and the small-strain law: bad values and misplaced keys are named.
+TEST(Scene, CouplingAndMaterialLawAreChecked)
+{
+  const std::string probe = R"(, "probes": [{"name": "f", "surface": "tip", "direction": [0, 0, -1],
+      "path": {"times_s": [0], "points_m": [[0.25, 0.005, 0.01]]},
+      "depth": {"times_s": [0, 1], "values_m": [0, 0.001]}, "coupling": )";
+  const auto parsed = parse_scene(scene(probe + R"({"stiffness_N_m": 300, "damping_N_s_m": 0.5}}])"), ".");
+  EXPECT_EQ(parsed.probes[0].coupling_stiffness, 300);
+  EXPECT_EQ(parsed.probes[0].coupling_damping, 0.5);
+  expect_error(scene(probe + R"({"stiffness_N_m": 0}}])"), "not both zero");
+  expect_error(scene(probe + R"({"stiffness_N_m": -1, "damping_N_s_m": 1}}])"), "stiffness_N_m >= 0");
+  expect_error(scene(probe + R"({"spring": 1}}])"), "spring");
+  const std::string plate = R"(, "planes": [{"name": "p", "normal": [0, 0, 1],
+      "position": {"times_s": [0], "points_m": [[0, 0, -0.01]]}, "coupling": {"stiffness_N_m": 10}}])";
+  EXPECT_EQ(parse_scene(scene(plate), ".").planes[0].coupling_stiffness, 10);
+  expect_error(scene(R"(, "kinematics": "nonlinear")" + plate), "linear kinematics");
+  const std::string m = R"("youngs_modulus_Pa": 2e5, "poisson_ratio": 0.4, "density_kg_m3": 1100, "law": )";
+  EXPECT_TRUE(parse_scene(scene(R"(, "kinematics": "nonlinear")", m + R"("linear")"), ".").small_strain_law);
+  expect_error(scene("", m + R"("linear")"), "material.law");
+  expect_error(scene(R"(, "kinematics": "nonlinear")", m + R"("hookean")"), "neo_hookean");
+}
+
 TEST(Scene, NothingIsSilentlyTruncated)
 {
   // A number too large for a double names its line and key (it was "number overflow").

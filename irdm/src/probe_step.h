@@ -92,10 +92,15 @@ namespace irdm::detail
                        h0(in_dof(q, j, e), out_dof(p, i, d));
               S(3 * p + d, 3 * q + e) = s;
             }
+    // The probed points move by S lambda; the coupling's compliance adds only to the spring.
+    const contact::Matrix S_body = S;
+    for (int p = 0; p < P; ++p)
+      for (int d = 0; d < 3; ++d)
+        S(3 * p + d, 3 * p + d) += probes[p].compliance;
     bool active[contact::max_probes];
     contact::solve_active_set(S, gap, rules.data(), P, lambda, active);
 
-    const contact::Vector u_probe = h_probe + S * lambda;
+    const contact::Vector u_probe = h_probe + S_body * lambda;
     for (int q = 0; q < P; ++q)
       {
         out.active[q] = active[q];

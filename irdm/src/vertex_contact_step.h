@@ -61,7 +61,8 @@ namespace irdm
     for (int p = 0; p < n_planes; ++p)
       same_plane[p] = p < previous_.n_planes &&
                       planes[p].normal == previous_.planes[p].normal &&
-                      planes[p].stiffness == previous_.planes[p].stiffness;
+                      planes[p].stiffness == previous_.planes[p].stiffness &&
+                      planes[p].coupling_compliance == previous_.planes[p].coupling_compliance;
     const auto old_row = [&](const int c) {
       return same_plane[plane_[c]]
                ? previous_.row_of[static_cast<size_t>(plane_[c]) * n_vertices + vertex_[c]]
@@ -112,7 +113,7 @@ namespace irdm
                 for (int d = 0; d < 3; ++d)
                   s += nc[d] * nb[e] * h0(k, out_dof(c, d));
               }
-            w[b] = s;
+            w[b] = s + (plane_[b] == plane_[c] ? planes[plane_[c]].coupling_compliance : 0.0);
           }
         const double k = planes[plane_[c]].stiffness;
         if (k > 0 && oc < 0)

@@ -170,6 +170,7 @@ namespace irdm::fem
     std::vector<PlaneSample>
     solve_planes(double t, double scale, Vector<double> &u, Vector<double> &f) const;
     std::vector<PlaneSample> last_planes; // the latest solve_planes() result
+    mutable std::vector<Vec3> plate_before; // a device-held plate's point, last step (m)
     std::vector<std::vector<types::global_dof_index>> fixed_dofs; // per fixed surface
     std::vector<types::global_dof_index> probe_dofs;
     std::vector<unsigned char> dof_component; // 0, 1, 2 = x, y, z

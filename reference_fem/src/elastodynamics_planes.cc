@@ -12,6 +12,7 @@
 // plane, until none is; so the result is the complementarity problem over every free surface
 // vertex, whatever the runtime's candidate margin.
 #include <irdm_common/complementarity.h>
+#include <irdm_common/contact.h>
 #include <irdm_common/error.h>
 
 #include "elastodynamics_impl.h"
@@ -37,8 +38,18 @@ namespace irdm::fem
     const unsigned           P = scene.planes.size();
     std::vector<PlaneSample> out(P);
     std::vector<Vec3>        at(P);
+    // A device-held plate (contact::Coupling): its target z from the device now and one step
+    // before and the plate one step before; the plate sits at z - (F . n) / c along n, so all
+    // rows of one plate share the compliance 1 / c (W_cd += 1 / c on them).
+    std::vector<double> coupling(P);
     for (unsigned p = 0; p < P; ++p)
-      at[p] = scene.planes[p].position.at(t);
+      {
+        const auto             &pl = scene.planes[p];
+        const contact::Coupling c{pl.coupling_stiffness, pl.coupling_damping};
+        coupling[p] = c.compliance(scene.time_step);
+        at[p] = c.target(pl.position.at(t), pl.position.at(t - scene.time_step), plate_before[p],
+                         scene.time_step);
+      }
     std::vector<unsigned> free_vertices;
     for (const unsigned v : surface_vertices)
       if (!constraints.is_constrained(dofs_of_vertex[v][0]))
@@ -54,7 +65,7 @@ namespace irdm::fem
       for (const unsigned v : free_vertices)
         if (gap(p, v, u) < 0)
           rows.emplace_back(p, v);
-    std::vector<double> lambda;
+    std::vector<double> lambda, give(P, 0.0);
     Vector<double>      u_after(u);
     for (unsigned round = 0; !rows.empty(); ++round)
       {
@@ -76,7 +87,7 @@ namespace irdm::fem
                     for (int d = 0; d < 3; ++d)
                       s += nc[d] * nb[e] * x[dofs_of_vertex[v][d]];
                   }
-                W[static_cast<size_t>(c) * n + b] = scale * s;
+                W[static_cast<size_t>(c) * n + b] = scale * s + (rows[b].first == p ? coupling[p] : 0);
               }
             if (scene.planes[p].vertex_stiffness > 0)
               W[static_cast<size_t>(c) * n + c] += 1 / scene.planes[p].vertex_stiffness;
@@ -96,11 +107,15 @@ namespace irdm::fem
         double q_scale = 0;
         for (const double x : q)
           q_scale = std::max(q_scale, std::abs(x));
+        // How far each plate stands back from its target: (F . n) / c.
+        std::fill(give.begin(), give.end(), 0.0);
+        for (int c = 0; c < n; ++c)
+          give[rows[c].first] += coupling[rows[c].first] * lambda[c];
         // A vertex pushed past a plane by the others' contact becomes a row; then solve again.
         std::vector<std::pair<unsigned, unsigned>> more;
         for (unsigned p = 0; p < P; ++p)
           for (const unsigned v : free_vertices)
-            if (gap(p, v, u_after) < -contact::ComplementaritySolver::tolerance * q_scale &&
+            if (gap(p, v, u_after) + give[p] < -contact::ComplementaritySolver::tolerance * q_scale &&
                 std::find(rows.begin(), rows.end(), std::make_pair(p, v)) == rows.end())
               more.emplace_back(p, v);
         if (more.empty())
@@ -123,7 +138,9 @@ namespace irdm::fem
       {
         out[p].penetration = -1e300;
         for (const unsigned v : free_vertices)
-          out[p].penetration = std::max(out[p].penetration, -gap(p, v, u));
+          out[p].penetration = std::max(out[p].penetration, -gap(p, v, u) - give[p]);
+        for (int d = 0; d < 3; ++d)
+          plate_before[p][d] = at[p][d] - give[p] * scene.planes[p].normal[d];
       }
     return out;
   }

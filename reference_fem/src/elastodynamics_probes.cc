@@ -85,12 +85,25 @@ namespace irdm::fem
         const double depth = scene.probes[p].depth.at(t);
         rules[p]           = {scene.probes[p].direction, scene.probes[p].unilateral,
                               t <= scene.probes[p].until};
+        // The device's displacement now and one step before; a coupled probe prescribes the
+        // coupling's target z instead (contact::Coupling), from the point's last displacement.
+        const auto  &pr = scene.probes[p];
+        const double depth_before = pr.depth.at(t - scene.time_step);
+        std::array<double, 3> device, device_before, u_before;
+        for (int d = 0; d < 3; ++d)
+          {
+            device[d]        = depth * pr.direction[d];
+            device_before[d] = depth_before * pr.direction[d];
+            u_before[d]      = last_probe.empty() ? 0.0 : last_probe[p][7 + d];
+          }
+        const contact::Coupling coupling{pr.coupling_stiffness, pr.coupling_damping};
+        const auto target = coupling.target(device, device_before, u_before, scene.time_step);
         for (int d = 0; d < 3; ++d)
           {
             double u_probe = 0;
             for (size_t i = 0; i < at[p].vertices.size(); ++i)
               u_probe += at[p].weights[i] * u[dof(p, i, d)];
-            gap[3 * p + d] = depth * scene.probes[p].direction[d] - u_probe;
+            gap[3 * p + d] = target[d] - u_probe;
           }
       }
     for (int q = 0; q < P; ++q)
@@ -107,6 +120,14 @@ namespace irdm::fem
                 }
               S(3 * p + d, 3 * q + e) = scale * s;
             }
+    for (int p = 0; p < P; ++p)
+      {
+        const double c = contact::Coupling{scene.probes[p].coupling_stiffness,
+                                           scene.probes[p].coupling_damping}
+                           .compliance(scene.time_step);
+        for (int d = 0; d < 3; ++d)
+          S(3 * p + d, 3 * p + d) += c;
+      }
     bool active[contact::max_probes];
     contact::solve_active_set(S, gap, rules.data(), P, lambda, active);
 

@@ -167,8 +167,17 @@ namespace irdm::fem
         const auto sp = geometry::closest_point(mesh.vertices, probe_triangles[p],
                                                 scene.probes[p].path.at(0.0));
         for (int d = 0; d < 3; ++d)
-          last_probe[p][3 + d] = sp.point[d];
+          {
+            last_probe[p][3 + d] = sp.point[d];
+            // The probed point's displacement at t = 0 (a coupled probe's damper needs it).
+            for (int i = 0; i < 3; ++i)
+              last_probe[p][7 + d] +=
+                sp.weights[i] * u[dofs_of_vertex[probe_triangles[p][sp.triangle][i]][d]];
+          }
       }
+    plate_before.clear();
+    for (const auto &plane : scene.planes)
+      plate_before.push_back(plane.position.at(0.0));
     {
       // At rest: no plane force; the penetration is the undeformed surface's.
       Vector<double> u0(u), f0(n_dofs);

@@ -90,21 +90,36 @@ namespace irdm::fem
             // Written in H = grad u so that small strains lose no digits to cancellation:
             // J - 1 = tr H + (tr(H)^2 - tr(H^2)) / 2 + det H, F - F^{-T} = H + H^T F^{-T}.
             const Tensor<2, 3> &H  = grad_u[q];
-            const Tensor<2, 3>  F  = unit_symmetric_tensor<3>() + H;
             const double        tH = trace(H);
-            const double J_minus_1 = tH + 0.5 * (tH * tH - scalar_product(H, transpose(H))) + determinant(H);
-            if (!(J_minus_1 > -1))
+            const double        dx = fv.JxW(q);
+            // The small-strain law is the same formulas with A = F^{-T} -> I and ln J -> tr H.
+            double       lnJ   = tH;
+            Tensor<2, 3> FinvT = unit_symmetric_tensor<3>();
+            Tensor<2, 3> P;
+            if (L.scene.small_strain_law)
               {
-                ok = false;
-                continue;
+                P = mu * (H + transpose(H)) + lambda * tH * FinvT;
+                if (energy)
+                  *energy += dx * (0.25 * mu * scalar_product(H + transpose(H), H + transpose(H)) +
+                                   0.5 * lambda * tH * tH);
               }
-            const double       lnJ   = std::log1p(J_minus_1);
-            const Tensor<2, 3> FinvT = transpose(invert(F));
-            const Tensor<2, 3> P     = mu * (H + transpose(H) * FinvT) + lambda * lnJ * FinvT;
-            const double       dx    = fv.JxW(q);
-            if (energy)
-              *energy += dx * (0.5 * mu * (2 * tH + scalar_product(H, H)) - mu * lnJ +
-                               0.5 * lambda * lnJ * lnJ); // tr(F^T F) - 3 = 2 tr H + H:H
+            else
+              {
+                const Tensor<2, 3> F = unit_symmetric_tensor<3>() + H;
+                const double J_minus_1 =
+                  tH + 0.5 * (tH * tH - scalar_product(H, transpose(H))) + determinant(H);
+                if (!(J_minus_1 > -1))
+                  {
+                    ok = false;
+                    continue;
+                  }
+                lnJ   = std::log1p(J_minus_1);
+                FinvT = transpose(invert(F));
+                P     = mu * (H + transpose(H) * FinvT) + lambda * lnJ * FinvT;
+                if (energy)
+                  *energy += dx * (0.5 * mu * (2 * tH + scalar_product(H, H)) - mu * lnJ +
+                                   0.5 * lambda * lnJ * lnJ); // tr(F^T F) - 3 = 2 tr H + H:H
+              }
             for (unsigned i = 0; i < n_dofs; ++i)
               {
                 g[i]  = fv.shape_grad_component(i, q, component[i]);
@@ -117,7 +132,7 @@ namespace irdm::fem
             // dP[G] = mu G + (mu - lambda ln J) A G^T A + lambda (A : G) A, A = F^{-T}:
             // K_ij = mu d_{c_i c_j} g_i.g_j + (mu - lambda ln J)(A g_j)_{c_i} (A g_i)_{c_j}
             //        + lambda (A g_j)_{c_j} (A g_i)_{c_i}.
-            const double m2 = mu - lambda * lnJ;
+            const double m2 = L.scene.small_strain_law ? mu : mu - lambda * lnJ;
             for (unsigned i = 0; i < n_dofs; ++i)
               for (unsigned j = 0; j < n_dofs; ++j)
                 {

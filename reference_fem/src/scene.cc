@@ -294,6 +294,20 @@ namespace irdm::fem
       return out;
     }
 
+    // A virtual coupling {"stiffness_N_m": k, "damping_N_s_m": b} (contact::Coupling).
+    void
+    parse_coupling(const Node &c, double &stiffness, double &damping)
+    {
+      c.allow_only({"stiffness_N_m", "damping_N_s_m"});
+      if (c.has("stiffness_N_m"))
+        stiffness = c.at("stiffness_N_m").number();
+      if (c.has("damping_N_s_m"))
+        damping = c.at("damping_N_s_m").number();
+      if (!(stiffness >= 0) || !(damping >= 0) || !(stiffness > 0 || damping > 0))
+        fail(c.where, "needs stiffness_N_m >= 0 and damping_N_s_m >= 0, not both zero (leave "
+                      "out 'coupling' for a rigid probe or plane)");
+    }
+
     // {"times_s": [...], <key>: [...]} with strictly increasing times.
     void
     parse_samples(const Node &h, const char *key, std::vector<double> &times,
@@ -440,7 +454,7 @@ namespace irdm::fem
       }
     {
       const Node m = top.at("material");
-      m.allow_only({"youngs_modulus_Pa", "poisson_ratio", "density_kg_m3"});
+      m.allow_only({"youngs_modulus_Pa", "poisson_ratio", "density_kg_m3", "law"});
       s.youngs_modulus = m.at("youngs_modulus_Pa").number();
       if (!(s.youngs_modulus > 0))
         fail(m.where + ".youngs_modulus_Pa", "must be > 0");
@@ -450,6 +464,14 @@ namespace irdm::fem
              "must lie in (-1, 0.5) for a stable isotropic solid (got " +
                std::to_string(s.poisson_ratio) + ")");
       s.density = m.at("density_kg_m3").positive();
+      if (m.has("law"))
+        {
+          const std::string law = m.at("law").string();
+          if (law == "linear")
+            s.small_strain_law = true;
+          else if (law != "neo_hookean")
+            fail(m.where + ".law", "must be 'neo_hookean' or 'linear'");
+        }
     }
     if (top.has("damping"))
       {
@@ -616,7 +638,7 @@ namespace irdm::fem
       for (const auto &n : top.at("probes").array())
         {
           n.allow_only({"name", "surface", "direction", "unilateral", "path", "depth", "until_s",
-                        "radius_m"});
+                        "radius_m", "coupling"});
           Probe p;
           p.name    = unique(n, parse_name(n, "probe" + std::to_string(names.size())));
           p.surface = n.at("surface").string();
@@ -631,6 +653,8 @@ namespace irdm::fem
             p.until = n.at("until_s").positive();
           if (n.has("radius_m"))
             p.radius = n.at("radius_m").positive();
+          if (n.has("coupling"))
+            parse_coupling(n.at("coupling"), p.coupling_stiffness, p.coupling_damping);
           std::vector<Node> samples;
           parse_samples(n.at("path"), "points_m", p.path.times, samples);
           for (const auto &x : samples)
@@ -647,7 +671,7 @@ namespace irdm::fem
       for (const auto &n : top.at("planes").array())
         {
           n.allow_only({"name", "normal", "normal_path", "position", "penalty_Pa_m",
-                        "vertex_stiffness_N_m"});
+                        "vertex_stiffness_N_m", "coupling"});
           RigidPlane p;
           p.name            = unique(n, parse_name(n, "plane" + std::to_string(names.size())));
           const Vec3   d    = n.at("normal").vec3();
@@ -697,8 +721,18 @@ namespace irdm::fem
                                                         "contact); nonlinear uses penalty_Pa_m");
               p.vertex_stiffness = n.at("vertex_stiffness_N_m").positive();
             }
+          if (n.has("coupling"))
+            {
+              if (s.kinematics != Kinematics::linear)
+                fail(n.where + ".coupling", "is for linear kinematics (a device-held plate "
+                                            "by vertex contact)");
+              parse_coupling(n.at("coupling"), p.coupling_stiffness, p.coupling_damping);
+            }
           s.planes.push_back(p);
         }
+    if (s.kinematics == Kinematics::linear && s.small_strain_law)
+      fail(top.where + ".material.law", "is for nonlinear kinematics (linear kinematics are "
+                                        "small-strain elasticity already)");
     if (s.kinematics == Kinematics::linear && !s.planes.empty() && !s.probes.empty())
       fail(top.where, "linear kinematics take either probes or planes in one scene, not both");
     if (s.kinematics == Kinematics::nonlinear && (!s.probes.empty() || !s.prescribed.empty()))

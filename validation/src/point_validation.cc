@@ -105,6 +105,153 @@ namespace irdm::validation
       std::snprintf(b, sizeof b, f, x);
       return b;
     }
+
+    /// The passivity observer of each run (scene_runs.h): what the device put in, and the most
+    /// the body gave back at any time.
+    std::string
+    passivity_section(const fem::Scene &scene,
+                      const std::vector<std::pair<std::string, const Series *>> &runs)
+    {
+      std::ostringstream md;
+      md << "Passivity: the work W(n) = sum f . dx the device did on the body up to step n "
+            "(x the device's displacement, the probe's depth along its direction). A passive "
+            "contact never gives back more than it took (max -W = 0). Probes: ";
+      for (const auto &p : scene.probes)
+        md << "`" << p.name << "` "
+           << (p.coupling_stiffness > 0 || p.coupling_damping > 0
+                 ? "coupled (k = " + fmt(p.coupling_stiffness) + " N/m, b = " +
+                     fmt(p.coupling_damping) + " N s/m)"
+                 : std::string("rigid"))
+           << (p.unilateral ? ", unilateral" : ", bilateral") << "; ";
+      md << "\n\n| run | device work at the end (J) | most given back, max -W (J) |\n"
+            "|---|---|---|\n";
+      for (const auto &[name, series] : runs)
+        md << "| " << name << " | " << fmt(series->device_work) << " | "
+           << fmt(series->device_returned) << " |\n";
+      md << "\n";
+      return md.str();
+    }
+
+    /// Virtual coupling's stable region on a scene with a coupled probe: every probe coupled
+    /// at stiffness x {0.1 .. 100} and damping x {0, 1, 10} of the scene's own, and rigid;
+    /// IRDM at tau (exact against the FEM at tau) and the FEM at tau/10. Writes coupling.csv
+    /// and returns the report section.
+    std::string
+    coupling_sweep(const fem::Scene &scene, const ImpulseResponseModel &model,
+                   const double fem_peak, const fs::path &dir, const std::string &fine_model_file,
+                   std::ostream &log)
+    {
+      double k0 = 0, b0 = 0;
+      for (const auto &p : scene.probes)
+        k0 = std::max(k0, p.coupling_stiffness), b0 = std::max(b0, p.coupling_damping);
+      struct Run
+      {
+        double k, b, tau;
+        std::string solver;
+        Series      s;
+      };
+      std::vector<Run> runs;
+      const unsigned   N = scene.n_steps();
+      const auto       add = [&](const double k, const double b) {
+        fem::Scene c = scene;
+        for (auto &p : c.probes)
+          p.coupling_stiffness = k, p.coupling_damping = b;
+        PointInteraction irdm(model);
+        runs.push_back({k, b, scene.time_step, "irdm", run_irdm(c, model, irdm, false, 100 * fem_peak)});
+        runs.push_back({k, b, scene.time_step / 10, "fem", run_fem(c, model, 10, N)});
+      };
+      log << "  coupling sweep" << std::flush;
+      add(0, 0);
+      const std::vector<double> k_factors = {0.1, 0.3, 1, 3, 10, 100}, b_factors = {0, 1, 10};
+      for (const double fk : k_factors)
+        for (const double fb : b_factors)
+          {
+            add(fk * k0, fb * b0);
+            log << "." << std::flush;
+          }
+      log << "\n";
+      std::ostringstream csv;
+      csv << "stiffness_N_m,damping_N_s_m,time_step_s,solver,peak_force_N,device_work_J,"
+             "device_work_max_J,device_returned_J,bounded,passive\n";
+      const auto bounded = [&](const Run &r) {
+        return r.s.diverged_at < 0 && peak_force(r.s) <= 100 * fem_peak && std::isfinite(peak_force(r.s));
+      };
+      // Passive: gives back at most 1e-6 of what it took (round-off of the observer's sum).
+      const auto passive = [&](const Run &r) {
+        return bounded(r) && r.s.device_returned <= 1e-6 * r.s.device_work_max;
+      };
+      for (const auto &r : runs)
+        csv << r.k << "," << r.b << "," << r.tau << "," << r.solver << "," << peak_force(r.s)
+            << "," << r.s.device_work << "," << r.s.device_work_max << "," << r.s.device_returned
+            << "," << bounded(r) << "," << passive(r) << "\n";
+      write_text_file((dir / "coupling.csv").string(), csv.str());
+
+      std::ostringstream md;
+      md << "## (f) Virtual coupling: the stable region\n\n"
+         << "Every probe coupled to its device by a spring k and a damper b (contact::Coupling, "
+            "solved implicitly through the feed-through; unilateral on the coupled force), "
+            "around the scene's own k0 = " << fmt(k0) << " N/m, b0 = " << fmt(b0)
+         << " N s/m. IRDM at tau = " << scene.time_step
+         << " s (exact against the FEM at tau), the FEM at tau/10. Each cell: peak force (N), "
+            "and the most energy the body gave back to the device, max -W (J); **P** passive "
+            "(max -W <= 1e-6 of the work put in), **B** bounded but not passive, **D** "
+            "diverged (force beyond 100 x the FEM's peak at tau, " << fmt(fem_peak)
+         << " N). CSV: `coupling.csv`.\n\n| k (N/m) | b (N s/m) | IRDM at tau | FEM at tau/10 "
+            "|\n|---|---|---|---|\n";
+      const auto cell = [&](const Run &r) {
+        return std::string(passive(r) ? "**P**" : bounded(r) ? "**B**" : "**D**") + " " +
+               fmt(peak_force(r.s)) + " N, " + fmt(r.s.device_returned) + " J";
+      };
+      for (size_t i = 0; i + 1 < runs.size(); i += 2)
+        md << "| " << (runs[i].k == 0 && runs[i].b == 0 ? "rigid" : fmt(runs[i].k)) << " | "
+           << (runs[i].k == 0 && runs[i].b == 0 ? "-" : fmt(runs[i].b)) << " | " << cell(runs[i])
+           << " | " << cell(runs[i + 1]) << " |\n";
+
+      // IRDM at tau/10 too, from a model precomputed at tau/10 whose outputs are its inputs
+      // (the probe's region: the force loop needs no more), against the FEM at tau/10 with the
+      // same coupling: the scene's own coupling and the rigid probe.
+      fem::Scene fine = scene;
+      fine.time_step /= 10;
+      fine.model.outputs = fine.model.inputs;
+      refuse_existing_model(fine_model_file);
+      fem::PrecomputeOptions po;
+      po.output = fine_model_file;
+      po.length = fine.n_steps();
+      fem::precompute_impulse_responses(fine, po);
+      const ImpulseResponseModel fine_model = load_model(fine_model_file, fine.time_step);
+      md << "At tau/10 = " << fine.time_step << " s, IRDM from a model precomputed at that step "
+         << "(outputs: its inputs, " << fine_model.n_inputs / 3 << " vertices; T = "
+         << fine_model.length << ") against the FEM at the same step and coupling:\n\n"
+         << "| probe | IRDM at tau/10 | FEM at tau/10 | force rel. L2, IRDM against FEM |\n"
+            "|---|---|---|---|\n";
+      for (const bool rigid : {false, true})
+        {
+          fem::Scene c = fine;
+          if (rigid)
+            for (auto &p : c.probes)
+              p.coupling_stiffness = p.coupling_damping = 0;
+          PointInteraction irdm(fine_model);
+          Run a{k0, b0, c.time_step, "irdm", run_irdm(c, fine_model, irdm, false, 100 * fem_peak)};
+          Run f{k0, b0, c.time_step, "fem", run_fem(c, fine_model, 1, c.n_steps())};
+          f.s.surface.clear();
+          double num = 0, den = 0;
+          for (size_t p = 0; p < c.probes.size(); ++p)
+            for (size_t k = 0; k < a.s.force[p].size(); ++k)
+              for (int d = 0; d < 3; ++d)
+                {
+                  num += std::pow(a.s.force[p][k][d] - f.s.force[p][k][d], 2);
+                  den += std::pow(f.s.force[p][k][d], 2);
+                }
+          md << "| " << (rigid ? "rigid" : "coupled (k0, b0)") << " | " << cell(a) << " | "
+             << cell(f) << " | "
+             << (a.s.diverged_at >= 0 ? "(IRDM stopped at t = " + fmt(a.s.diverged_at) + " s)"
+                                      : fmt(std::sqrt(num / std::max(den, 1e-300))))
+             << " |\n";
+        }
+      fs::remove(fine_model_file);
+      md << "\n";
+      return md.str();
+    }
   } // namespace
 
   namespace
@@ -267,6 +414,13 @@ namespace irdm::validation
         // 4. Report files.
         const fs::path dir = fs::path(o.report_dir) / scene.name;
         fs::create_directories(dir);
+        bool coupled = false;
+        for (const auto &p : scene.probes)
+          coupled = coupled || p.coupling_stiffness > 0 || p.coupling_damping > 0;
+        const std::string sweep_md =
+          coupled ? coupling_sweep(scene, model, peak_coarse, dir,
+                                   (fs::path(o.model_dir) / (scene.name + "_tau10.h5")).string(), log)
+                  : std::string();
         {
           std::vector<std::string>          header = {"time_s"};
           std::vector<std::vector<double>> cols(1);
@@ -375,6 +529,8 @@ namespace irdm::validation
               "switches on and off from step to step (chatter: the pushed vertex overshoots the "
               "probe); IRDM reproduces that exactly at tau, but it is not a converged quantity "
               "as tau shrinks.\n\n"
+           << passivity_section(scene, {{"FEM at tau", &fem_run}, {"IRDM at tau", &irdm_full},
+                                        {"FEM at tau/10", &fem_fine_unilateral}})
            << "## (d) Cost per step, measured in the same run (wall clock, one core)\n\n"
            << "| IRDM force loop | IRDM full surface update (" << model.n_outputs / 3
            << " vertices) | FEM step (P" << scene.fe_degree << ", MUMPS) |\n|---|---|---|\n"
@@ -396,6 +552,7 @@ namespace irdm::validation
            << "\n![speed against accuracy](speed_accuracy.png)\n\n![memory against "
               "accuracy](memory_accuracy.png)\n\nCSV: `compression.csv`.\n";
         write_compression_csv((dir / "compression.csv").string(), comp);
+        md << sweep_md;
         write_text_file((dir / "report.md").string(), md.str());
         summary << "| [" << scene.name << "](" << scene.name << "/report.md) | " << N << " | "
                 << scene.probes.size() << " | " << pre.n_inputs << " x " << pre.n_outputs

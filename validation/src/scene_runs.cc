@@ -71,6 +71,16 @@ namespace irdm::validation
       index[r.surface.node_tags[i]] = i;
     Series s;
     s.step_seconds = r.stepping_seconds / r.n_steps;
+    // The passivity observer at the FEM's own step (all of its steps, not only k tau).
+    double work = 0;
+    for (unsigned i = 1; i <= r.n_steps; ++i)
+      for (const auto &p : scene.probes)
+        {
+          const double t = i * scene.time_step;
+          observe_device_work(s, r.probe_force.at(p.name)[i], device_at(p, t),
+                              device_at(p, t - scene.time_step), work);
+        }
+    s.device_work = work;
     for (const auto &p : scene.probes)
       {
         s.force.emplace_back();

@@ -32,7 +32,33 @@ namespace irdm::validation
     std::vector<std::vector<double>> surface; // [k-1][output DoF]
     double force_loop_seconds = 0, surface_seconds = 0, step_seconds = 0;
     double diverged_at = -1; // s; >= 0: the run was stopped there (force beyond the bound)
+    // Passivity (energy) observer, summed over probes: W(n) = sum_{k<=n} f_k . (x_k - x_{k-1}),
+    // the work the device (x: its displacement, the probe's depth along its direction) did on
+    // the body and coupling up to step n. A passive body never gives back more than it took:
+    // W(n) >= 0 throughout.
+    double device_work     = 0; // J, W at the end
+    double device_returned = 0; // J, max over n of -W(n): > 0 means energy was created
+    double device_work_max = 0; // J, max over n of W(n)
   };
+
+  /// Adds one step of the passivity observer: force f on the body (N) while the device moved
+  /// from x_before to x (m).
+  inline void
+  observe_device_work(Series &s, const Vec3 &f, const Vec3 &x, const Vec3 &x_before,
+                      double &work)
+  {
+    work += f[0] * (x[0] - x_before[0]) + f[1] * (x[1] - x_before[1]) + f[2] * (x[2] - x_before[2]);
+    s.device_returned = std::max(s.device_returned, -work);
+    s.device_work_max = std::max(s.device_work_max, work);
+  }
+
+  /// The device's displacement for probe p at time t (m): its depth along its direction.
+  inline Vec3
+  device_at(const fem::Probe &p, const double t)
+  {
+    const double depth = p.depth.at(t);
+    return {depth * p.direction[0], depth * p.direction[1], depth * p.direction[2]};
+  }
 
   struct Errors
   {
@@ -77,7 +103,9 @@ namespace irdm::validation
     std::vector<double> u(model.n_outputs);
     s.force.assign(P, {});
     std::array<ProbeTarget, contact::max_probes> targets;
-    unsigned n = 0;
+    std::array<Vec3, contact::max_probes>        u_before{}; // probed points, last step
+    double   work = 0;
+    unsigned n    = 0;
     for (; n < N; ++n)
       {
         const double t = (n + 1) * scene.time_step;
@@ -101,8 +129,11 @@ namespace irdm::validation
                                    (targets[p].n_patch == 0 ? "no model vertex" : "too many") +
                                    " (see probe-stiffness)");
               }
-            for (int d = 0; d < 3; ++d)
-              targets[p].displacement[d] = pr.depth.at(t) * pr.direction[d];
+            // A rigid probe prescribes the device's displacement; a coupled one its target.
+            const contact::Coupling coupling{pr.coupling_stiffness, pr.coupling_damping};
+            targets[p].displacement = coupling.target(device_at(pr, t), device_at(pr, t - scene.time_step),
+                                                      u_before[p], scene.time_step);
+            targets[p].compliance = coupling.compliance(scene.time_step);
             targets[p].direction  = pr.direction;
             targets[p].unilateral = pr.unilateral;
             targets[p].present    = t <= pr.until;
@@ -116,6 +147,9 @@ namespace irdm::validation
         bool bad = false;
         for (int p = 0; p < P; ++p)
           {
+            u_before[p] = irdm.probe_displacement(p);
+            observe_device_work(s, irdm.force(p), device_at(scene.probes[p], t),
+                                device_at(scene.probes[p], t - scene.time_step), work);
             s.force[p].push_back(irdm.force(p));
             const double f = norm(irdm.force(p));
             bad            = bad || !std::isfinite(f) || f > force_bound;
@@ -136,6 +170,7 @@ namespace irdm::validation
       }
     s.force_loop_seconds /= n;
     s.surface_seconds /= n;
+    s.device_work = work;
     return s;
   }
 } // namespace irdm::validation

@@ -22,6 +22,49 @@ namespace irdm::contact
   using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, max_rows, max_rows>;
   using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, max_rows, 1>;
 
+  /// Virtual coupling (Colgate et al. 1995): a spring (stiffness, N/m) and a damper
+  /// (damping, N s/m) between the device and the probed surface point, in place of a rigid
+  /// probe. Discretized implicitly: with u the point's displacement this step, u_prev the last
+  /// step's, x the device's displacement and v its velocity, the force on the body is
+  ///   f = k (x - u) + b (v - (u - u_prev) / tau) = c (z - u),   c = k + b / tau,
+  ///   z = (k x + b v + (b / tau) u_prev) / c,
+  /// that is, a prescribed displacement z behind the compliance 1 / c in series: S + I / c
+  /// in the contact solve. So the spring is stiff only through the body's own feed-through and
+  /// cannot make the step explicit; a unilateral probe is decided on this coupled force. Both
+  /// zero: the rigid probe (the seeds' limit).
+  struct Coupling
+  {
+    double stiffness = 0; // N/m
+    double damping   = 0; // N s/m
+
+    bool
+    rigid() const
+    {
+      return !(stiffness > 0 || damping > 0);
+    }
+    /// 1 / c (m/N); 0 for the rigid probe.
+    double
+    compliance(const double tau) const
+    {
+      return rigid() ? 0.0 : 1.0 / (stiffness + damping / tau);
+    }
+    /// z (m) from the device's displacement now and one step before (its velocity by the
+    /// same backward difference) and the point's displacement one step before.
+    std::array<double, 3>
+    target(const std::array<double, 3> &device, const std::array<double, 3> &device_prev,
+           const std::array<double, 3> &u_prev, const double tau) const
+    {
+      if (rigid())
+        return device;
+      const double          c = stiffness + damping / tau;
+      std::array<double, 3> z;
+      for (int d = 0; d < 3; ++d)
+        z[d] = (stiffness * device[d] + damping * (device[d] - device_prev[d]) / tau +
+                damping / tau * u_prev[d]) / c;
+      return z;
+    }
+  };
+
   struct ProbeRule
   {
     std::array<double, 3> direction  = {0, 0, -1};

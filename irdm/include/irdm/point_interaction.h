@@ -36,6 +36,9 @@ namespace irdm
     std::array<unsigned, contact::max_patch> patch_vertices{}; // model output vertex indices
     std::array<double, contact::max_patch>   patch_weights{};
     std::array<double, 3> displacement = {0, 0, 0}; // m, prescribed for that surface point
+    // m/N: a compliance in series with the probe (a virtual coupling's 1 / (k + b / tau), with
+    // `displacement` its target z: contact::Coupling). 0: the rigid probe.
+    double compliance = 0;
     std::array<double, 3> direction    = {0, 0, -1}; // unit push direction (unilateral)
     bool                  unilateral   = false;
     bool                  present      = true; // false: no contact this step (probe lifted)

@@ -14,7 +14,8 @@
 //   gaps        q_c = n_p . (X_v + u_hist(v) - x_p), what the step reaches with no contact;
 //   feed-through W_cd = n_p^T H[0](v_c <- v_d) n_q, + 1/k_p on the diagonal for a compliant
 //               plane of per-vertex stiffness k_p (N/m; the force is k_p times the
-//               penetration, solved implicitly, so a stiff wall does not chatter);
+//               penetration, solved implicitly, so a stiff wall does not chatter), + 1/c_p
+//               on every pair of rows of a device-held plate (its coupling's compliance);
 //   forces      lambda >= 0 complementary to g = W lambda + q >= 0
 //               (irdm_common/complementarity.h: block principal pivoting, exact to round-off,
 //               warm-started from the last step's contact set);
@@ -43,6 +44,10 @@ namespace irdm
     std::array<double, 3> normal    = {0, 0, 1}; // unit, toward the body
     std::array<double, 3> point     = {0, 0, 0}; // m, a point of the plane at the step's end
     double                stiffness = 0;         // N/m per vertex; 0: rigid
+    // m/N: a device-held plate's virtual coupling 1 / (k + b / tau) (contact::Coupling), with
+    // `point` its target z; the plate then stands at z - compliance (F . n) n, F the plane's
+    // force. All its rows share this compliance. 0: the plane is at `point`.
+    double coupling_compliance = 0;
   };
 
   struct VertexContactOptions

@@ -85,6 +85,11 @@ namespace irdm::fem
     // within this distance of the contact point by smooth weights (geometry::radius_patch),
     // so its force converges as the mesh is refined. 0: the point probe above.
     double radius = 0;
+    // Virtual coupling (irdm_common/contact.h, contact::Coupling): the probe is a device that
+    // pulls the probed point through a spring (N/m) and damper (N s/m), solved implicitly; a
+    // unilateral probe is decided on the coupled force. Both 0: the rigid probe.
+    double coupling_stiffness = 0;
+    double coupling_damping   = 0;
   };
 
   /// A set of surface vertices: those of the named surfaces (all surfaces if none named),
@@ -123,6 +128,12 @@ namespace irdm::fem
     double      penalty = 0;  // Pa/m (traction per metre of penetration); 0: the default
                               // 100 E / h (h: mean boundary edge length)
     double      vertex_stiffness = 0; // N/m per vertex, linear kinematics; 0: rigid
+    // Linear kinematics: a device-held plate. `position` is then the device's, and the plate
+    // follows it through a spring (N/m) and damper (N s/m) along the normal, solved
+    // implicitly with the contact (contact::Coupling). Both 0: the plane is where `position`
+    // says.
+    double      coupling_stiffness = 0;
+    double      coupling_damping   = 0;
 
     /// The unit normal at time t (s).
     Vec3
@@ -181,6 +192,10 @@ namespace irdm::fem
     InitialState initial    = InitialState::rest;
 
     Kinematics kinematics       = Kinematics::linear;
+    // Nonlinear kinematics only: the small-strain law (sigma = lambda tr(eps) I + 2 mu eps, the
+    // linear solver's) in place of neo-Hookean, the penalty plane contact kept. Separates what
+    // geometric and material nonlinearity cost from what the contact discretization costs.
+    bool       small_strain_law = false;
     Vec3       initial_velocity = {0, 0, 0}; // m/s, uniform (a thrown or dropped body)
 
     bool gravity_enabled = false;
