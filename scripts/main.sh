@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The main job: install, build, run the validation suites, write the reports.
 #
-#   scripts/main.sh          every report section, on restricted models (below): 9.6 min
+#   scripts/main.sh          every report section, on restricted models (below): 11.8 min
 #                            and a 3.5 GB peak on 2 cores once built; reports in reports/quick/
 #   scripts/main.sh --full   the full study (the full cat model with the seed's Table 1 on all
 #                            1554 surface DoFs as inputs, the finest verification meshes, the

@@ -46,6 +46,16 @@ namespace
                        ".");
   }
 
+  // The tip's vertical displacement over the run.
+  std::vector<double>
+  tip_history(const RunResult &r)
+  {
+    std::vector<double> z;
+    for (const auto &u : r.vertex_displacement.at("tip"))
+      z.push_back(u[2]);
+    return z;
+  }
+
   double
   total_energy(const RunResult &r, const std::size_t k)
   {
@@ -55,12 +65,6 @@ namespace
 
 TEST(NonlinearDynamics, SmallAmplitudeAgreesWithTheLinearSolver)
 {
-  const auto tip_history = [](const RunResult &r) {
-    std::vector<double> z;
-    for (const auto &u : r.vertex_displacement.at("tip"))
-      z.push_back(u[2]);
-    return z;
-  };
   const double F = -1e-4; // N: bends the tip by about 5 % of the length, linear theory
   const auto linear = tip_history(ElasticDynamics(pulsed_beam(F)).run());
   double peak = 0;
@@ -88,12 +92,6 @@ TEST(NonlinearDynamics, LinearLawIsTheLinearSolverAtAnyAmplitude)
   // neo-Hookean differs from linear by 0.4 % of the peak, it must give the
   // linear solver's history to Newton's tolerance: the separation of geometric nonlinearity
   // from contact discretization in validate-planes rests on this.
-  const auto tip_history = [](const RunResult &r) {
-    std::vector<double> z;
-    for (const auto &u : r.vertex_displacement.at("tip"))
-      z.push_back(u[2]);
-    return z;
-  };
   const double F      = -0.05; // N
   const auto   linear = tip_history(ElasticDynamics(pulsed_beam(F)).run());
   Scene        s      = pulsed_beam(F);

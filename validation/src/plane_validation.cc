@@ -614,23 +614,31 @@ namespace irdm::validation
               [&]() -> const std::vector<double> & { return lin.surface_displacement[k]; });
             log << " linear FEM " << row.linear_fem_seconds << " s" << std::flush;
           }
-        {
-          fem::Scene ls       = s;
-          ls.small_strain_law = true;
-          const auto lin      = fem::NonlinearElasticity(ls).run();
-          unsigned   k        = 0;
-          run_method(
-            row.linear_law,
-            [&](double, double &F) {
-              ++k;
-              F = 0;
-              for (size_t a = 0; a < n_walls; ++a)
-                F -= dot(lin.plane_force.at(ls.planes[a].name)[k], direction(c, a, k * tau));
-              return true;
-            },
-            [&]() -> const std::vector<double> & { return lin.surface_displacement[k]; });
-          log << " linear law" << std::flush;
-        }
+        // Only where vertex contact misses the goal (5 % impulse and displacement, 10 % force):
+        // there it says why; elsewhere it would cost a nonlinear run per case for nothing.
+        bool misses = false;
+        for (const int m : {2, 3})
+          if (row.method[m].ran)
+            misses = misses || row.method[m].impulse_error > 0.05 ||
+                     row.method[m].displacement_error > 0.05 || row.method[m].force_error > 0.10;
+        if (misses)
+          {
+            fem::Scene ls       = s;
+            ls.small_strain_law = true;
+            const auto lin      = fem::NonlinearElasticity(ls).run();
+            unsigned   k        = 0;
+            run_method(
+              row.linear_law,
+              [&](double, double &F) {
+                ++k;
+                F = 0;
+                for (size_t a = 0; a < n_walls; ++a)
+                  F -= dot(lin.plane_force.at(ls.planes[a].name)[k], direction(c, a, k * tau));
+                return true;
+              },
+              [&]() -> const std::vector<double> & { return lin.surface_displacement[k]; });
+            log << " linear law" << std::flush;
+          }
         // Compliant walls on the sweep's cases: vdof_nearest and vertex_contact_modal.
         if (std::find(o.sweep_cases.begin(), o.sweep_cases.end(), c.name) != o.sweep_cases.end())
           {
@@ -945,8 +953,12 @@ namespace irdm::validation
                 << r.linear_fem.displacement_error;
           else
             csv << ",,";
-          csv << "," << r.linear_law.force_error << "," << r.linear_law.impulse_error << ","
-              << r.linear_law.displacement_error << "\n";
+          if (r.linear_law.ran)
+            csv << "," << r.linear_law.force_error << "," << r.linear_law.impulse_error << ","
+                << r.linear_law.displacement_error;
+          else
+            csv << ",,,";
+          csv << "\n";
         }
       write_text_file((fs::path(dir) / "cases.csv").string(), csv.str());
     }
@@ -1071,19 +1083,21 @@ namespace irdm::validation
           "truth it shows what geometric and material nonlinearity cost alone; the linear FEM "
           "with vertex contact against it shows what vertex contact at one uniform stiffness "
           "costs (the truth's per-vertex stiffness is the penalty times each vertex's own "
-          "area).\n\n"
+          "area). Run on the cases where vertex contact (modal or direct) misses the goal "
+          "(5 % impulse or displacement, 10 % force).\n\n"
        << "| case | linear law vs truth: force / impulse / displ. err | vertex contact (linear "
           "FEM) vs truth: displ. err |\n|---|---|---|\n";
     for (const auto &r : rows)
-      {
-        md << "| " << r.c.name << " | " << 100 * r.linear_law.force_error << " / "
-         << 100 * r.linear_law.impulse_error << " / " << 100 * r.linear_law.displacement_error
-         << " % | ";
-        if (r.linear_fem.ran)
-          md << 100 * r.linear_fem.displacement_error << " % |\n";
-        else
-          md << "(turning wall) |\n";
-      }
+      if (r.linear_law.ran)
+        {
+          md << "| " << r.c.name << " | " << 100 * r.linear_law.force_error << " / "
+             << 100 * r.linear_law.impulse_error << " / " << 100 * r.linear_law.displacement_error
+             << " % | ";
+          if (r.linear_fem.ran)
+            md << 100 * r.linear_fem.displacement_error << " % |\n";
+          else
+            md << "(turning wall) |\n";
+        }
     md << "\n![error against depth and speed](planes.png)\n\n"
        << "## Compliant walls\n\nThe same cases with a wall of finite stiffness k (N/m per "
        << "vertex for vertex contact, per virtual DOF for virtual DOFs), solved implicitly "

@@ -206,6 +206,7 @@ namespace irdm::validation
         md << "| " << (runs[i].k == 0 && runs[i].b == 0 ? "rigid" : fmt(runs[i].k)) << " | "
            << (runs[i].k == 0 && runs[i].b == 0 ? "-" : fmt(runs[i].b)) << " | " << cell(runs[i])
            << " | " << cell(runs[i + 1]) << " |\n";
+      md << "\n";
 
       // IRDM at tau/10 too, from a model precomputed at tau/10 whose outputs are its inputs
       // (the probe's region: the force loop needs no more), against the FEM at tau/10 with the
