@@ -18,6 +18,7 @@
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
 #include <irdm/surface_exchange.h>
+#include <irdm_common/format.h>
 #include <irdm_common/csv.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
@@ -209,14 +210,6 @@ namespace irdm::play
       std::sort(v.begin(), v.end());
       const size_t i = std::min(v.size() - 1, static_cast<size_t>(std::ceil(p * v.size())) - (p > 0));
       return v[i];
-    }
-
-    std::string
-    fmt(const double x, const char *f = "%.3g")
-    {
-      char b[64];
-      std::snprintf(b, sizeof b, f, x);
-      return b;
     }
 
     // The surface as an ASCII VTU: deformed points, triangles, and the displacement (m).

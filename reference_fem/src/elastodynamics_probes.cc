@@ -80,6 +80,7 @@ namespace irdm::fem
     contact::Matrix S(3 * P, 3 * P);
     contact::Vector gap(3 * P), lambda(3 * P);
     std::array<contact::ProbeRule, contact::max_probes> rules;
+    std::array<double, contact::max_probes>             compliance{};
     for (int p = 0; p < P; ++p)
       {
         const double depth = scene.probes[p].depth.at(t);
@@ -98,6 +99,7 @@ namespace irdm::fem
           }
         const contact::Coupling coupling{pr.coupling_stiffness, pr.coupling_damping};
         const auto target = coupling.target(device, device_before, u_before, scene.time_step);
+        compliance[p]     = coupling.compliance(scene.time_step);
         for (int d = 0; d < 3; ++d)
           {
             double u_probe = 0;
@@ -121,13 +123,8 @@ namespace irdm::fem
               S(3 * p + d, 3 * q + e) = scale * s;
             }
     for (int p = 0; p < P; ++p)
-      {
-        const double c = contact::Coupling{scene.probes[p].coupling_stiffness,
-                                           scene.probes[p].coupling_damping}
-                           .compliance(scene.time_step);
-        for (int d = 0; d < 3; ++d)
-          S(3 * p + d, 3 * p + d) += c;
-      }
+      for (int d = 0; d < 3; ++d)
+        S(3 * p + d, 3 * p + d) += compliance[p];
     bool active[contact::max_probes];
     contact::solve_active_set(S, gap, rules.data(), P, lambda, active);
 

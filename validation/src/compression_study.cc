@@ -1,5 +1,6 @@
 // Issue 4's comparison on one scene: representative waveforms (plain and interpolated) at each
 // theta, the modal realization at several M, and the uncompressed model, each in closed loop.
+#include <irdm_common/format.h>
 #include <irdm_common/files.h>
 #include <irdm/modal_model.h>
 #include <irdm/representative_interaction.h>
@@ -15,14 +16,6 @@ namespace irdm::validation
 {
   namespace
   {
-    std::string
-    fmt(const double x, const char *f = "%.3g")
-    {
-      char b[64];
-      std::snprintf(b, sizeof b, f, x);
-      return b;
-    }
-
     template <class Interaction, class Model>
     CompressionRow
     measure(const fem::Scene &scene, const Model &m, const Series &fem_run, const double bound)

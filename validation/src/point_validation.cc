@@ -1,5 +1,6 @@
 // IRDM point-interaction validation against the reference FEM. Data flow: scene -> FEM run
 // (ground truth) and precompute -> model file -> IRDM runtime -> comparison -> report.
+#include <irdm_common/format.h>
 #include <irdm_common/files.h>
 #include <irdm/model.h>
 #include <irdm/modal_model.h>
@@ -96,14 +97,6 @@ namespace irdm::validation
       const auto q0 = text.find('"', text.find(':', at) + 1);
       const auto q1 = text.find('"', q0 + 1);
       return q0 == std::string::npos || q1 == std::string::npos ? "" : text.substr(q0 + 1, q1 - q0 - 1);
-    }
-
-    std::string
-    fmt(const double x, const char *f = "%.3g")
-    {
-      char b[64];
-      std::snprintf(b, sizeof b, f, x);
-      return b;
     }
 
     /// The passivity observer of each run (scene_runs.h): what the device put in, and the most
@@ -234,19 +227,10 @@ namespace irdm::validation
           PointInteraction irdm(fine_model);
           Run a{k0, b0, c.time_step, "irdm", run_irdm(c, fine_model, irdm, false, 100 * fem_peak)};
           Run f{k0, b0, c.time_step, "fem", run_fem(c, fine_model, 1, c.n_steps())};
-          f.s.surface.clear();
-          double num = 0, den = 0;
-          for (size_t p = 0; p < c.probes.size(); ++p)
-            for (size_t k = 0; k < a.s.force[p].size(); ++k)
-              for (int d = 0; d < 3; ++d)
-                {
-                  num += std::pow(a.s.force[p][k][d] - f.s.force[p][k][d], 2);
-                  den += std::pow(f.s.force[p][k][d], 2);
-                }
           md << "| " << (rigid ? "rigid" : "coupled (k0, b0)") << " | " << cell(a) << " | "
              << cell(f) << " | "
              << (a.s.diverged_at >= 0 ? "(IRDM stopped at t = " + fmt(a.s.diverged_at) + " s)"
-                                      : fmt(std::sqrt(num / std::max(den, 1e-300))))
+                                      : fmt(compare(a.s, f.s).force_rel_l2))
              << " |\n";
         }
       fs::remove(fine_model_file);

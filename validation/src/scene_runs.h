@@ -36,7 +36,7 @@ namespace irdm::validation
     // the work the device (x: its displacement, the probe's depth along its direction) did on
     // the body and coupling up to step n. A passive body never gives back more than it took:
     // W(n) >= 0 throughout.
-    double device_work     = 0; // J, W at the end
+    double device_work     = 0; // J, W so far (at the end of the run: W(N))
     double device_returned = 0; // J, max over n of -W(n): > 0 means energy was created
     double device_work_max = 0; // J, max over n of W(n)
   };
@@ -44,12 +44,12 @@ namespace irdm::validation
   /// Adds one step of the passivity observer: force f on the body (N) while the device moved
   /// from x_before to x (m).
   inline void
-  observe_device_work(Series &s, const Vec3 &f, const Vec3 &x, const Vec3 &x_before,
-                      double &work)
+  observe_device_work(Series &s, const Vec3 &f, const Vec3 &x, const Vec3 &x_before)
   {
-    work += f[0] * (x[0] - x_before[0]) + f[1] * (x[1] - x_before[1]) + f[2] * (x[2] - x_before[2]);
-    s.device_returned = std::max(s.device_returned, -work);
-    s.device_work_max = std::max(s.device_work_max, work);
+    s.device_work +=
+      f[0] * (x[0] - x_before[0]) + f[1] * (x[1] - x_before[1]) + f[2] * (x[2] - x_before[2]);
+    s.device_returned = std::max(s.device_returned, -s.device_work);
+    s.device_work_max = std::max(s.device_work_max, s.device_work);
   }
 
   /// The device's displacement for probe p at time t (m): its depth along its direction.
@@ -104,8 +104,7 @@ namespace irdm::validation
     s.force.assign(P, {});
     std::array<ProbeTarget, contact::max_probes> targets;
     std::array<Vec3, contact::max_probes>        u_before{}; // probed points, last step
-    double   work = 0;
-    unsigned n    = 0;
+    unsigned n = 0;
     for (; n < N; ++n)
       {
         const double t = (n + 1) * scene.time_step;
@@ -149,7 +148,7 @@ namespace irdm::validation
           {
             u_before[p] = irdm.probe_displacement(p);
             observe_device_work(s, irdm.force(p), device_at(scene.probes[p], t),
-                                device_at(scene.probes[p], t - scene.time_step), work);
+                                device_at(scene.probes[p], t - scene.time_step));
             s.force[p].push_back(irdm.force(p));
             const double f = norm(irdm.force(p));
             bad            = bad || !std::isfinite(f) || f > force_bound;
@@ -170,7 +169,6 @@ namespace irdm::validation
       }
     s.force_loop_seconds /= n;
     s.surface_seconds /= n;
-    s.device_work = work;
     return s;
   }
 } // namespace irdm::validation
