@@ -9,6 +9,7 @@ with the largest displacement and frames evenly spaced in time around it, each c
 |u| in mm on one colour scale, viewed from the same camera. Units: m in the files, mm on the
 colour bar; times from surface.pvd (s).
 """
+import os
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -76,7 +77,10 @@ def main():
         ax.set_title(f"t = {t:.3f} s\nmax |u| = {mag.max():.2f} mm", fontsize=8)
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0, scale))
     fig.colorbar(sm, ax=fig.axes, shrink=0.6, label="|u| (mm)")
-    fig.savefig(out, dpi=110, bbox_inches="tight")
+    # Written under a part name, then renamed: a failed run leaves no half-written picture.
+    part = out.with_name(out.name + ".part.png")
+    fig.savefig(part, dpi=110, bbox_inches="tight")
+    os.replace(part, out)
     return 0
 
 
