@@ -735,6 +735,13 @@ namespace
     play->add_option("--out", po.out_dir, "output folder")->capture_default_str();
     play->add_flag("!--no-check", po.check, "skip the offline replay with the exact model");
     play->add_flag("!--no-pin", po.pin, "do not pin the threads to CPUs");
+    play->add_option("--spin-us", po.spin_us,
+                     "the force thread wakes this early and spins to each tick, us (default: "
+                     "90 % of the period; 0: sleep to the tick)")
+      ->check(CLI::Range(0.0, 1e6));
+    play->add_flag("!--no-baseline", po.baseline,
+                   "skip the baseline (the same force loop with no work, run first for as long: "
+                   "the machine's own stalls)");
     play->add_flag("--quiet", po.quiet, "no progress");
 
     try

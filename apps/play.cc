@@ -27,6 +27,7 @@
 #include <array>
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -65,6 +66,40 @@ namespace irdm::play
       while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, nullptr) == EINTR)
         {
         }
+    }
+
+    // Waits for an absolute tick: sleeps to spin_ns before it, then spins on the clock.
+    // Returns the wake-up time (ns).
+    std::int64_t
+    wait_for_tick(const std::int64_t deadline, const std::int64_t spin_ns)
+    {
+      sleep_until_ns(deadline - spin_ns);
+      std::int64_t wake = now_ns();
+      while (wake < deadline) // the spin: a busy vCPU is not descheduled by its host
+        wake = now_ns();
+      return wake;
+    }
+
+    // Stalls of a loop: runs of consecutive wake-ups more than a period late (the thread was
+    // not running at its tick), counted once each, and the longest (us).
+    struct Stalls
+    {
+      long   count = 0, late_ticks = 0;
+      double longest_us = 0;
+    };
+
+    Stalls
+    stalls_of(const std::vector<double> &late_us, const double period_us)
+    {
+      Stalls s;
+      for (size_t n = 0; n < late_us.size(); ++n)
+        if (late_us[n] > period_us)
+          {
+            s.count += n == 0 || late_us[n - 1] <= period_us;
+            ++s.late_ticks;
+            s.longest_us = std::max(s.longest_us, late_us[n]);
+          }
+      return s;
     }
 
     // The calling thread on one CPU and, where the system allows, at real-time priority.
@@ -274,7 +309,7 @@ namespace irdm::play
       throw InputError("--display-hz must be in (0, 10000]");
     check_output_folder("--out", o.out_dir);
     const fs::path dir(o.out_dir);
-    for (const auto &name : {"forces.csv", "histogram.csv", "play.md"})
+    for (const auto &name : {"forces.csv", "histogram.csv", "summary.csv", "play.md"})
       check_output_file("--out", (dir / name).string(), {o.model, o.trajectory});
     OutputLock lock((dir / "play").string());
     const Trajectory trajectory = read_trajectory(o.trajectory);
@@ -394,20 +429,52 @@ namespace irdm::play
     const int                       n_cpus = static_cast<int>(std::thread::hardware_concurrency());
     const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(1e9 / rate));
     const std::int64_t display_ns = static_cast<std::int64_t>(std::llround(1e9 / o.display_hz));
-    const std::int64_t start      = now_ns() + 50000000; // 50 ms to let both threads settle
+    const double       spin_us    = o.spin_us < 0 ? 0.9e6 / rate : std::min(o.spin_us, 1e6 / rate);
+    const std::int64_t spin_ns    = static_cast<std::int64_t>(std::llround(1e3 * spin_us));
+    // The clock starts once both threads run where they should (creating a thread under
+    // mlockall faults in its whole stack, tens of ms on this VM), and 10 ms later.
+    std::atomic<int>          threads_ready{0};
+    std::atomic<std::int64_t> start_at{0};
+    const auto                wait_for_start = [&] {
+      if (threads_ready.fetch_add(1) + 1 == 2)
+        start_at.store(now_ns() + 10000000, std::memory_order_release);
+      std::int64_t t;
+      // Sleeps, not yields: a FIFO thread yielding on main's CPU would starve it.
+      while ((t = start_at.load(std::memory_order_acquire)) == 0)
+        std::this_thread::sleep_for(std::chrono::microseconds(100));
+      return t;
+    };
 
     if (!o.quiet)
       out << "playing " << n_steps << " steps at " << fmt(rate) << " Hz (" << fmt(n_steps / rate)
           << " s), display at " << fmt(o.display_hz) << " Hz, probe on vertex " << vertex << "\n"
           << std::flush;
 
+    // The machine's own stalls, measured beside the run: the same force loop (CPU, priority,
+    // sleep and spin) doing no work, just before and as long. A tick it wakes more than a
+    // period late would be missed by any step; what the runtime misses beyond these is its own.
+    std::vector<double> baseline_late_us(o.baseline ? n_steps : 0);
+    if (o.baseline)
+      {
+        std::thread idle([&] {
+          make_real_time(o.pin && n_cpus > 1 ? n_cpus - 1 : -1, 80);
+          const std::int64_t start = now_ns() + 10000000;
+          for (long n = 0; n < n_steps; ++n)
+            {
+              const std::int64_t deadline = start + n * period_ns;
+              baseline_late_us[n] = 1e-3 * static_cast<double>(wait_for_tick(deadline, spin_ns) - deadline);
+            }
+        });
+        idle.join();
+      }
+
     std::thread force([&] {
-      force_rt = make_real_time(o.pin && n_cpus > 1 ? n_cpus - 1 : -1, 80);
+      force_rt                 = make_real_time(o.pin && n_cpus > 1 ? n_cpus - 1 : -1, 80);
+      const std::int64_t start = wait_for_start();
       for (long n = 0; n < n_steps; ++n)
         {
           const std::int64_t deadline = start + n * period_ns;
-          sleep_until_ns(deadline);
-          const std::int64_t wake = now_ns();
+          const std::int64_t wake     = wait_for_tick(deadline, spin_ns);
           runtime.step(couple(n, runtime.probe_displacement(0)), 1);
           runtime.save_surface_state(exchange.back());
           exchange.publish();
@@ -423,7 +490,8 @@ namespace irdm::play
       force_done.store(true, std::memory_order_release);
     });
     std::thread deformation([&] {
-      display_rt = make_real_time(o.pin && n_cpus > 1 ? 0 : -1, 70);
+      display_rt               = make_real_time(o.pin && n_cpus > 1 ? 0 : -1, 70);
+      const std::int64_t start = wait_for_start();
       for (long tick = 0; tick < display_ticks; ++tick)
         {
           sleep_until_ns(start + tick * display_ns);
@@ -521,8 +589,40 @@ namespace irdm::play
       peak_force = std::max(peak_force, std::sqrt(force_x[n] * force_x[n] + force_y[n] * force_y[n] +
                                                    force_z[n] * force_z[n]));
     const double missed_fraction = static_cast<double>(missed) / n_steps;
+    // Why each deadline was missed: the step itself took longer than a period, or the thread
+    // was not running at its tick (woken late). Consecutive late wake-ups of more than a period
+    // are one stall of the machine (a descheduled vCPU), counted once with its length.
+    const double period_us = 1e-3 * static_cast<double>(period_ns);
+    long         missed_overrun = 0;
+    for (long n = 0; n < n_steps; ++n)
+      missed_overrun += step_us[n] > period_us;
+    const Stalls stalls = stalls_of(late_us, period_us), baseline = stalls_of(baseline_late_us, period_us);
     const double achieved_display =
       n_updates > 0 ? n_updates / (static_cast<double>(n_steps) / rate) : 0;
+    {
+      // One row for scripts that gather many runs (scripts/play_study.sh).
+      const auto one = [](const double v) { return std::vector<double>{v}; };
+      write_csv((dir / "summary.csv").string(),
+                {"rate_hz", "spin_us", "steps", "missed", "missed_step_overrun", "missed_woken_late",
+                 "stalls", "longest_stall_ms", "baseline_missed", "baseline_stalls",
+                 "baseline_longest_stall_ms", "force_step_p50_us", "force_step_p99_us",
+                 "force_step_p999_us", "force_step_max_us", "wake_late_p50_us", "wake_late_p99_us",
+                 "period_jitter_p99_us", "surface_update_p50_us", "surface_update_p99_us",
+                 "surface_update_max_us", "surface_updates", "peak_force_N", "force_error"},
+                {one(rate), one(spin_us), one(static_cast<double>(n_steps)),
+                 one(static_cast<double>(missed)), one(static_cast<double>(missed_overrun)),
+                 one(static_cast<double>(missed - missed_overrun)),
+                 one(static_cast<double>(stalls.count)), one(1e-3 * stalls.longest_us),
+                 one(o.baseline ? static_cast<double>(baseline.late_ticks) : -1),
+                 one(o.baseline ? static_cast<double>(baseline.count) : -1),
+                 one(o.baseline ? 1e-3 * baseline.longest_us : -1), one(percentile(step_us, 0.5)),
+                 one(percentile(step_us, 0.99)), one(percentile(step_us, 0.999)),
+                 one(percentile(step_us, 1.0)), one(percentile(late_us, 0.5)),
+                 one(percentile(late_us, 0.99)), one(percentile(abs_jitter, 0.99)),
+                 one(percentile(update_us, 0.5)), one(percentile(update_us, 0.99)),
+                 one(percentile(update_us, 1.0)), one(static_cast<double>(n_updates)),
+                 one(peak_force), one(force_error)});
+    }
     std::ostringstream md;
     md << "# irdm play\n\n"
        << "Model `" << o.model << "`: " << model.n_inputs / 3 << " input vertices, "
@@ -544,7 +644,10 @@ namespace irdm::play
        << " % of the steps).\n\n"
        << "Force loop at " << fmt(rate) << " Hz (" << n_steps << " steps; one model step per tick, "
        << (std::abs(speed - 1) < 1e-9 ? "real time" : "the trajectory plays at " + fmt(speed) + "x real time")
-       << "), " << force_rt << ". Deformation loop at " << fmt(o.display_hz) << " Hz, "
+       << "), " << force_rt << ", "
+       << (spin_ns > 0 ? "sleeping to " + fmt(spin_us) + " us before each tick and spinning the rest"
+                       : std::string("sleeping to each tick"))
+       << ". Deformation loop at " << fmt(o.display_hz) << " Hz, "
        << display_rt << "; it updated the surface " << n_updates << " times (" << fmt(achieved_display)
        << " Hz). Shared state: a triple buffer (irdm/surface_exchange.h). Machine: " << n_cpus
        << " CPUs.\n\n"
@@ -560,13 +663,26 @@ namespace irdm::play
        << fmt(percentile(update_us, 0.99)) << " | " << fmt(percentile(update_us, 0.999)) << " | "
        << fmt(percentile(update_us, 1.0)) << " |\n\n"
        << "Missed deadlines (a step finished after the next tick was due): " << missed << " of "
-       << n_steps << " (" << fmt(100 * missed_fraction) << " %).\n\n";
+       << n_steps << " (" << fmt(100 * missed_fraction) << " %): " << missed_overrun
+       << " because the step took longer than a period, " << missed - missed_overrun
+       << " because the thread was woken late; " << stalls.count
+       << " stall(s) in which it was not running for more than a period"
+       << (stalls.count > 0 ? " (the longest " + fmt(1e-3 * stalls.longest_us) + " ms)" : std::string())
+       << ".\n\n";
+    if (o.baseline)
+      md << "Baseline, measured just before: the same loop (CPU, priority, sleep and spin) doing no "
+         << "work for as many ticks woke more than a period late at " << baseline.late_ticks
+         << " ticks (" << fmt(100.0 * baseline.late_ticks / n_steps) << " %), in " << baseline.count
+         << " stall(s)"
+         << (baseline.count > 0 ? ", the longest " + fmt(1e-3 * baseline.longest_us) + " ms" : std::string())
+         << ": deadlines any step would miss on this machine at that time.\n\n";
     if (force_error >= 0)
       md << "Force against the exact model (the same probes offline with every mode in the "
          << "force loop; relative L2 over the run): " << fmt(force_error)
          << (modal.force_modes == modal.n_modes ? " (the same model: a determinism check)" : "")
          << ". Peak force " << fmt(peak_force) << " N.\n\n";
     md << "Files: `forces.csv` (per step: device, force, force_step_us, wake_late_us), "
+       << "`summary.csv` (these figures in one row; force_error and baseline_* -1: not run), "
        << "`histogram.csv` (log bins, 10 per decade), `surface/surface.pvd` (" << n_frames
        << " VTU frames of the deformed surface for ParaView; displacement_m per vertex).\n";
     write_text_file((dir / "play.md").string(), md.str());

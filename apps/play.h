@@ -19,7 +19,13 @@ namespace irdm::play
     unsigned    max_frames    = 100; // VTU frames kept (evenly spaced over the run)
     bool        check         = true; // replay offline with every mode (the exact model)
     bool        pin           = true; // pin the force thread to the last CPU
+    // The force thread sleeps until this long before each tick and then spins on the clock
+    // (us; 0: it sleeps to the tick; negative: 90 % of the period). A haptic servo thread owns
+    // its CPU: a vCPU that keeps running is not descheduled by its host between ticks, which
+    // is where the late wake-ups of a sleeping loop come from (reports/play/README.md).
+    double spin_us = -1;
     bool        quiet         = false;
+    bool        baseline      = true; // first the same loop with no work: the machine's stalls
     // Virtual coupling (contact::Coupling): the device pulls the probed vertex through a spring
     // (N/m) and damper (N s/m), unilateral on the coupled force. Both 0: the rigid probe.
     double coupling_stiffness = 0;

@@ -13,6 +13,8 @@
 #include <irdm/representative_model.h>
 #include <irdm_common/error.h>
 
+#include "surface_product.h"
+
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -49,9 +51,18 @@ namespace
     return p;
   }
 
+  // What one benchmark iteration does: a force loop step, a step and then a full surface
+  // update, or the surface update alone (the deformation thread's work, the state held).
+  enum class Work
+  {
+    step,
+    step_and_surface,
+    surface
+  };
+
   template <class Interaction, class Model>
   void
-  run(benchmark::State &state, const Model &m, const bool surface)
+  run(benchmark::State &state, const Model &m, const Work work)
   {
     Interaction         irdm(m);
     std::vector<double> u(m.n_outputs);
@@ -63,9 +74,12 @@ namespace
       }
     for (auto _ : state)
       {
-        const auto p = probe_at(m, n++);
-        irdm.step(&p, 1);
-        if (surface)
+        if (work != Work::surface)
+          {
+            const auto p = probe_at(m, n++);
+            irdm.step(&p, 1);
+          }
+        if (work != Work::step)
           {
             irdm.surface_displacement(u.data());
             benchmark::DoNotOptimize(u.data());
@@ -123,40 +137,74 @@ main(int argc, char **argv)
       std::fprintf(stderr, "irdm_kernels: error: %s\n", e.what());
       return 2;
     }
-  for (const bool surface : {false, true})
+  for (const Work work : {Work::step, Work::step_and_surface, Work::surface})
     {
-      const std::string what = surface ? "step + full surface update/" : "force loop step/";
+      const std::string what = work == Work::step               ? "force loop step/"
+                               : work == Work::step_and_surface ? "step + full surface update/"
+                                                                : "full surface update alone/";
       benchmark::RegisterBenchmark((what + "direct convolution").c_str(), [=](benchmark::State &s) {
-        run<irdm::PointInteraction>(s, *g_model, surface);
+        run<irdm::PointInteraction>(s, *g_model, work);
       });
       for (const auto &[name, model] : g_rep)
         {
           const irdm::RepresentativeModel *c = model.get();
           benchmark::RegisterBenchmark((what + name).c_str(), [=](benchmark::State &s) {
-            run<irdm::RepresentativeInteraction>(s, *c, surface);
+            run<irdm::RepresentativeInteraction>(s, *c, work);
           });
         }
       for (const auto &[M, model] : g_modal)
         {
           const irdm::ModalModel *mm = model.get();
           benchmark::RegisterBenchmark((what + "modal M " + std::to_string(M)).c_str(),
-                                       [=](benchmark::State &s) { run<irdm::ModalInteraction>(s, *mm, surface); });
+                                       [=](benchmark::State &s) { run<irdm::ModalInteraction>(s, *mm, work); });
         }
+    }
+  // The modal surface update's product u = Phi_M a alone, with each kernel the runtime has
+  // (surface_product.h), on the same shapes: the SIMD kernel's gain measured side by side.
+  for (const auto &[M, model] : g_modal)
+    {
+      const irdm::ModalModel *mm = model.get();
+      const auto product = [mm](benchmark::State &s, const bool avx2) {
+        std::vector<double> a(mm->surface_modes), u(mm->n_outputs);
+        for (size_t i = 0; i < a.size(); ++i)
+          a[i] = std::sin(1.0 + static_cast<double>(i));
+        for (auto _ : s)
+          {
+            (avx2 ? irdm::detail::surface_product_avx2 : irdm::detail::surface_product_portable)(
+              mm->shapes.data(), mm->surface_modes, mm->n_outputs, a.data(), u.data());
+            benchmark::DoNotOptimize(u.data());
+            benchmark::ClobberMemory();
+          }
+      };
+      const std::string tag = " M " + std::to_string(M);
+      benchmark::RegisterBenchmark(("Phi_M a product/portable (build flags)" + tag).c_str(),
+                                   [=](benchmark::State &s) { product(s, false); });
+      if (irdm::detail::surface_product_avx2_available())
+        benchmark::RegisterBenchmark(("Phi_M a product/AVX2 FMA" + tag).c_str(),
+                                     [=](benchmark::State &s) { product(s, true); });
     }
   Collector collector;
   benchmark::RunSpecifiedBenchmarks(&collector);
 
+  // Each group's baseline: the direct convolution, or for the product the portable kernel
+  // at the same M (the group is the name up to the mode count then).
+  const auto group = [](const std::string &name) {
+    const auto p = name.find("product/");
+    return p == std::string::npos ? name.substr(0, name.find('/'))
+                                  : name.substr(0, p) + name.substr(name.rfind(" M "));
+  };
   std::map<std::string, double> direct;
   for (const auto &[name, ns] : collector.times)
-    if (name.find("direct convolution") != std::string::npos)
-      direct[name.substr(0, name.find('/'))] = ns;
-  std::string md = "| kernel | time per call (us) | ratio to direct convolution |\n|---|---|---|\n";
+    if (name.find("direct convolution") != std::string::npos ||
+        name.find("portable") != std::string::npos)
+      direct[group(name)] = ns;
+  std::string md = "| kernel | time per call (us) | ratio to the baseline |\n|---|---|---|\n";
   for (const auto &[name, ns] : collector.times)
     {
       char        line[256];
-      const auto  d = direct.find(name.substr(0, name.find('/')));
+      const auto  d = direct.find(group(name));
       std::snprintf(line, sizeof line, "| %s | %.2f | %s |\n", name.c_str(), ns / 1e3,
-                    d == direct.end() ? "- (direct not run)" : std::to_string(ns / d->second).substr(0, 6).c_str());
+                    d == direct.end() ? "- (baseline not run)" : std::to_string(ns / d->second).substr(0, 6).c_str());
       md += line;
     }
   const auto &m = *g_model;
@@ -164,8 +212,9 @@ main(int argc, char **argv)
   std::snprintf(head, sizeof head,
                 "# IRDM runtime kernels (Google Benchmark, one core)\n\nModel: %u inputs x %u "
                 "outputs x T = %u (%s), one probe pressing with a slow sine, steady state (the "
-                "history window full). Ratios are to the direct convolution of the same kernel, "
-                "measured in this run.\n\n",
+                "history window full). Ratios are to the direct convolution of the same kernel "
+                "(for the product u = Phi_M a of the modal surface update: to the portable "
+                "kernel at the same M), measured in this run.\n\n",
                 m.n_inputs, m.n_outputs, m.length, m.double_storage ? "double" : "float");
   std::printf("\n%s%s", head, md.c_str());
   if (!report.empty())

@@ -16,6 +16,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <sys/wait.h>
@@ -296,4 +297,42 @@ TEST(Cli, SimulateRunsLinearPlanesByVertexContact)
   const auto n  = ok.planes[0].normal_at(0.5); // halfway: (-1.5, 0.5, 0) made unit
   EXPECT_NEAR(n[0], -1.5 / std::sqrt(2.5), 1e-15);
   EXPECT_NEAR(n[1], 0.5 / std::sqrt(2.5), 1e-15);
+}
+
+// irdm play on the beam: both loops run, the files other programs read are there with their
+// columns, and with every mode in the force loop the real-time forces are the offline replay's
+// (force_error 0: the threads change nothing). A bad trajectory is refused (exit 2).
+TEST(Cli, PlayRunsBothLoopsAndMatchesTheOfflineReplay)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  make_model(scene, "cli_play.h5");
+  const std::string trajectory = tmp("cli_play_device.csv");
+  // Into the free end (x = 0.25 m, outward normal +x) by 5 mm and back, over 0.2 s.
+  std::ofstream(trajectory) << "time_s,x_m,y_m,z_m\n0,0.255,0,0.01\n0.1,0.245,0,0.01\n0.2,0.255,0,0.01\n";
+  const std::string dir = tmp("cli_play_out");
+  fs::remove_all(dir);
+  const std::string play = std::string(IRDM_CLI) + " play " + tmp("cli_play.h5") +
+                           " --rate-hz 2000 --display-hz 200 --frames 3 --quiet --out " + dir;
+  const int s = status(play + " --trajectory " + trajectory);
+  EXPECT_TRUE(s == 0 || s == 3) << s; // 3: more than 0.1 % of deadlines missed (a busy machine)
+  std::ifstream csv(fs::path(dir) / "summary.csv");
+  std::string   header, row;
+  ASSERT_TRUE(std::getline(csv, header) && std::getline(csv, row));
+  std::map<std::string, double> v;
+  std::stringstream             h(header), r(row);
+  for (std::string name, value; std::getline(h, name, ',') && std::getline(r, value, ',');)
+    v[name] = std::stod(value);
+  EXPECT_EQ(v["steps"], 100);
+  EXPECT_EQ(v["missed"], v["missed_step_overrun"] + v["missed_woken_late"]);
+  EXPECT_GE(v["baseline_missed"], 0); // the baseline ran
+  EXPECT_LE(v["baseline_missed"], 100);
+  EXPECT_GT(v["peak_force_N"], 1e-4); // the probe pressed the beam
+  EXPECT_GE(v["force_error"], 0);
+  EXPECT_LT(v["force_error"], 1e-12);
+  EXPECT_GT(v["surface_updates"], 0);
+  EXPECT_TRUE(fs::exists(fs::path(dir) / "forces.csv"));
+  EXPECT_TRUE(fs::exists(fs::path(dir) / "surface" / "surface.pvd"));
+  std::ofstream(tmp("cli_play_bad.csv")) << "time_s,x_m,y_m\n0,0.255,0\n";
+  EXPECT_EQ(status(play + "_bad --trajectory " + tmp("cli_play_bad.csv")), 2);
+  EXPECT_EQ(status(play + "_missing --trajectory " + tmp("no_such.csv")), 2);
 }

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "irdm_test_util.h"
+#include "surface_product.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -22,6 +23,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <random>
 
 namespace fs = std::filesystem;
 using namespace irdm;
@@ -329,6 +331,51 @@ TEST(Runtime, RadiusPatchWeightsOnAFlatGrid)
   EXPECT_EQ(geometry::radius_patch(v, tri, {5, 5, 0}, 0.5, vertex.data(), weight.data(), 8), 1);
   EXPECT_EQ(geometry::radius_patch(v, tri, {5.5, 5.5, 0}, 0.5, vertex.data(), weight.data(), 8), 0);
   EXPECT_EQ(geometry::radius_patch(v, tri, {5, 5, 0}, r, vertex.data(), weight.data(), 20), -1);
+}
+
+// The modal surface update's product u = Phi_M a (surface_product.h): the portable kernel and
+// the AVX2/FMA one against a long-double sum, at sizes that leave every remainder (rows not a
+// multiple of 8, modes not a multiple of 4) and at the full cat's 1554 x 100.
+TEST(Runtime, SurfaceProductKernelsAgreeWithAnExactSum)
+{
+  std::mt19937                           gen(7);
+  std::uniform_real_distribution<double> dist(-1, 1);
+  for (const auto &[nout, M] : {std::pair<size_t, size_t>{1, 1}, {7, 3}, {8, 4}, {9, 5}, {13, 25},
+                                {17, 100}, {1554, 100}})
+    {
+      std::vector<double> shapes(nout * M), a(M), u(nout);
+      for (auto &x : shapes)
+        x = dist(gen);
+      for (auto &x : a)
+        x = dist(gen);
+      std::vector<double> exact(nout), scale(nout);
+      for (size_t j = 0; j < nout; ++j)
+        {
+          long double s = 0, g = 0;
+          for (size_t m = 0; m < M; ++m)
+            {
+              s += static_cast<long double>(shapes[j * M + m]) * a[m];
+              g += std::abs(static_cast<long double>(shapes[j * M + m]) * a[m]);
+            }
+          exact[j] = static_cast<double>(s), scale[j] = static_cast<double>(g);
+        }
+      // Any summation order is within M eps of the sum of the magnitudes.
+      const auto check = [&](const char *kernel) {
+        for (size_t j = 0; j < nout; ++j)
+          ASSERT_LE(std::abs(u[j] - exact[j]), 2.0 * M * 1.2e-16 * scale[j])
+            << kernel << ", " << nout << " x " << M << ", row " << j;
+      };
+      detail::surface_product_portable(shapes.data(), M, nout, a.data(), u.data());
+      check("portable");
+      if (detail::surface_product_avx2_available())
+        {
+          std::fill(u.begin(), u.end(), 1e300); // every row must be written
+          detail::surface_product_avx2(shapes.data(), M, nout, a.data(), u.data());
+          check("AVX2");
+        }
+      else
+        std::cout << "note: no AVX2/FMA on this CPU; only the portable kernel checked\n";
+    }
 }
 
 TEST(Runtime, UntruncatedIrdmReproducesTheFem)

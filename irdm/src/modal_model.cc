@@ -7,6 +7,7 @@
 #include <chrono>
 
 #include "probe_step.h"
+#include "surface_product.h"
 #include "vertex_contact_step.h"
 
 namespace irdm
@@ -269,11 +270,7 @@ namespace irdm
                    const unsigned n_pushed, const Force &force, double *u)
     {
       const size_t nout = model.n_outputs;
-      // shapes is [output][mode] row-major, i.e. Phi_M^T column-major.
-      Eigen::Map<Eigen::VectorXd>(u, nout).noalias() =
-        Eigen::Map<const Eigen::MatrixXd>(model.shapes.data(), model.surface_modes, nout)
-          .transpose() *
-        Vec(modal_u, model.surface_modes);
+      detail::surface_product(model.shapes.data(), model.surface_modes, nout, modal_u, u);
       for (unsigned i = 0; i < n_pushed; ++i)
         {
           const double f = force(i);

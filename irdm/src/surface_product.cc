@@ -1,0 +1,110 @@
+#include "surface_product.h"
+
+#include <Eigen/Dense>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#  include <immintrin.h>
+#  define IRDM_HAVE_AVX2_KERNEL 1
+#endif
+
+namespace irdm::detail
+{
+  void
+  surface_product_portable(const double *shapes, const std::size_t M,
+                           const std::size_t n_outputs, const double *a, double *u)
+  {
+    const auto m = static_cast<Eigen::Index>(M), n = static_cast<Eigen::Index>(n_outputs);
+    // shapes is [output][mode] row-major, i.e. Phi_M^T column-major.
+    Eigen::Map<Eigen::VectorXd>(u, n).noalias() =
+      Eigen::Map<const Eigen::MatrixXd>(shapes, m, n).transpose() *
+      Eigen::Map<const Eigen::VectorXd>(a, m);
+  }
+
+#ifdef IRDM_HAVE_AVX2_KERNEL
+  bool
+  surface_product_avx2_available()
+  {
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  }
+
+  namespace
+  {
+    // The four sums of the lanes of r0..r3, as one vector {sum r0, sum r1, sum r2, sum r3}.
+    __attribute__((target("avx2,fma"))) inline __m256d
+    lane_sums(const __m256d r0, const __m256d r1, const __m256d r2, const __m256d r3)
+    {
+      const __m256d s01 = _mm256_hadd_pd(r0, r1); // {r0 01, r1 01, r0 23, r1 23}
+      const __m256d s23 = _mm256_hadd_pd(r2, r3);
+      return _mm256_add_pd(_mm256_permute2f128_pd(s01, s23, 0x20),
+                           _mm256_permute2f128_pd(s01, s23, 0x31));
+    }
+  } // namespace
+
+  // Eight output rows at a time share each load of a, and their eight independent FMA chains
+  // hide the FMA latency; the rows are read once, front to back (the cost is streaming Phi_M).
+  __attribute__((target("avx2,fma"))) void
+  surface_product_avx2(const double *shapes, const std::size_t M, const std::size_t n_outputs,
+                       const double *a, double *u)
+  {
+    const std::size_t M4 = M - M % 4;
+    std::size_t       j  = 0;
+    for (; j + 8 <= n_outputs; j += 8)
+      {
+        const double *row = shapes + j * M;
+        __m256d       acc[8];
+        for (auto &r : acc)
+          r = _mm256_setzero_pd();
+        for (std::size_t m = 0; m < M4; m += 4)
+          {
+            const __m256d am = _mm256_loadu_pd(a + m);
+            for (int r = 0; r < 8; ++r)
+              acc[r] = _mm256_fmadd_pd(_mm256_loadu_pd(row + r * M + m), am, acc[r]);
+          }
+        __m256d lo = lane_sums(acc[0], acc[1], acc[2], acc[3]);
+        __m256d hi = lane_sums(acc[4], acc[5], acc[6], acc[7]);
+        if (M4 < M)
+          {
+            alignas(32) double tail[8] = {};
+            for (int r = 0; r < 8; ++r)
+              for (std::size_t m = M4; m < M; ++m)
+                tail[r] += row[r * M + m] * a[m];
+            lo = _mm256_add_pd(lo, _mm256_load_pd(tail));
+            hi = _mm256_add_pd(hi, _mm256_load_pd(tail + 4));
+          }
+        _mm256_storeu_pd(u + j, lo);
+        _mm256_storeu_pd(u + j + 4, hi);
+      }
+    for (; j < n_outputs; ++j) // the last n_outputs % 8 rows
+      {
+        double s = 0;
+        for (std::size_t m = 0; m < M; ++m)
+          s += shapes[j * M + m] * a[m];
+        u[j] = s;
+      }
+  }
+#else
+  bool
+  surface_product_avx2_available()
+  {
+    return false;
+  }
+
+  void
+  surface_product_avx2(const double *shapes, const std::size_t M, const std::size_t n_outputs,
+                       const double *a, double *u)
+  {
+    surface_product_portable(shapes, M, n_outputs, a, u);
+  }
+#endif
+
+  void
+  surface_product(const double *shapes, const std::size_t M, const std::size_t n_outputs,
+                  const double *a, double *u)
+  {
+    static const bool avx2 = surface_product_avx2_available(); // thread-safe, decided once
+    if (avx2)
+      surface_product_avx2(shapes, M, n_outputs, a, u);
+    else
+      surface_product_portable(shapes, M, n_outputs, a, u);
+  }
+} // namespace irdm::detail

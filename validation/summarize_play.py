@@ -1,0 +1,81 @@
+#!/usr/bin/python3
+"""One table over repeated `irdm play` runs (scripts/play_study.sh).
+
+Usage: /usr/bin/python3 validation/summarize_play.py STUDY.csv OUT.md
+
+STUDY.csv: one row per run and repetition, the columns of play's summary.csv after `run` and
+`repetition`. Per configuration: missed deadlines summed over the repetitions (with their
+causes), the stalls in which the force thread did not run for more than a period, the
+baseline's (the same loop with no work, run just before: the machine's own stalls), and the
+median over the repetitions of each latency percentile (us). Standard library only.
+"""
+import csv
+import os
+import statistics
+import sys
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit(__doc__)
+    rows = list(csv.DictReader(open(sys.argv[1])))
+    if not rows:
+        sys.exit("summarize_play: no runs in " + sys.argv[1])
+    runs = {}
+    for row in rows:
+        runs.setdefault(row["run"], []).append({k: float(v) for k, v in row.items() if k != "run"})
+
+    def med(group, key):
+        return statistics.median(r[key] for r in group)
+
+    def g(x):
+        return f"{x:.3g}"
+
+    def baseline(group):
+        ran = [r for r in group if r["baseline_missed"] >= 0]
+        if not ran:
+            return "not run"
+        ticks = sum(r["baseline_missed"] for r in ran)
+        steps = sum(r["steps"] for r in ran)
+        return (f"{int(ticks)} of {int(steps)} ({100 * ticks / steps:.3g} %) "
+                f"({int(sum(r['baseline_stalls'] for r in ran))}, "
+                f"{g(max(r['baseline_longest_stall_ms'] for r in ran))})")
+
+    lines = [
+        "| run | rate (Hz) | spin (us) | repetitions | missed deadlines (all repetitions) "
+        "| of which step overran / woken late | stalls > 1 period (longest, ms) "
+        "| baseline, no work: ticks > 1 period late (stalls, longest ms) | runs within 0.1 % | force step p50 / p99 / p99.9 (us) | wake-up lateness p50 / p99 (us) "
+        "| surface update p50 / p99 (us) | force error against all modes |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for name, group in runs.items():
+        steps = sum(r["steps"] for r in group)
+        missed = sum(r["missed"] for r in group)
+        within = sum(1 for r in group if r["missed"] <= 0.001 * r["steps"])
+        lines.append(
+            f"| `{name}` | {g(group[0]['rate_hz'])} | {g(group[0]['spin_us'])} | {len(group)} "
+            f"| {int(missed)} of {int(steps)} ({100 * missed / steps:.3g} %) "
+            f"| {int(sum(r['missed_step_overrun'] for r in group))} / "
+            f"{int(sum(r['missed_woken_late'] for r in group))} "
+            f"| {int(sum(r['stalls'] for r in group))} ({g(max(r['longest_stall_ms'] for r in group))}) "
+            f"| {baseline(group)} "
+            f"| {within} of {len(group)} "
+            f"| {g(med(group, 'force_step_p50_us'))} / {g(med(group, 'force_step_p99_us'))} / "
+            f"{g(med(group, 'force_step_p999_us'))} "
+            f"| {g(med(group, 'wake_late_p50_us'))} / {g(med(group, 'wake_late_p99_us'))} "
+            f"| {g(med(group, 'surface_update_p50_us'))} / {g(med(group, 'surface_update_p99_us'))} "
+            f"| {g(med(group, 'force_error'))} |")
+    text = ("# irdm play, repeated runs\n\n"
+            "Made by `scripts/play_study.sh` from `" + os.path.basename(sys.argv[1]) + "`. Sums over "
+            "the repetitions for deadlines; medians over the repetitions for latencies.\n\n"
+            + "\n".join(lines) + "\n")
+    part = sys.argv[2] + ".part"
+    with open(part, "w") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(part, sys.argv[2])
+
+
+if __name__ == "__main__":
+    main()
