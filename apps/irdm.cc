@@ -687,6 +687,9 @@ namespace
       ->check(CLI::Range(0.0, 1e12));
     validate_planes->add_flag("!--no-direct", vp.direct,
                               "skip vertex_contact_direct (its H needs GBs of memory)");
+    validate_planes->add_flag("--quick", vp.quick,
+                              "15 of the 22 cases: every kind and the sweep's cases, at fewer "
+                              "depths and speeds (the main job's default)");
 
     // play
     irdm::play::PlayOptions po;

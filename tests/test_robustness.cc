@@ -63,12 +63,21 @@ namespace
     const unsigned nv = 4, ni = 3, T = 8, nout = 3 * nv, nin = 3 * ni, modes = 2;
     h5::Writer     w(path);
     w.attribute("/", "format", std::string("irdm-impulse-response"));
-    w.attribute("/", "format_version", 1LL);
+    w.attribute("/", "format_version", 2LL);
     w.attribute("/", "time_step_s", 0.002);
     w.attribute("/", "length", static_cast<long long>(T));
     w.attribute("/", "integrator", std::string("newmark_average_acceleration"));
     w.attribute("/", "mesh_hash", std::string("0123456789abcdef"));
     w.attribute("/", "storage", std::string("double"));
+    // A free body (version 2), so that the mutations reach its mass properties too.
+    w.attribute("/", "body", std::string("free"));
+    w.create_group("/rigid_body");
+    const double              mass = 0.5;
+    const std::vector<double> center = {0.01, 0.02, 0.03},
+                              inertia = {2e-4, 0, 0, 0, 3e-4, 0, 0, 0, 4e-4};
+    w.write("/rigid_body/mass_kg", {1}, &mass);
+    w.write("/rigid_body/center_of_mass_m", {3}, center.data());
+    w.write("/rigid_body/inertia_kg_m2", {3, 3}, inertia.data());
     const std::vector<long long> out_tags = {10, 11, 12, 13}, in_tags = {10, 11, 12};
     const std::vector<double>    xyz      = {0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1};
     w.create_group("/outputs");

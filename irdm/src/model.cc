@@ -1,4 +1,5 @@
 #include <irdm/model.h>
+#include <irdm/rigid_body.h>
 #include <irdm_common/error.h>
 #include <irdm_common/h5.h>
 
@@ -47,6 +48,51 @@ namespace irdm
     m.integrator      = r.string_attribute("/", "integrator");
     m.mesh_hash       = r.string_attribute("/", "mesh_hash");
     m.storage_on_disk = r.string_attribute("/", "storage");
+    if (r.has_attribute("/", "body"))
+      {
+        const std::string body = r.string_attribute("/", "body");
+        if (body != "free" && body != "fixed")
+          fail("attribute 'body' must be \"free\" or \"fixed\", not \"" + body + "\"");
+        m.free_body = body == "free";
+      }
+    if (m.free_body)
+      {
+        for (const char *name : {"/rigid_body/mass_kg", "/rigid_body/center_of_mass_m",
+                                 "/rigid_body/inertia_kg_m2"})
+          if (!r.exists(name))
+            fail("a free body needs dataset '" + std::string(name) + "'");
+        const auto mass    = r.read_double("/rigid_body/mass_kg", {1});
+        const auto center  = r.read_double("/rigid_body/center_of_mass_m", {3});
+        const auto inertia = r.read_double("/rigid_body/inertia_kg_m2", {3, 3});
+        bool       finite  = std::isfinite(mass[0]) && mass[0] > 0;
+        for (int i = 0; i < 3; ++i)
+          {
+            m.center_of_mass[i] = center[i];
+            finite              = finite && std::isfinite(center[i]);
+            for (int j = 0; j < 3; ++j)
+              {
+                m.inertia[i][j] = inertia[3 * i + j];
+                finite          = finite && std::isfinite(inertia[3 * i + j]);
+              }
+          }
+        if (!finite)
+          fail("rigid_body: the mass must be positive and every value finite");
+        m.mass = mass[0];
+        // The inertia must be one a body can have (symmetric, triangle inequality).
+        RigidBodyInertia check;
+        check.mass = m.mass;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            check.inertia(i, j) = m.inertia[i][j];
+        try
+          {
+            RigidBody body(check);
+          }
+        catch (const InputError &e)
+          {
+            fail(e.what());
+          }
+      }
 
     for (const char *name : {"/outputs/node_tags", "/outputs/coordinates", "/inputs/node_tags",
                              "/inputs/output_index", "/surface/triangles",
@@ -146,8 +192,11 @@ namespace irdm
         r.string_attribute("/", "format") != "irdm-impulse-response")
       fail("not an IRDM impulse-response model (attribute 'format' is missing or different)");
     const double version = r.double_attribute("/", "format_version");
-    if (version != 1)
-      fail("format version " + std::to_string(version) + " is not supported (this build reads 1)");
+    // Version 2 added free bodies (attribute body, group /rigid_body); version 1 files are
+    // fixed bodies and read unchanged.
+    if (version != 1 && version != 2)
+      fail("format version " + std::to_string(version) +
+           " is not supported (this build reads 1 and 2)");
     check_complete(r, path);
     ImpulseResponseModel m;
     read_frame(r, path, m, expected_time_step);

@@ -328,6 +328,8 @@ namespace irdm
     f.attribute("/", "compressed_bytes", m.bytes());
     for (const char *g : {"/outputs", "/inputs", "/surface", "/modes"})
       f.copy_from(source_file, g);
+    if (m.free_body)
+      f.copy_from(source_file, "/rigid_body");
     f.create_group("/representatives");
     f.write("/representatives/waveforms", {m.n_representative(), m.length},
             m.representatives.data());

@@ -222,9 +222,9 @@ namespace irdm::fem
         check_output_file("--out", options.output, {scene.mesh_file});
         output_lock = OutputLock(options.output);
       }
-    if (scene.fixed_surfaces.empty())
-      throw InputError("precompute: the scene fixes no surface; a free body has rigid modes "
-                       "(non-grounded objects are not supported yet)");
+    // A scene that fixes no surface is a free body: its six rigid-body modes (w = 0) are
+    // separated from the elastic ones and left to the runtime's rigid-body dynamics.
+    const bool free_body = scene.fixed_surfaces.empty();
     if (scene.gravity_enabled)
       log("note: gravity is a constant load and is not part of the impulse responses");
 
@@ -241,7 +241,14 @@ namespace irdm::fem
     // The dense route keeps all modes (exact); beyond its limit, or when --modes is given, the
     // sparse route keeps the lowest ones plus a static correction for the rest.
     const bool sparse = options.modes.has_value() || n > dense_route_limit;
-    const unsigned n_lowest = sparse ? options.modes.value_or(default_sparse_modes) : n;
+    const unsigned n_lowest =
+      sparse ? options.modes.value_or(default_sparse_modes) : n - (free_body ? 6u : 0u);
+    if (free_body && sparse)
+      throw InputError("precompute: a free body (no fixed surface) is supported on the dense "
+                       "route only (up to " + std::to_string(dense_route_limit) +
+                       " free DoFs, without --modes); this one has " + std::to_string(n) +
+                       " (the sparse route needs a shifted eigensolve and inertia-relief "
+                       "residual modes, not built yet)");
     if (sparse && (n_lowest < 1 || n_lowest >= n))
       throw InputError("precompute: --modes " + std::to_string(n_lowest) + " must be between 1 and " +
                        std::to_string(n - 1) + " (the body has " + std::to_string(n) +
@@ -299,14 +306,18 @@ namespace irdm::fem
         (rep.double_storage ? "double" : "float") + "); " +
         (sparse ? "sparse route, the lowest " + std::to_string(n_lowest) +
                     " modes + residual modes of the inputs"
-                : std::string("dense route, all modes")));
+                : std::string("dense route, all modes")) +
+        (free_body ? "; free body: the 6 rigid-body modes are separated" : ""));
 
     // 2. Modes, M-orthonormal, at the output and input DoFs (row-major, rows x nm), on rank 0
     //    and broadcast so that every rank uses the same bits. Dense route: all modes by LAPACK
     //    dsygvd. Sparse route: the lowest n_lowest by SLEPc plus the residual modes of unit
     //    loads at the inputs, so that the basis holds K^-1 at the inputs exactly.
     t0 = Clock::now();
-    unsigned            nm = sparse ? 0 : n; // modes kept
+    // Free body: the lowest six modes are the rigid ones and are not kept.
+    const unsigned      n_rigid = free_body ? 6 : 0;
+    unsigned            nm = sparse ? 0 : n - n_rigid; // modes kept
+    double              rigid_w2_max = 0; // free body: largest |w^2| of the rigid modes
     std::vector<double> w2, phi_out, phi_in, compliance; // compliance: nout x nin (sparse)
     if (rank == 0)
       {
@@ -350,12 +361,28 @@ namespace irdm::fem
               openblas_set_num_threads(threads);
             if (info != 0)
               throw std::runtime_error("dsygvd failed (info " + std::to_string(info) + ")");
-            // Row-major Phi restricted to the given free DoFs.
+            if (free_body)
+              {
+                // The rigid modes: six eigenvalues zero to round-off (a free body has exactly
+                // six), well below the first elastic one. Whatever basis of that null space
+                // LAPACK returns, the elastic modes are M-orthogonal to all of it, so dropping
+                // the six is the mass-orthogonal separation of rigid motion.
+                for (unsigned i = 0; i < n_rigid; ++i)
+                  rigid_w2_max = std::max(rigid_w2_max, std::abs(w2[i]));
+                if (n <= n_rigid || !(rigid_w2_max < 1e-6 * w2[n_rigid]))
+                  throw InputError(
+                    "precompute: the free body's six lowest eigenvalues are not rigid modes "
+                    "(largest |w^2| " + std::to_string(rigid_w2_max) + " against the next, " +
+                    std::to_string(n > n_rigid ? w2[n_rigid] : 0.0) +
+                    "): is the mesh one connected body?");
+                w2.erase(w2.begin(), w2.begin() + n_rigid);
+              }
+            // Row-major Phi restricted to the given free DoFs (the elastic modes only).
             const auto restrict_rows = [&](const std::vector<int> &free) {
-              std::vector<double> r(free.size() * static_cast<size_t>(n));
+              std::vector<double> r(free.size() * static_cast<size_t>(nm));
               for (size_t k = 0; k < free.size(); ++k)
-                for (unsigned i = 0; i < n; ++i)
-                  r[k * n + i] = phi[static_cast<size_t>(i) * n + free[k]];
+                for (unsigned i = 0; i < nm; ++i)
+                  r[k * nm + i] = phi[static_cast<size_t>(i + n_rigid) * n + free[k]];
               return r;
             };
             phi_out = restrict_rows(out_free);
@@ -375,6 +402,9 @@ namespace irdm::fem
       MPI_Bcast(compliance.data(), static_cast<int>(compliance.size()), MPI_DOUBLE, 0,
                 MPI_COMM_WORLD);
     rep.n_modes    = nm;
+    rep.free_body  = free_body;
+    MPI_Bcast(&rigid_w2_max, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    rep.rigid_w2_max = rigid_w2_max;
     rep.n_lowest   = n_lowest;
     rep.seconds_eigen = since(t0);
     if (w2[0] <= 0)
@@ -538,7 +568,7 @@ namespace irdm::fem
             {
               auto &f = *w;
               f.attribute("/", "format", std::string("irdm-impulse-response"));
-              f.attribute("/", "format_version", 1LL);
+              f.attribute("/", "format_version", 2LL);
               write_provenance(f, scene, coef);
               f.attribute("/", "spec_id", spec_id);
               f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; H in m/N"));
@@ -555,7 +585,27 @@ namespace irdm::fem
                                      std::to_string(n) + " modes by SLEPc shift-invert, plus " +
                                      std::to_string(nm - n_lowest) + " residual modes of "
                                      "the inputs' static responses)"
-                                 : std::string("modal (all modes, exact)"));
+                                 : free_body
+                                     ? std::string("modal, free body (the 6 rigid-body modes "
+                                                   "removed, mass-orthogonal; all elastic "
+                                                   "modes, exact)")
+                                     : std::string("modal (all modes, exact)"));
+              f.attribute("/", "body", std::string(free_body ? "free" : "fixed"));
+              if (free_body)
+                {
+                  // What the runtime's rigid-body dynamics needs, from the mesh (exact for
+                  // straight tetrahedra, uniform density).
+                  const MassProperties mp =
+                    mass_properties(read_gmsh(scene.mesh_file), scene.density);
+                  f.create_group("/rigid_body");
+                  f.write("/rigid_body/mass_kg", {1}, &mp.mass);
+                  f.write("/rigid_body/center_of_mass_m", {3}, mp.center.data());
+                  f.write("/rigid_body/inertia_kg_m2", {3, 3}, &mp.inertia[0][0]);
+                  f.attribute("/rigid_body", "rigid_modes_removed", static_cast<long long>(n_rigid));
+                  f.attribute("/rigid_body", "rigid_modes_largest_w2", rigid_w2_max);
+                  f.attribute("/rigid_body", "frame",
+                              std::string("model (mesh) frame; inertia about the centre of mass"));
+                }
               f.attribute("/", "free_dofs", static_cast<long long>(n));
               f.attribute("/", "modes_kept", static_cast<long long>(nm));
               f.attribute("/", "modes_lowest", static_cast<long long>(n_lowest));

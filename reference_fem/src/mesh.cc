@@ -62,6 +62,53 @@ namespace irdm::fem
            6.0;
   }
 
+  MassProperties
+  mass_properties(const TetMesh &mesh, const double density)
+  {
+    MassProperties out;
+    if (mesh.tets.empty())
+      return out;
+    // Moments about a vertex of the mesh, not the origin: no cancellation for a body far away.
+    const std::array<double, 3> o = mesh.vertices[mesh.tets[0][0]];
+    const auto shifted = [&](const unsigned v) {
+      return std::array<double, 3>{mesh.vertices[v][0] - o[0], mesh.vertices[v][1] - o[1],
+                                   mesh.vertices[v][2] - o[2]};
+    };
+    double volume = 0, first[3] = {0, 0, 0}, second[3][3] = {};
+    for (const auto &tet : mesh.tets)
+      {
+        const auto   a = shifted(tet[0]), b = shifted(tet[1]), c = shifted(tet[2]),
+                   d = shifted(tet[3]);
+        const double v = signed_volume(a, b, c, d);
+        double       sum[3];
+        for (int i = 0; i < 3; ++i)
+          sum[i] = a[i] + b[i] + c[i] + d[i];
+        volume += v;
+        for (int i = 0; i < 3; ++i)
+          {
+            first[i] += v * sum[i] / 4;
+            for (int j = 0; j < 3; ++j)
+              second[i][j] += v / 20 *
+                              (a[i] * a[j] + b[i] * b[j] + c[i] * c[j] + d[i] * d[j] + sum[i] * sum[j]);
+          }
+      }
+    out.mass = density * volume;
+    for (int i = 0; i < 3; ++i)
+      out.center[i] = first[i] / volume; // about o, until below
+    // About the centre: int r_i r_j = second - V c_i c_j; I = rho (tr(.) delta - (.)).
+    double central[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        central[i][j] = second[i][j] - volume * out.center[i] * out.center[j];
+    const double trace = central[0][0] + central[1][1] + central[2][2];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        out.inertia[i][j] = density * ((i == j ? trace : 0.0) - central[i][j]);
+    for (int i = 0; i < 3; ++i)
+      out.center[i] += o[i];
+    return out;
+  }
+
   std::string
   file_hash(const std::string &path)
   {

@@ -290,26 +290,37 @@ namespace irdm::validation
     if (between[1] < -1)
       throw InputError("validate-planes: no dome triangle whose virtual DOFs all first touch "
                        "the same vertex");
-    std::vector<Case>   cases;
-    for (const double depth : {0.002, 0.005, 0.01, 0.02})
+    // --quick keeps every kind of case and the sweep's cases, at fewer depths and speeds
+    // (no 20 mm press, one two-wall and one sliding depth, three impact speeds).
+    const bool q = o.quick;
+    const std::vector<double> press_depths =
+      q ? std::vector<double>{0.002, 0.005, 0.01} : std::vector<double>{0.002, 0.005, 0.01, 0.02};
+    const std::vector<double> between_depths =
+      q ? std::vector<double>{0.002, 0.01} : std::vector<double>{0.002, 0.005, 0.01, 0.02};
+    const std::vector<double> speeds =
+      q ? std::vector<double>{0.05, 0.1, 0.5} : std::vector<double>{0.05, 0.1, 0.2, 0.5};
+    const std::vector<double> pair_depths =
+      q ? std::vector<double>{0.005} : std::vector<double>{0.005, 0.01};
+    std::vector<Case> cases;
+    for (const double depth : press_depths)
       cases.push_back(press("side", side, depth));
     for (const double depth : {0.002, 0.005})
       cases.push_back(press("oblique", oblique, depth));
-    for (const double depth : {0.002, 0.005, 0.01, 0.02})
+    for (const double depth : between_depths)
       cases.push_back(press("between", between, depth));
-    for (const double depth : {0.002, 0.005, 0.01, 0.02})
+    for (const double depth : press_depths)
       cases.push_back(press("top", top, depth));
-    for (const double speed : {0.05, 0.1, 0.2, 0.5})
+    for (const double speed : speeds)
       cases.push_back(impact(side, speed, 0.002));
     // Two walls at once, the same press on each: one on the top, one on the side.
-    for (const double depth : {0.005, 0.01})
+    for (const double depth : pair_depths)
       {
         Case c = press("top_and_side", top, depth);
         c.d.push_back(side);
         cases.push_back(c);
       }
     // A tilted wall whose contact patch slides over the side: it turns 50 degrees about z.
-    for (const double depth : {0.005, 0.01})
+    for (const double depth : pair_depths)
       cases.push_back(slide(side, depth, 25));
 
     // 1b. The vertex-contact model: every free surface vertex an input and an output, the
@@ -979,6 +990,11 @@ namespace irdm::validation
        << "`; ground truth: the nonlinear FEM on the same mesh (neo-Hookean, penalty plane "
        << "contact over the faces). All errors below are therefore method error on this "
        << "discretization plus the linear model's geometric error, not discretization error.\n\n"
+       << (o.quick ? "Run with `--quick` (the main job's default): " + std::to_string(cases.size()) +
+                       " cases, every kind and the sweep's, at fewer depths and speeds (no 20 mm "
+                       "press, one two-wall and one sliding depth, no 0.2 m/s impact); "
+                       "`scripts/main.sh --full` runs all 22.\n\n"
+                   : std::string())
        << "Methods (`planes.csv` has one row per case and method):\n\n"
        << "- `vdof_nearest`, `vdof_interpolated`: seed 001's virtual DOFs, "
        << model.n_orientations << " orientations (icosahedron subdivided " << o.subdivisions

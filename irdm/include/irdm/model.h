@@ -28,6 +28,14 @@ namespace irdm
     std::vector<std::string>             surface_names;
 
     std::string integrator, mesh_hash, storage_on_disk;
+
+    // A free body (no fixed surface; format version 2, root attribute body = "free"): its
+    // responses hold the deformation only, the six rigid-body modes removed, and the runtime
+    // moves it by rigid-body dynamics with these mass properties (irdm/rigid_body.h).
+    bool                                 free_body = false;
+    double                               mass      = 0;   // kg
+    std::array<double, 3>                center_of_mass{}; // m, model frame
+    std::array<std::array<double, 3>, 3> inertia{};        // kg m^2, about the centre of mass
   };
 
   /// The modal realization the precompute stores with H (/modes): every mode of the fixed

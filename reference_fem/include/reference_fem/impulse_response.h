@@ -19,6 +19,14 @@
 // across ranks, rank 0 writes. With the same vertices in and out, H[s] is symmetric
 // (reciprocity): only the half from each input on is computed, the rest is filled by symmetry,
 // and the stored H[s] is exactly symmetric. One rank writes a batch while the next computes.
+//
+// Free body (a scene that fixes no surface; dense route): K is singular, its six rigid-body
+// modes have w = 0. They are dropped and H is made of the elastic modes only, which are
+// M-orthogonal to every rigid motion: H is the response with its rigid part removed by the
+// mass-weighted projection (the best rigid fit with mass weights, to first order), and the
+// deformation it gives carries no linear or angular momentum. Its static compliance is the
+// inertia-relief pseudo-inverse of K. The file stores the body's mass, centre of mass and
+// inertia for the runtime's rigid-body dynamics (docs/model-format.md, version 2).
 #include <reference_fem/scene.h>
 
 #include <functional>
@@ -55,6 +63,8 @@ namespace irdm::fem
     unsigned n_modes = 0;       // kept: n_free on the dense route, lowest + residual on the sparse
     unsigned n_lowest = 0;      // exact eigenmodes among them
     bool     sparse  = false;   // the sparse route (lowest modes + residual modes)
+    bool     free_body = false; // no fixed surface: the 6 rigid-body modes are not kept
+    double   rigid_w2_max = 0;  // free body: largest |w^2| of those 6, (rad/s)^2 (round-off)
     double   eigen_residual = 0; // sparse: largest |K x - w2 M x| / |K x| of the modes kept
     unsigned eigen_iterations = 0; // sparse: Krylov-Schur restarts
     double   seconds_static = 0;   // sparse: K^-1 at (outputs, inputs), within seconds_eigen

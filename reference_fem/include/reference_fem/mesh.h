@@ -40,6 +40,19 @@ namespace irdm::fem
                 const std::array<double, 3> &c,
                 const std::array<double, 3> &d);
 
+  /// Mass properties of a body of uniform density filling the mesh, exact for its straight
+  /// tetrahedra (closed form: int x_i x_j dV = V/20 (sum_a x_ai x_aj + S_i S_j) over a
+  /// tetrahedron, S the sum of its 4 vertices; Tonon, J. Math. Stat. 1, 2004).
+  struct MassProperties
+  {
+    double                               mass = 0;   // kg
+    std::array<double, 3>                center{};   // m, centre of mass
+    std::array<std::array<double, 3>, 3> inertia{};  // kg m^2, about the centre of mass
+  };
+
+  MassProperties
+  mass_properties(const TetMesh &mesh, double density);
+
   /// FNV-1a 64-bit hash of a file's bytes, as 16 hex digits: identifies the mesh a result
   /// or model was made from.
   std::string

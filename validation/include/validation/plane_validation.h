@@ -39,6 +39,9 @@ namespace irdm::validation
     std::vector<std::string> sweep_cases     = {"press_side_5mm", "press_top_5mm",
                                                 "impact_side_100mm_s", "slide_side_5mm"};
     std::string plot_script;        // python script for the charts; "" skips charts
+    // Fewer depths and speeds (every kind of case and the sweep's cases kept): the main job's
+    // default, within its 10-minute budget.
+    bool quick = false;
   };
 
   void

@@ -1,0 +1,108 @@
+// Rigid-body motion of a free body: kick, then the free rigid body by the splitting of
+// Dullweber, Leimkuhler and McLachlan (irdm/rigid_body.h).
+#include <irdm/rigid_body.h>
+#include <irdm_common/error.h>
+
+#include <cmath>
+#include <string>
+
+namespace irdm
+{
+  RigidBody::RigidBody(const RigidBodyInertia &inertia)
+    : inertia_(inertia)
+  {
+    const auto finite = [](const auto &m) { return m.array().isFinite().all(); };
+    if (!(inertia.mass > 0) || !std::isfinite(inertia.mass) || !finite(inertia.center) ||
+        !finite(inertia.inertia))
+      throw InputError("rigid body: the mass must be positive and the centre and inertia "
+                       "finite (mass " + std::to_string(inertia.mass) + " kg)");
+    const Eigen::Matrix3d sym = 0.5 * (inertia.inertia + inertia.inertia.transpose());
+    if ((sym - inertia.inertia).norm() > 1e-12 * sym.norm())
+      throw InputError("rigid body: the inertia tensor is not symmetric");
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(sym);
+    principal_ = eig.eigenvalues();
+    axes_      = eig.eigenvectors();
+    if (axes_.determinant() < 0)
+      axes_.col(2) *= -1; // a right-handed principal frame
+    // Every real mass distribution has I_a + I_b >= I_c (the moments are sums of squared
+    // distances); allow round-off of a thin body.
+    const double tol = 1e-9 * principal_.sum();
+    if (!(principal_.minCoeff() > 0) || principal_(0) + principal_(1) < principal_(2) - tol)
+      throw InputError("rigid body: principal moments " + std::to_string(principal_(0)) + ", " +
+                       std::to_string(principal_(1)) + ", " + std::to_string(principal_(2)) +
+                       " kg m^2 are not those of a body");
+    inverse_inertia_ = axes_ * principal_.cwiseInverse().asDiagonal() * axes_.transpose();
+    state_.position  = inertia.center;
+    rotation_        = Eigen::Matrix3d::Identity();
+  }
+
+  void
+  RigidBody::set_state(const RigidBodyState &s)
+  {
+    state_             = s;
+    state_.orientation = s.orientation.normalized();
+    rotation_          = state_.orientation.toRotationMatrix();
+  }
+
+  void
+  RigidBody::set_velocity(const Eigen::Vector3d &velocity, const Eigen::Vector3d &angular_velocity)
+  {
+    state_.linear_momentum = inertia_.mass * velocity;
+    // L = R I R^T omega
+    state_.angular_momentum =
+      rotation_ * (inertia_.inertia * (rotation_.transpose() * angular_velocity));
+  }
+
+  Eigen::Vector3d
+  RigidBody::angular_velocity() const
+  {
+    return rotation_ * (inverse_inertia_ * (rotation_.transpose() * state_.angular_momentum));
+  }
+
+  double
+  RigidBody::kinetic_energy() const
+  {
+    return 0.5 * state_.linear_momentum.squaredNorm() / inertia_.mass +
+           0.5 * state_.angular_momentum.dot(angular_velocity());
+  }
+
+  Eigen::Matrix3d
+  RigidBody::step_compliance(const Eigen::Vector3d &X, const Eigen::Vector3d &Y,
+                             const double tau) const
+  {
+    const auto cross = [](const Eigen::Vector3d &r) {
+      Eigen::Matrix3d c;
+      c << 0, -r(2), r(1), r(2), 0, -r(0), -r(1), r(0), 0;
+      return c;
+    };
+    return tau * tau *
+           (Eigen::Matrix3d::Identity() / inertia_.mass -
+            cross(X - inertia_.center) * inverse_inertia_ * cross(Y - inertia_.center));
+  }
+
+  void
+  RigidBody::rotate_about_principal_axis(const int axis, const double tau)
+  {
+    // The body-frame angular momentum's component along the axis is constant in this flow,
+    // so the flow is a rotation about the axis at the rate L_axis / I_axis.
+    const Eigen::Vector3d a      = axes_.col(axis);
+    const double          l_axis = a.dot(rotation_.transpose() * state_.angular_momentum);
+    const double          angle  = tau * l_axis / principal_(axis);
+    state_.orientation = (state_.orientation * Eigen::Quaterniond(Eigen::AngleAxisd(angle, a)))
+                           .normalized();
+    rotation_ = state_.orientation.toRotationMatrix();
+  }
+
+  void
+  RigidBody::step(const Eigen::Vector3d &force, const Eigen::Vector3d &torque, const double tau)
+  {
+    state_.linear_momentum += tau * force;
+    state_.angular_momentum += tau * torque;
+    state_.position += (tau / inertia_.mass) * state_.linear_momentum;
+    rotate_about_principal_axis(0, 0.5 * tau);
+    rotate_about_principal_axis(1, 0.5 * tau);
+    rotate_about_principal_axis(2, tau);
+    rotate_about_principal_axis(1, 0.5 * tau);
+    rotate_about_principal_axis(0, 0.5 * tau);
+  }
+} // namespace irdm
