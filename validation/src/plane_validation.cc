@@ -603,6 +603,21 @@ namespace irdm::validation
           }
         if (n_walls == 1 && c.turn_times.empty())
           run_vdof(row.same_contact, 2, 0);
+        // A recorded FEM run of the case's walls (scene ls) scored as a method: its wall force
+        // along -d at each step (d as the wall turns) and its surface.
+        const auto replay = [&](MethodResult &m, const fem::RunResult &run, const fem::Scene &ls) {
+          unsigned k = 0;
+          run_method(
+            m,
+            [&](double, double &F) {
+              ++k;
+              F = 0;
+              for (size_t a = 0; a < n_walls; ++a)
+                F -= dot(run.plane_force.at(ls.planes[a].name)[k], direction(c, a, k * tau));
+              return true;
+            },
+            [&]() -> const std::vector<double> & { return run.surface_displacement[k]; });
+        };
         if (c.turn_times.empty()) // linear planes keep their normal
           {
             fem::Scene ls = s;
@@ -612,17 +627,7 @@ namespace irdm::validation
             const auto t1  = Clock::now();
             const auto lin = fem::ElasticDynamics(ls).run();
             row.linear_fem_seconds = since(t1);
-            unsigned k = 0;
-            run_method(
-              row.linear_fem,
-              [&](double, double &F) {
-                ++k;
-                F = 0;
-                for (size_t a = 0; a < n_walls; ++a)
-                  F -= dot(lin.plane_force.at(ls.planes[a].name)[k], c.d[a]);
-                return true;
-              },
-              [&]() -> const std::vector<double> & { return lin.surface_displacement[k]; });
+            replay(row.linear_fem, lin, ls);
             log << " linear FEM " << row.linear_fem_seconds << " s" << std::flush;
           }
         // Only where vertex contact misses the goal (5 % impulse and displacement, 10 % force):
@@ -636,18 +641,7 @@ namespace irdm::validation
           {
             fem::Scene ls       = s;
             ls.small_strain_law = true;
-            const auto lin      = fem::NonlinearElasticity(ls).run();
-            unsigned   k        = 0;
-            run_method(
-              row.linear_law,
-              [&](double, double &F) {
-                ++k;
-                F = 0;
-                for (size_t a = 0; a < n_walls; ++a)
-                  F -= dot(lin.plane_force.at(ls.planes[a].name)[k], direction(c, a, k * tau));
-                return true;
-              },
-              [&]() -> const std::vector<double> & { return lin.surface_displacement[k]; });
+            replay(row.linear_law, fem::NonlinearElasticity(ls).run(), ls);
             log << " linear law" << std::flush;
           }
         // Compliant walls on the sweep's cases: vdof_nearest and vertex_contact_modal.
