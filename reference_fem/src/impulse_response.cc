@@ -224,7 +224,8 @@ namespace irdm::fem
       }
     // A scene that fixes no surface is a free body: its six rigid-body modes (w = 0) are
     // separated from the elastic ones and left to the runtime's rigid-body dynamics.
-    const bool free_body = scene.fixed_surfaces.empty();
+    const bool     free_body = scene.fixed_surfaces.empty();
+    const unsigned n_rigid   = free_body ? 6 : 0; // its rigid-body modes, not kept
     if (scene.gravity_enabled)
       log("note: gravity is a constant load and is not part of the impulse responses");
 
@@ -242,7 +243,7 @@ namespace irdm::fem
     // sparse route keeps the lowest ones plus a static correction for the rest.
     const bool sparse = options.modes.has_value() || n > dense_route_limit;
     const unsigned n_lowest =
-      sparse ? options.modes.value_or(default_sparse_modes) : n - (free_body ? 6u : 0u);
+      sparse ? options.modes.value_or(default_sparse_modes) : n - n_rigid;
     if (free_body && sparse)
       throw InputError("precompute: a free body (no fixed surface) is supported on the dense "
                        "route only (up to " + std::to_string(dense_route_limit) +
@@ -314,8 +315,6 @@ namespace irdm::fem
     //    dsygvd. Sparse route: the lowest n_lowest by SLEPc plus the residual modes of unit
     //    loads at the inputs, so that the basis holds K^-1 at the inputs exactly.
     t0 = Clock::now();
-    // Free body: the lowest six modes are the rigid ones and are not kept.
-    const unsigned      n_rigid = free_body ? 6 : 0;
     unsigned            nm = sparse ? 0 : n - n_rigid; // modes kept
     double              rigid_w2_max = 0; // free body: largest |w^2| of the rigid modes
     std::vector<double> w2, phi_out, phi_in, compliance; // compliance: nout x nin (sparse)
