@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "probe_step.h"
 #include "surface_product.h"
@@ -41,6 +42,9 @@ namespace irdm
     out.surface_modes        = M;
     out.highest_frequency_hz = md.frequency_hz[M - 1];
     out.step                 = md.step;
+    out.w2.resize(N);
+    for (unsigned i = 0; i < N; ++i)
+      out.w2[i] = std::pow(2 * 3.141592653589793 * md.frequency_hz[i], 2);
     out.shapes.resize(static_cast<size_t>(nout) * M);
     for (unsigned j = 0; j < nout; ++j)
       std::copy_n(&md.shapes[static_cast<size_t>(j) * N], M, &out.shapes[static_cast<size_t>(j) * M]);
@@ -215,7 +219,13 @@ namespace irdm
   {
     // The input DoF whose output is output DoF j (contact rows are outputs of inputs).
     const unsigned i = 3u * static_cast<unsigned>(model_.output_input_index[j / 3]) + j % 3;
-    return model_.h0_inputs[static_cast<size_t>(k) * model_.n_inputs + i];
+    const double   h = model_.h0_inputs[static_cast<size_t>(k) * model_.n_inputs + i];
+    if (!rigid_)
+      return h;
+    const auto  &x = model_.output_coordinates[j / 3];
+    const auto  &y = model_.output_coordinates[model_.input_output_index[k / 3]];
+    return h + rigid_->entry(Eigen::Vector3d(x[0], x[1], x[2]), static_cast<int>(j % 3),
+                             Eigen::Vector3d(y[0], y[1], y[2]), static_cast<int>(k % 3));
   }
 
   void
@@ -258,6 +268,31 @@ namespace irdm
       return false;
     end_step();
     return true;
+  }
+
+  bool
+  ModalInteraction::step(const PlaneTarget *planes, const int n_planes,
+                         const RigidStepCompliance &rigid)
+  {
+    rigid_        = &rigid;
+    const bool ok = step(planes, n_planes);
+    rigid_        = nullptr;
+    return ok;
+  }
+
+  double
+  ModalInteraction::input_displacement(const unsigned k) const
+  {
+    return Vec(&model_.input_shapes[k * stride_], N_).dot(Vec(xu_.data(), N_));
+  }
+
+  double
+  ModalInteraction::elastic_energy() const
+  {
+    double e = 0;
+    for (unsigned i = 0; i < N_; ++i)
+      e += xv_[i] * xv_[i] + model_.w2[i] * xu_[i] * xu_[i];
+    return 0.5 * e;
   }
 
   namespace

@@ -1,4 +1,4 @@
-// Rigid-body motion of a free body: kick, then the free rigid body by the splitting of
+// Rigid-body motion of a free body: half kicks around the free rigid body by the splitting of
 // Dullweber, Leimkuhler and McLachlan (irdm/rigid_body.h).
 #include <irdm/rigid_body.h>
 #include <irdm_common/error.h>
@@ -75,7 +75,7 @@ namespace irdm
       c << 0, -r(2), r(1), r(2), 0, -r(0), -r(1), r(0), 0;
       return c;
     };
-    return tau * tau *
+    return 0.25 * tau * tau *
            (Eigen::Matrix3d::Identity() / inertia_.mass -
             cross(X - inertia_.center) * inverse_inertia_ * cross(Y - inertia_.center));
   }
@@ -96,13 +96,19 @@ namespace irdm
   void
   RigidBody::step(const Eigen::Vector3d &force, const Eigen::Vector3d &torque, const double tau)
   {
-    state_.linear_momentum += tau * force;
-    state_.angular_momentum += tau * torque;
+    const Eigen::Vector3d dp = (0.25 * tau) * (state_.force + force);
+    const Eigen::Vector3d dL = (0.25 * tau) * (state_.torque + torque);
+    state_.linear_momentum += dp;
+    state_.angular_momentum += dL;
     state_.position += (tau / inertia_.mass) * state_.linear_momentum;
     rotate_about_principal_axis(0, 0.5 * tau);
     rotate_about_principal_axis(1, 0.5 * tau);
     rotate_about_principal_axis(2, tau);
     rotate_about_principal_axis(1, 0.5 * tau);
     rotate_about_principal_axis(0, 0.5 * tau);
+    state_.linear_momentum += dp;
+    state_.angular_momentum += dL;
+    state_.force  = force;
+    state_.torque = torque;
   }
 } // namespace irdm

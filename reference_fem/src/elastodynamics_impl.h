@@ -105,6 +105,10 @@ namespace irdm::fem
     external_force(double t, Vector<double> &f) const;
     Vector<double>
     prescribed_values(double t) const;
+    /// The scene's initial velocity at every DoF (m/s): the centre of mass's velocity plus the
+    /// spin about it, w x (x - c) at the DoF's support point; 0 on constrained DoFs.
+    Vector<double>
+    initial_velocity() const;
     void
     record(const Vector<double> &u, const Vector<double> &v, const Vector<double> &a,
            const Vector<double> &f, const Vector<double> &lambda, double t,

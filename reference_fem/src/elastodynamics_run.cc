@@ -119,9 +119,6 @@ namespace irdm::fem
   {
     if (!(scene.duration > 0))
       throw InputError("scene '" + scene.name + "' gives no time.duration_s: nothing to run");
-    if (scene.initial_velocity != Vec3{0, 0, 0})
-      throw InputError("scene '" + scene.name + "': initial velocities are run by the "
-                       "nonlinear solver (NonlinearElasticity), not the linear one");
     RunResult out;
     init_result(out);
     for (const auto &p : scene.planes)
@@ -151,15 +148,26 @@ namespace irdm::fem
         for (unsigned i = 0; i < probe_dofs.size(); ++i)
           f[probe_dofs[i]] += lambda[i];
       }
-    else if (f.l2_norm() > 0)
+    else
       {
-        // At rest with a load at t = 0: the balance M a0 = f(0) gives the initial acceleration.
-        SparseMatrix<double> m = condensed(mass);
-        DirectSolver         m_inverse;
-        m_inverse.initialize(m);
+        // Unstrained, possibly moving (a thrown or spinning body: a rigid velocity field, so
+        // K v = 0): the balance M a0 = f(0) - alpha M v0 gives the initial acceleration.
+        v = initial_velocity();
         a = f;
+        if (scene.rayleigh_alpha > 0 && v.l2_norm() > 0)
+          {
+            Vector<double> Mv(n_dofs);
+            mass.vmult(Mv, v);
+            a.add(-scene.rayleigh_alpha, Mv);
+          }
         constraints.set_zero(a);
-        m_inverse.solve(a);
+        if (a.l2_norm() > 0)
+          {
+            SparseMatrix<double> m = condensed(mass);
+            DirectSolver         m_inverse;
+            m_inverse.initialize(m);
+            m_inverse.solve(a);
+          }
       }
     last_probe.assign(scene.probes.size(), {});
     for (unsigned p = 0; p < scene.probes.size(); ++p)

@@ -152,9 +152,7 @@ namespace irdm::fem
     Vector<double> f_int(n), r(n), du(n), trial(n), r_trial(n), tmp(n), w(n);
     SparseMatrix<double> tangent(L.sparsity), K_T(L.sparsity);
 
-    for (unsigned i = 0; i < n; ++i)
-      if (!L.constraints.is_constrained(i))
-        v[i] = sc.initial_velocity[L.dof_component[i]];
+    v = L.initial_velocity();
     L.external_force(0.0, f);
     PlaneContactState contact = I.plane_contact(u, 0.0, f_c, nullptr);
     {

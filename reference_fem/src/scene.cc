@@ -427,7 +427,7 @@ namespace irdm::fem
     const Node top{root, "'" + origin + "'"};
     top.allow_only({"format", "name", "mesh", "fe_degree", "material", "damping",
                     "integrator", "time", "initial_state", "gravity",
-                    "kinematics", "initial_velocity_m_s", "planes",
+                    "kinematics", "initial_velocity_m_s", "initial_angular_velocity_rad_s", "planes",
                     "fixed_surfaces", "loads", "prescribed_displacements",
                     "probes", "model", "outputs", "comment"});
     Scene s;
@@ -591,6 +591,15 @@ namespace irdm::fem
     if (top.has("fixed_surfaces"))
       for (const auto &n : top.at("fixed_surfaces").array())
         s.fixed_surfaces.push_back(n.string());
+    if (top.has("initial_angular_velocity_rad_s"))
+      {
+        s.initial_angular_velocity = top.at("initial_angular_velocity_rad_s").vec3();
+        if (s.initial != InitialState::rest)
+          fail(top.where + ".initial_angular_velocity_rad_s", "needs initial_state 'rest'");
+        if (!s.fixed_surfaces.empty() && s.initial_angular_velocity != Vec3{0, 0, 0})
+          fail(top.where + ".initial_angular_velocity_rad_s",
+               "a spin needs a free body (no fixed_surfaces)");
+      }
 
     std::set<std::string> names;
     const auto unique = [&](const Node &n, const std::string &name) {

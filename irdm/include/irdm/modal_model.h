@@ -12,6 +12,7 @@
 // inputs, and E (inputs x outputs). Cost per step: O(N) + O(n_out M) + O(n_out n_active).
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
+#include <irdm/rigid_body.h>
 
 #include <vector>
 
@@ -35,6 +36,7 @@ namespace irdm
     std::vector<double> shapes;       // [output DoF][surface mode]
     std::vector<double> input_shapes; // [input DoF][mode], every mode
     std::vector<double> step;         // [mode][3 x 5], as ModalData::step
+    std::vector<double> w2;           // (rad/s)^2 per mode
     std::vector<double> h0_inputs;    // the force loop's feed-through, input DoF k to the output
                                       // of input DoF i, [k][i]: H[0] (with K < N modes, plus
                                       // the dropped modes' static correction)
@@ -89,6 +91,31 @@ namespace irdm
     /// Many-vertex plane contact, as PointInteraction::step(const PlaneTarget *, int).
     bool
     step(const PlaneTarget *planes, int n_planes);
+    /// The same for the deformation of a free body (irdm/free_body.h): planes in the model
+    /// frame where the body's rigid motion without contact takes them, and the rigid body's
+    /// own compliance over the step added to the feed-through, so that the contact meets the
+    /// rigid motion the forces will cause as well as the deformation.
+    bool
+    step(const PlaneTarget *planes, int n_planes, const RigidStepCompliance &rigid);
+    /// This step's forces: the input DoFs pushed and the force on one (N, model frame).
+    const std::vector<unsigned> &
+    pushed_inputs() const
+    {
+      return pushed_;
+    }
+    double
+    force_on_input(unsigned k) const
+    {
+      return force_now_[k];
+    }
+    /// Displacement of input DoF k after the latest step (m), from the force loop's modes (every
+    /// mode unless force_modes was set). O(modes).
+    double
+    input_displacement(unsigned k) const;
+    /// Energy of the modes in the force loop, 1/2 sum (v_i^2 + w_i^2 u_i^2) (J; M-orthonormal
+    /// shapes): kinetic plus strain energy of the deformation.
+    double
+    elastic_energy() const;
     const VertexContact &
     vertex_contact() const
     {
@@ -116,6 +143,7 @@ namespace irdm
     // Per plane-contact slot, the row n^T Phi_v (N modes) of its candidate: the history along
     // the normal is then one dot product with fu_ (VertexContact::step's slots).
     std::vector<double>    projected_;
+    const RigidStepCompliance *rigid_ = nullptr; // during a free body's step
 
     // The two halves of a step around its contact solve: the state with no force this step,
     // then this step's force into the state.

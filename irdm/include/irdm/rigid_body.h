@@ -8,16 +8,26 @@
 // `center`. A body pose (c, R) places a model-frame point X (displaced by u in the model
 // frame) at x = c + R (X - center + u) in the world.
 //
-// Integrator. A step of length tau with a force F and a torque t (about the centre of mass,
-// world frame) held during the step, the IRDM convention (impulse = force x tau):
-//   kick   p += F tau,  L += t tau                       (world linear / angular momentum)
-//   drift  c += tau p / m,  R <- R exp(tau ...)          (the free rigid body over tau)
+// Integrator. Forces are samples at the ends of steps, as the FEM's loads: a step of length
+// tau from t_n to t_n+1 with the force F and torque t (about the centre of mass, world) at
+// t_n+1, the state holding those at t_n. Half the step's trapezoidal impulse, the free body
+// over the step, the other half:
+//   kick   p += tau/4 (F_n + F_n+1),  L += tau/4 (t_n + t_n+1)    (world momenta)
+//   drift  c += tau p / m,  R <- R exp(tau ...)                    (the free rigid body)
+//   kick   p += tau/4 (F_n + F_n+1),  L += tau/4 (t_n + t_n+1)
+// For the translation this is exactly the FEM's average-acceleration Newmark (beta = 1/4,
+// gamma = 1/2): c_n+1 = c_n + tau v_n + tau^2/4 (a_n + a_n+1), v_n+1 = v_n + tau/2 (a_n +
+// a_n+1). So a free body's IRDM reproduces the linear FEM of the free body in translation
+// (the FEM's own rigid modes), and a force at t_n+1 moves the body by tau^2 / 4m within its
+// step: the rigid share of the contact feed-through (step_compliance). A model made with
+// generalized-alpha (rho_inf < 1) has elastic modes integrated by that scheme and rigid motion
+// by this one (they agree to second order in tau).
 // The free rotation is the splitting of Dullweber, Leimkuhler and McLachlan (J. Chem. Phys.
 // 107, 5840, 1997): the kinetic energy L1^2/2I1 + L2^2/2I2 + L3^2/2I3 (principal axes) is split
 // into its three terms, each of whose flows is an exact rotation about one principal axis, and
 // they are composed symmetrically (1/2, 2/2, 3, 2/2, 1/2 of the step). Each substep rotates the
-// orientation and leaves the world angular momentum unchanged, so with no torque L stays
-// exactly what it was (it is never written), p likewise; the composition is symplectic and
+// orientation and leaves the world angular momentum unchanged, so with no force or torque p
+// and L stay exactly what they were (zero kicks), the composition is symplectic and
 // time-reversible, so the energy error stays bounded (no drift) and the orientation is second
 // order in tau. The orientation is a unit quaternion, renormalized after every substep.
 #include <Eigen/Dense>
@@ -39,6 +49,28 @@ namespace irdm
     Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity(); // model frame -> world
     Eigen::Vector3d    linear_momentum  = Eigen::Vector3d::Zero(); // N s, world
     Eigen::Vector3d    angular_momentum = Eigen::Vector3d::Zero(); // N m s, world, about c
+    Eigen::Vector3d    force  = Eigen::Vector3d::Zero(); // N, world, the load at this time
+    Eigen::Vector3d    torque = Eigen::Vector3d::Zero(); // N m, world, about c
+  };
+
+  /// The rigid body's own compliance over one step, the part of the contact feed-through a
+  /// free body adds to its deformation's H[0] (RigidBody::step_compliance; model frame): the
+  /// displacement of model-frame point X, per newton on point Y, after one step,
+  ///   tau^2/4 (I / m + [X - c]x^T I^-1 [Y - c]x)     (I the model-frame inertia about c).
+  struct RigidStepCompliance
+  {
+    double          tau2_over_mass = 0;                            // m/N: tau^2 / 4m
+    Eigen::Matrix3d tau2_inverse_inertia = Eigen::Matrix3d::Zero(); // tau^2/4 I^-1, 1/(N)
+    Eigen::Vector3d center = Eigen::Vector3d::Zero();              // m
+
+    /// Entry (a, b): along axis a at X per newton along axis b at Y.
+    double
+    entry(const Eigen::Vector3d &X, int a, const Eigen::Vector3d &Y, int b) const
+    {
+      const Eigen::Vector3d ra = (X - center).cross(Eigen::Vector3d::Unit(a));
+      const Eigen::Vector3d rb = (Y - center).cross(Eigen::Vector3d::Unit(b));
+      return (a == b ? tau2_over_mass : 0.0) + ra.dot(tau2_inverse_inertia * rb);
+    }
   };
 
   class RigidBody
@@ -60,7 +92,15 @@ namespace irdm
     void
     set_velocity(const Eigen::Vector3d &velocity, const Eigen::Vector3d &angular_velocity);
 
-    /// One step of length tau (kick, then drift; see above). Allocates nothing.
+    /// The load at the present time (a body released under gravity: its weight at t = 0).
+    void
+    set_load(const Eigen::Vector3d &force, const Eigen::Vector3d &torque)
+    {
+      state_.force  = force;
+      state_.torque = torque;
+    }
+    /// One step of length tau to a time where the load is force and torque (kick, drift, kick;
+    /// see above). Allocates nothing.
     void
     step(const Eigen::Vector3d &force, const Eigen::Vector3d &torque, double tau);
 
@@ -93,11 +133,18 @@ namespace irdm
       return inertia_;
     }
     /// Displacement (model frame) of model-frame point X after one step of length tau, per
-    /// newton of a model-frame force on model-frame point Y, to first order in the force:
-    /// tau^2 (I / m - [X - c]x I^-1 [Y - c]x), I the model-frame inertia. The rigid body's
-    /// share of the contact feed-through (its own compliance within a step).
+    /// newton of a model-frame force on model-frame point Y at the step's end, to first order
+    /// in the force: tau^2/4 (I / m - [X - c]x I^-1 [Y - c]x), I the model-frame inertia. The
+    /// rigid body's share of the contact feed-through (its own compliance within a step).
     Eigen::Matrix3d
     step_compliance(const Eigen::Vector3d &X, const Eigen::Vector3d &Y, double tau) const;
+    /// The same as a value the contact solve evaluates entry by entry.
+    RigidStepCompliance
+    step_compliance(double tau) const
+    {
+      const double b = 0.25 * tau * tau; // Newmark's beta tau^2
+      return {b / inertia_.mass, b * inverse_inertia_, inertia_.center};
+    }
 
   private:
     RigidBodyInertia   inertia_;

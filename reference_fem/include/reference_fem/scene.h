@@ -196,7 +196,10 @@ namespace irdm::fem
     // linear solver's) in place of neo-Hookean, the penalty plane contact kept. Separates what
     // geometric and material nonlinearity cost from what the contact discretization costs.
     bool       small_strain_law = false;
-    Vec3       initial_velocity = {0, 0, 0}; // m/s, uniform (a thrown or dropped body)
+    Vec3       initial_velocity = {0, 0, 0}; // m/s, of the centre of mass (a thrown or dropped body)
+    // rad/s, world: a spin about the centre of mass, v(X) = initial_velocity + w x (X - c)
+    // (a rigid velocity field: it strains nothing). Free bodies only.
+    Vec3       initial_angular_velocity = {0, 0, 0};
 
     bool gravity_enabled = false;
     Vec3 gravity         = {0, 0, -9.81}; // m/s^2
