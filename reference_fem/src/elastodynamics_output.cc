@@ -75,6 +75,7 @@ namespace irdm::fem
     r.contact_energy.clear();
     r.gravity_energy.clear();
     r.linear_momentum.clear();
+    r.center_of_mass_displacement.clear();
     r.surface_displacement.clear();
   }
 

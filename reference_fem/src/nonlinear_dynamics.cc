@@ -173,6 +173,7 @@ namespace irdm::fem
         }
     }
 
+    const double total_mass = sc.density * L.total_volume; // kg
     const auto record = [&](const double t, const PlaneContactState &cs) {
       // The linear record() takes the fixed reactions as M a + C v + K_0 u - f; passing
       // f + f_c + K_0 u - f_int(u) makes them the nonlinear balance M a + C v + f_int - f - f_c.
@@ -193,6 +194,13 @@ namespace irdm::fem
       for (unsigned i = 0; i < n; ++i)
         momentum[L.dof_component[i]] += balance[i];
       out.linear_momentum.push_back(momentum);
+      // Centre-of-mass displacement: 1^T M u per axis over the mass (M consistent).
+      L.mass.vmult(balance, u);
+      Vec3 moment = {0, 0, 0};
+      for (unsigned i = 0; i < n; ++i)
+        moment[L.dof_component[i]] += balance[i];
+      out.center_of_mass_displacement.push_back(
+        {moment[0] / total_mass, moment[1] / total_mass, moment[2] / total_mass});
       for (unsigned p = 0; p < sc.planes.size(); ++p)
         {
           out.plane_force[sc.planes[p].name].push_back(cs.force[p]);

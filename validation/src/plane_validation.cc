@@ -384,24 +384,7 @@ namespace irdm::validation
         }
     };
     // The FEM penalty's per-vertex equivalent needs the mean lumped area of the free vertices.
-    double mean_vertex_area = 0;
-    {
-      std::vector<double> area(vertex_model.n_outputs / 3, 0.0);
-      for (const auto &t : vertex_model.triangles)
-        {
-          const auto &a = vertex_model.output_coordinates[t[0]], &b = vertex_model.output_coordinates[t[1]],
-                     &q = vertex_model.output_coordinates[t[2]];
-          const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{q[0] - a[0], q[1] - a[1], q[2] - a[2]};
-          const Vec3 x{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-          for (const unsigned i : t)
-            area[i] += std::sqrt(dot(x, x)) / 6;
-        }
-      unsigned n_free = 0;
-      for (unsigned v = 0; v < area.size(); ++v)
-        if (vertex_model.output_input_index[v] >= 0)
-          mean_vertex_area += area[v], ++n_free;
-      mean_vertex_area /= std::max(n_free, 1u);
-    }
+    const double mean_vertex_area = mean_free_vertex_area(vertex_model);
     struct SweepRow
     {
       std::string  c, method;

@@ -88,6 +88,7 @@ namespace irdm::fem
     std::vector<double> contact_energy; // J, penalty energy 1/2 k int pen^2 dA
     std::vector<double> gravity_energy; // J, potential of gravity, -f_g . u
     std::vector<Vec3>   linear_momentum; // N s, sum of M v per axis
+    std::vector<Vec3>   center_of_mass_displacement; // m, (1^T M u) / mass per axis (nonlinear)
     unsigned newton_iterations = 0, tangent_factorizations = 0;
     SurfaceMesh                              surface;             // filled if outputs.surface
     std::vector<std::vector<double>>         surface_displacement; // per sample: 3 * n_vertices, m
