@@ -18,7 +18,6 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <regex>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -171,8 +170,12 @@ namespace irdm::validation
         // model records the scene it was made from.
         std::ostringstream e;
         e << "\"youngs_modulus_Pa\": " << E;
-        const std::string text =
-          std::regex_replace(base_text, std::regex("\"youngs_modulus_Pa\"\\s*:\\s*[0-9.eE+-]+"), e.str());
+        std::string  text = base_text;
+        const size_t key  = text.find("\"youngs_modulus_Pa\"");
+        if (key == std::string::npos)
+          throw InputError("validate-free: the scene '" + o.scene + "' gives no youngs_modulus_Pa");
+        const size_t colon = text.find(':', key), end = text.find_first_of(",}", colon);
+        text.replace(key, end - key, e.str());
         const fem::Scene body = fem::parse_scene(text, base_dir, o.scene);
         const double     tau  = body.time_step;
 
