@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 
 #include "probe_step.h"
 #include "surface_product.h"
@@ -44,7 +43,10 @@ namespace irdm
     out.step                 = md.step;
     out.w2.resize(N);
     for (unsigned i = 0; i < N; ++i)
-      out.w2[i] = std::pow(2 * 3.141592653589793 * md.frequency_hz[i], 2);
+      {
+        const double omega = 2 * 3.141592653589793 * md.frequency_hz[i];
+        out.w2[i]          = omega * omega;
+      }
     out.shapes.resize(static_cast<size_t>(nout) * M);
     for (unsigned j = 0; j < nout; ++j)
       std::copy_n(&md.shapes[static_cast<size_t>(j) * N], M, &out.shapes[static_cast<size_t>(j) * M]);
@@ -69,12 +71,11 @@ namespace irdm
         Eigen::VectorXd c(D);
         for (unsigned i = 0; i < D; ++i)
           {
-            const unsigned mode  = force_modes + i;
-            const double   omega = 2 * 3.141592653589793 * md.frequency_hz[mode];
-            if (!(omega > 0))
+            const unsigned mode = force_modes + i;
+            if (!(out.w2[mode] > 0))
               throw InputError("modal model: mode " + std::to_string(mode) +
                                " has no positive frequency; keep every mode in the force loop");
-            c[i] = 1 / (omega * omega) - md.step[15 * static_cast<size_t>(mode) + 3];
+            c[i] = 1 / out.w2[mode] - md.step[15 * static_cast<size_t>(mode) + 3];
           }
         const Eigen::Map<const RowMajor> phi(out.input_shapes.data(), nin, N);
         const RowMajor dropped = phi.rightCols(D);

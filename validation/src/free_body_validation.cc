@@ -148,7 +148,8 @@ namespace irdm::validation
       return s.str();
     }();
     const std::string base_dir = fs::path(o.scene).parent_path().string();
-    if (!fem::parse_scene(base_text, base_dir, o.scene).fixed_surfaces.empty())
+    const fem::Scene base = fem::parse_scene(base_text, base_dir, o.scene);
+    if (!base.fixed_surfaces.empty())
       throw InputError("validate-free: the scene '" + o.scene + "' fixes a surface; the "
                        "free-body validation needs a body fixed to nothing");
     if (!(o.duration > 0))
@@ -357,7 +358,7 @@ namespace irdm::validation
     md << "# Free body against the nonlinear FEM (issue 14, first part)\n\n"
        << "Written by `irdm validate-free" << (o.quick ? " --quick" : "") << "`. Body: `" << o.scene
        << "` (the cat, P1, fixed to nothing), Newmark average acceleration, tau = "
-       << fem::parse_scene(base_text, base_dir, o.scene).time_step * 1e3 << " ms, " << o.duration
+       << base.time_step * 1e3 << " ms, " << o.duration
        << " s per case, gravity 9.81 m/s^2 against the floor's normal. Truth: the nonlinear FEM on "
           "the same mesh (neo-Hookean, penalty planes, default penalty 100 E / h). IRDM: "
           "`FreeBodyInteraction` (rigid body + the modal deformation of the free-body model, "

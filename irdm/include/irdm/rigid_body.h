@@ -60,7 +60,7 @@ namespace irdm
   struct RigidStepCompliance
   {
     double          tau2_over_mass = 0;                            // m/N: tau^2 / 4m
-    Eigen::Matrix3d tau2_inverse_inertia = Eigen::Matrix3d::Zero(); // tau^2/4 I^-1, 1/(N)
+    Eigen::Matrix3d tau2_inverse_inertia = Eigen::Matrix3d::Zero(); // tau^2/4 I^-1, 1/(N m)
     Eigen::Vector3d center = Eigen::Vector3d::Zero();              // m
 
     /// Entry (a, b): along axis a at X per newton along axis b at Y.
