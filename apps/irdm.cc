@@ -232,7 +232,7 @@ namespace
 
   struct PrecomputeArgs
   {
-    std::string scene, out, storage;
+    std::string scene, out, storage, free_route = "modal", fit_weights = "uniform";
     unsigned    length = 0, chunk = 0, modes = 0;
     bool        restart = false, quiet = false, allow_large = false;
   };
@@ -260,6 +260,10 @@ namespace
     o.double_storage   = storage_choice(a.storage);
     o.restart          = a.restart;
     o.allow_large      = a.allow_large;
+    o.free_route       = a.free_route == "rigid_fit" ? irdm::fem::FreeBodyRoute::rigid_fit
+                                                     : irdm::fem::FreeBodyRoute::modal;
+    o.fit_weights      = a.fit_weights == "mass" ? irdm::fem::RigidFitWeights::mass
+                                                 : irdm::fem::RigidFitWeights::uniform;
     o.log              = stderr_log(a.quiet);
     const auto r = irdm::fem::precompute_impulse_responses(scene, o);
     if (mpi_rank() == 0 && r.sparse)
@@ -517,6 +521,18 @@ namespace
                            "exact; default: all modes by the dense route up to 12000 free DoFs, "
                            "else 200)")
       ->check(CLI::Range(1u, 1000000u));
+    precompute->add_option("--free-route", pre.free_route,
+                           "free body (no fixed surface): how the rigid motion leaves the "
+                           "response; modal: the 6 rigid-body modes dropped (mass-orthogonal, "
+                           "route 2); rigid_fit: the whole response minus its best rigid fit at "
+                           "every sample (the seed's, route 1)")
+      ->check(CLI::IsMember({"modal", "rigid_fit"}))
+      ->capture_default_str();
+    precompute->add_option("--fit-weights", pre.fit_weights,
+                           "rigid_fit: least-squares weights over the output vertices (uniform: "
+                           "the seed's; mass: each vertex's lumped mass)")
+      ->check(CLI::IsMember({"uniform", "mass"}))
+      ->capture_default_str();
     precompute->add_flag("--restart", pre.restart, "ignore a partial file and start over");
     precompute->add_flag("--allow-large", pre.allow_large,
                          "run even if the memory or disk estimate exceeds what is free");
@@ -695,13 +711,16 @@ namespace
     // validate-free
     irdm::validation::FreeBodyValidationOptions vfb;
     auto *validate_free = app.add_subcommand("validate-free", "the free cat dropped, tilted, spinning and thrown at a wall, against the nonlinear FEM; reports/free");
-    validate_free->footer("Precomputes the free-body model of --scene (no fixed surface; route 2, the "
-      "rigid-body modes removed) for each Young's modulus of --materials, then runs every case "
-      "through the nonlinear FEM (neo-Hookean, penalty planes) and FreeBodyInteraction (rigid "
-      "body + modal deformation, many-vertex contact at the FEM penalty's per-vertex "
-      "equivalent): drops from 2, 5 and 10 cm, a drop with a spin, a throw at a wall, and a "
-      "drop on a floor tilted 25 degrees. Writes DIR/free/free.csv (one row per case, "
-      "material and method), series.csv (forces, heights and angles against time) and "
+    validate_free->footer("Precomputes the free-body models of --scene (no fixed surface) by both "
+      "routes (route 1: the recorded response minus its best rigid fit, uniform weights; route "
+      "2: the rigid-body modes removed) for each Young's modulus of --materials, then runs every "
+      "case through the nonlinear FEM (neo-Hookean, penalty planes) and FreeBodyInteraction "
+      "(rigid body + modal deformation, many-vertex contact at the FEM penalty's per-vertex "
+      "equivalent) with each model: drops from 2, 5 and 10 cm, a drop with a spin (2 s), a "
+      "throw at a wall, and a drop on a floor tilted 25 degrees; then the runtime alone rolls "
+      "for --stability seconds and flies free for 10 s. Writes DIR/free/free.csv (one row per "
+      "case, material and method), series.csv (forces, heights and angles against time), "
+      "frames.csv and triangles.csv (surfaces of the rolling cat), fig6.png, frames.png and "
       "report.md. Units SI.");
     validate_free->add_option("--scene", vfb.scene, "the free body")
       ->capture_default_str()
@@ -718,6 +737,10 @@ namespace
     validate_free->add_option("--surface-modes", vfb.surface_modes, "modes in the surface update")
       ->capture_default_str()
       ->check(CLI::Range(1u, 100000u));
+    validate_free->add_option("--stability", vfb.stability_seconds,
+                              "seconds of rolling for the runtime's stability run")
+      ->capture_default_str()
+      ->check(CLI::Range(0.002, 3600.0));
     validate_free->add_flag("--quick", vfb.quick, "the 5 cm drop and the tilted drop only");
 
     // play
@@ -841,6 +864,7 @@ namespace
     if (validate_free->parsed())
       {
         irdm::check_output_folder("--out", vfb.report_dir);
+        vfb.plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_free.py";
         irdm::validation::run_free_body_validation(vfb, std::cout);
         return 0;
       }

@@ -55,6 +55,13 @@ namespace irdm
     for (unsigned k = 0; k < nin; ++k)
       std::copy_n(&md.shapes[static_cast<size_t>(output_of(k)) * N], N,
                   &out.input_shapes[static_cast<size_t>(k) * N]);
+    if (!md.load_shapes.empty())
+      {
+        out.input_load_shapes.resize(static_cast<size_t>(nin) * N);
+        for (unsigned k = 0; k < nin; ++k)
+          std::copy_n(&md.load_shapes[static_cast<size_t>(output_of(k)) * N], N,
+                      &out.input_load_shapes[static_cast<size_t>(k) * N]);
+      }
     out.h0_inputs.resize(static_cast<size_t>(nin) * nin);
     for (unsigned k = 0; k < nin; ++k)
       for (unsigned i = 0; i < nin; ++i)
@@ -64,6 +71,9 @@ namespace irdm
     // response q_i[0] for their static compliance 1 / omega_i^2 (M-orthonormal shapes):
     // H[0] + sum_{i >= K} phi_i phi_i^T (1 / omega_i^2 - q_i[0]). A held force then meets the
     // body's full static compliance.
+    if (force_modes < N && !md.load_shapes.empty())
+      throw InputError("modal model: a model with separate load shapes (a free body's rigid-fit "
+                       "route) keeps every mode in the force loop");
     if (force_modes < N)
       {
         using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -99,7 +109,8 @@ namespace irdm
             gain[i] += x[0];
           }
       }
-    // E = sum_s H[s] - Phi_M diag(gain) Phi_M(inputs)^T.
+    // E = sum_s H[s] - Phi_M diag(gain) Phi_M(inputs)^T (the load shapes on the right when
+    // they differ).
     out.residual.resize(static_cast<size_t>(nin) * nout);
     std::vector<double> h(nout), w(M);
     for (unsigned k = 0; k < nin; ++k)
@@ -108,8 +119,10 @@ namespace irdm
         for (unsigned s = 0; s < T; ++s)
           for (unsigned j = 0; j < nout; ++j)
             h[j] += m.h(k, s, j);
+        const std::vector<double> &load =
+          out.input_load_shapes.empty() ? out.input_shapes : out.input_load_shapes;
         for (unsigned i = 0; i < M; ++i)
-          w[i] = out.input_shapes[static_cast<size_t>(k) * N + i] * gain[i];
+          w[i] = load[static_cast<size_t>(k) * N + i] * gain[i];
         for (unsigned j = 0; j < nout; ++j)
           {
             const double *pj  = &out.shapes[static_cast<size_t>(j) * M];
@@ -181,8 +194,10 @@ namespace irdm
   {
     // Modal force of this step, then the state.
     std::fill(g_prev_.begin(), g_prev_.end(), 0.0);
+    const std::vector<double> &load =
+      model_.input_load_shapes.empty() ? model_.input_shapes : model_.input_load_shapes;
     for (const unsigned k : pushed_)
-      VecMut(g_prev_.data(), N_) += force_now_[k] * Vec(&model_.input_shapes[k * stride_], N_);
+      VecMut(g_prev_.data(), N_) += force_now_[k] * Vec(&load[k * stride_], N_);
     const double *c = coef_.data();
     const size_t  N = N_;
     for (size_t i = 0; i < N; ++i)

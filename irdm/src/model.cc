@@ -238,7 +238,10 @@ namespace irdm
         md.damping_ratio = r.read_double("/modes/damping_ratio", {shape[1]});
         md.shapes       = r.read_double("/modes/shapes", shape);
         md.step         = r.read_double("/modes/step", {shape[1], 3, 5});
-        for (const auto *v : {&md.frequency_hz, &md.damping_ratio, &md.shapes, &md.step})
+        if (r.exists("/modes/load_shapes"))
+          md.load_shapes = r.read_double("/modes/load_shapes", shape);
+        for (const auto *v :
+             {&md.frequency_hz, &md.damping_ratio, &md.shapes, &md.load_shapes, &md.step})
           for (const double x : *v)
             if (!std::isfinite(x))
               fail("the modal realization (/modes) contains NaN or Inf");

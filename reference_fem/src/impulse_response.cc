@@ -11,6 +11,7 @@
 #include "mpi_rank.h"
 #include "provenance.h"
 
+#include <Eigen/Dense>
 #include <mpi.h>
 
 #include <algorithm>
@@ -203,6 +204,46 @@ namespace irdm::fem
         s += (s.empty() ? "" : ",") + x;
       return s;
     }
+
+    // Route 1 of a free body (FreeBodyRoute::rigid_fit): takes out of every column of phi
+    // (row-major, 3 rows per vertex at x, nm columns) its best rigid field t + theta x (x - c)
+    // by least squares with weight w[v] per vertex, and returns |removed| / |phi_i| per column.
+    // The linear FEM's rigid motions are exactly these six fields (infinitesimal rotations), so
+    // this is the best rigid fit of a response sample, and being linear it acts on each mode's
+    // shape alone: a recorded sum_i phi_i q_i[s] minus its fit is sum_i (phi_i - R c_i) q_i[s].
+    std::vector<double>
+    remove_rigid_fit(std::vector<double> &phi, const unsigned nm,
+                     const std::vector<std::array<double, 3>> &x, const std::vector<double> &w)
+    {
+      using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+      const size_t    nv = x.size();
+      Eigen::Vector3d c  = Eigen::Vector3d::Zero(); // weighted centroid: R^T W R well scaled
+      double          wsum = 0;
+      for (size_t v = 0; v < nv; ++v)
+        {
+          c += w[v] * Eigen::Vector3d(x[v][0], x[v][1], x[v][2]);
+          wsum += w[v];
+        }
+      c /= wsum;
+      Eigen::MatrixXd R(3 * nv, 6), WR(3 * nv, 6);
+      for (size_t v = 0; v < nv; ++v)
+        {
+          const Eigen::Vector3d r = Eigen::Vector3d(x[v][0], x[v][1], x[v][2]) - c;
+          Eigen::Matrix3d       r_cross;
+          r_cross << 0, -r(2), r(1), r(2), 0, -r(0), -r(1), r(0), 0;
+          R.block<3, 3>(3 * v, 0) = Eigen::Matrix3d::Identity();
+          R.block<3, 3>(3 * v, 3) = -r_cross; // theta x r = -r x theta
+          WR.middleRows<3>(3 * v) = w[v] * R.middleRows<3>(3 * v);
+        }
+      Eigen::Map<RowMajor>  P(phi.data(), static_cast<Eigen::Index>(3 * nv), nm);
+      const Eigen::MatrixXd C       = (R.transpose() * WR).ldlt().solve(WR.transpose() * P);
+      const Eigen::MatrixXd removed = R * C;
+      std::vector<double>   share(nm);
+      for (unsigned i = 0; i < nm; ++i)
+        share[i] = removed.col(i).norm() / P.col(i).norm();
+      P -= removed;
+      return share;
+    }
   } // namespace
 
   PrecomputeReport
@@ -226,6 +267,11 @@ namespace irdm::fem
     // separated from the elastic ones and left to the runtime's rigid-body dynamics.
     const bool     free_body = scene.fixed_surfaces.empty();
     const unsigned n_rigid   = free_body ? 6 : 0; // its rigid-body modes, not kept
+    const bool rigid_fit = free_body && options.free_route == FreeBodyRoute::rigid_fit;
+    const char *weights_name = options.fit_weights == RigidFitWeights::mass ? "mass" : "uniform";
+    if (!free_body && options.free_route == FreeBodyRoute::rigid_fit)
+      throw InputError("precompute: the rigid-fit route is for a free body (a scene with no "
+                       "fixed surface); this scene fixes " + join(scene.fixed_surfaces));
     if (scene.gravity_enabled)
       log("note: gravity is a constant load and is not part of the impulse responses");
 
@@ -318,6 +364,7 @@ namespace irdm::fem
     unsigned            nm = sparse ? 0 : n - n_rigid; // modes kept
     double              rigid_w2_max = 0; // free body: largest |w^2| of the rigid modes
     std::vector<double> w2, phi_out, phi_in, compliance; // compliance: nout x nin (sparse)
+    std::vector<double> load_out; // route 1: the modes' shapes at the outputs before the fit
     if (rank == 0)
       {
         if (sparse)
@@ -386,6 +433,27 @@ namespace irdm::fem
             };
             phi_out = restrict_rows(out_free);
             phi_in  = restrict_rows(in_free);
+            if (rigid_fit)
+              {
+                std::vector<std::array<double, 3>> x(nout / 3);
+                std::vector<double>                weight(nout / 3, 1.0);
+                for (unsigned v = 0; v < nout / 3; ++v)
+                  {
+                    x[v] = b.coordinates[out_v[v]];
+                    if (options.fit_weights == RigidFitWeights::mass)
+                      {
+                        const size_t i = static_cast<size_t>(out_free[3 * v]);
+                        weight[v]      = 0;
+                        for (unsigned j = 0; j < n; ++j) // row sum: the lumped mass
+                          weight[v] += sys.mass[static_cast<size_t>(j) * n + i];
+                      }
+                  }
+                load_out = phi_out;
+                const std::vector<double> share = remove_rigid_fit(phi_out, nm, x, weight);
+                rep.rigid_fit_share_max  = *std::max_element(share.begin(), share.end());
+                rep.rigid_fit_share_mean =
+                  std::accumulate(share.begin(), share.end(), 0.0) / share.size();
+              }
           }
       }
     MPI_Bcast(&nm, 1, MPI_UNSIGNED, 0, MPI_COMM_WORLD);
@@ -402,9 +470,17 @@ namespace irdm::fem
                 MPI_COMM_WORLD);
     rep.n_modes    = nm;
     rep.free_body  = free_body;
+    rep.rigid_fit  = rigid_fit;
     MPI_Bcast(&rigid_w2_max, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
     rep.rigid_w2_max = rigid_w2_max;
     rep.n_lowest   = n_lowest;
+    MPI_Bcast(&rep.rigid_fit_share_max, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    MPI_Bcast(&rep.rigid_fit_share_mean, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    if (rigid_fit)
+      log(std::string("route 1 (rigid fit, ") + weights_name + " weights over the " +
+          std::to_string(nout / 3) + " outputs): the fit takes from a mode's output shape " +
+          std::to_string(100 * rep.rigid_fit_share_mean) + " % on average, at most " +
+          std::to_string(100 * rep.rigid_fit_share_max) + " %");
     rep.seconds_eigen = since(t0);
     if (w2[0] <= 0)
       throw std::runtime_error("the fixed system has a non-positive eigenvalue");
@@ -500,7 +576,7 @@ namespace irdm::fem
     // its own first input on (half the GEMM) and takes the outputs before it from the chunks
     // already computed, transposed. Those blocks wait on the writing rank until their chunk is
     // written: at most about a quarter of H.
-    const bool symmetric = in_v == out_v;
+    const bool symmetric = in_v == out_v && !rigid_fit; // route 1's H is not symmetric
     {
       // Before the long part: the chunk buffers (two sets on one rank: one computing, one
       // writing) and GEMM operands of every worker, the blocks reciprocity keeps, and the file.
@@ -525,6 +601,8 @@ namespace irdm::fem
          << " fixed " << join(scene.fixed_surfaces);
     if (sparse)
       spec << " modes " << n_lowest;
+    if (rigid_fit)
+      spec << " rigid_fit " << static_cast<int>(options.fit_weights);
     spec << " in";
     for (const unsigned v : in_v)
       spec << ' ' << b.node_tags[v];
@@ -584,12 +662,24 @@ namespace irdm::fem
                                      std::to_string(n) + " modes by SLEPc shift-invert, plus " +
                                      std::to_string(nm - n_lowest) + " residual modes of "
                                      "the inputs' static responses)"
+                                 : rigid_fit
+                                     ? std::string("rigid fit, free body (the whole response "
+                                                   "minus its best rigid fit at every sample: "
+                                                   "linear least squares over the outputs, ") +
+                                         weights_name + " weights; all elastic modes, exact)"
                                  : free_body
                                      ? std::string("modal, free body (the 6 rigid-body modes "
                                                    "removed, mass-orthogonal; all elastic "
                                                    "modes, exact)")
                                      : std::string("modal (all modes, exact)"));
               f.attribute("/", "body", std::string(free_body ? "free" : "fixed"));
+              if (free_body)
+                {
+                  f.attribute("/", "free_body_route",
+                              std::string(rigid_fit ? "rigid_fit" : "modal"));
+                  if (rigid_fit)
+                    f.attribute("/", "rigid_fit_weights", std::string(weights_name));
+                }
               if (free_body)
                 {
                   // What the runtime's rigid-body dynamics needs, from the mesh (exact for
@@ -663,6 +753,8 @@ namespace irdm::fem
               // each mode's step matrix; H[s] = Phi_out diag(q_i[s]) Phi_in^T with q_i from
               // iterating the step (docs/model-format.md).
               f.write("/modes/shapes", {nout, nm}, phi_out.data());
+              if (rigid_fit) // H[s] = shapes diag(q[s]) load_shapes(inputs)^T
+                f.write("/modes/load_shapes", {nout, nm}, load_out.data());
               std::vector<double> steps(static_cast<size_t>(nm) * 15);
               for (unsigned i = 0; i < nm; ++i)
                 {

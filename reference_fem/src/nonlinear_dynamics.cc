@@ -150,7 +150,8 @@ namespace irdm::fem
     Vector<double> u(n), v(n), a(n), f(n), f_c(n);         // state n and its loads
     Vector<double> u_new(n), v_new(n), a_new(n), f_new(n), f_c_new(n);
     Vector<double> f_int(n), r(n), du(n), trial(n), r_trial(n), tmp(n), w(n);
-    SparseMatrix<double> tangent(L.sparsity), K_T(L.sparsity);
+    SparseMatrix<double> tangent(L.sparsity), K_T(L.sparsity), K_D(L.sparsity);
+    Vector<double>       u_alpha(n);
 
     v = L.initial_velocity();
     L.external_force(0.0, f);
@@ -227,8 +228,8 @@ namespace irdm::fem
       a_new.add(-(1 / (2 * c.beta) - 1), a);
       v_new = v;
       v_new.add(dt * (1 - c.gamma), a, dt * c.gamma, a_new);
-      combine(w, 1 - af, x, af, u); // u at the alpha level
-      const bool ok = I.assemble(w, f_int, T ? &K_T : nullptr, false);
+      combine(u_alpha, 1 - af, x, af, u); // u at the alpha level
+      const bool ok = I.assemble(u_alpha, f_int, T ? &K_T : nullptr, false);
       cs            = I.plane_contact(x, t1, f_c_new, T ? &K_T : nullptr);
       combine(w, 1 - am, a_new, am, a);
       L.mass.vmult(res, w);
@@ -236,8 +237,12 @@ namespace irdm::fem
       combine(w, 1 - af, v_new, af, v); // Rayleigh damping at the alpha level
       L.mass.vmult(tmp, w);
       res.add(sc.rayleigh_alpha, tmp);
-      L.stiffness.vmult(tmp, w);
-      res.add(sc.rayleigh_beta, tmp);
+      if (sc.rayleigh_beta != 0)
+        {
+          // Objective: no damping of rigid motion however far the body has turned.
+          I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr);
+          res.add(sc.rayleigh_beta, tmp);
+        }
       res += f_int;
       res.add(-(1 - af), f_new, -(1 - af), f_c_new);
       res.add(-af, f, -af, f_c);
@@ -245,9 +250,10 @@ namespace irdm::fem
       if (T)
         {
           // dR/dx = c_m M + c_c C + (1 - af)(K_T(u_alpha) + K_contact(x)).
-          T->copy_from(L.stiffness);
-          *T *= k.c_c * sc.rayleigh_beta;
-          T->add(k.c_m + k.c_c * sc.rayleigh_alpha, L.mass);
+          T->copy_from(L.mass);
+          *T *= k.c_m + k.c_c * sc.rayleigh_alpha;
+          if (sc.rayleigh_beta != 0)
+            T->add(k.c_c * sc.rayleigh_beta, K_D);
           T->add(1 - af, K_T);
           *T = L.condensed(*T);
         }

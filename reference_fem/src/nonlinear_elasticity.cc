@@ -159,6 +159,68 @@ namespace irdm::fem
     return ok;
   }
 
+  void
+  NonlinearElasticity::Impl::damping_force(const Vector<double> &u, const Vector<double> &v,
+                                           Vector<double> &f_d, SparseMatrix<double> *D) const
+  {
+    const auto &L = linear;
+    const FEValuesExtractors::Vector displacement(0);
+    FEValues<3> fv(L.mapping, L.fe, stiffness_quadrature, update_gradients | update_JxW_values);
+    const unsigned n_dofs = L.fe.n_dofs_per_cell(), n_q = stiffness_quadrature.size();
+    FullMatrix<double>                   cell_D(n_dofs, n_dofs);
+    Vector<double>                       cell_f(n_dofs);
+    std::vector<types::global_dof_index> dofs(n_dofs);
+    std::vector<Tensor<2, 3>>            grad_u(n_q), grad_v(n_q);
+    std::vector<unsigned>                component(n_dofs);
+    std::vector<Tensor<1, 3>>            g(n_dofs), f(n_dofs); // f_i: row c_i of F
+    for (unsigned i = 0; i < n_dofs; ++i)
+      component[i] = L.fe.system_to_component_index(i).first;
+    f_d.reinit(L.dof_handler.n_dofs());
+    if (D)
+      *D = 0;
+    for (const auto &cell : L.dof_handler.active_cell_iterators())
+      {
+        fv.reinit(cell);
+        fv[displacement].get_function_gradients(u, grad_u);
+        fv[displacement].get_function_gradients(v, grad_v);
+        cell->get_dof_indices(dofs);
+        cell_D = 0;
+        cell_f = 0;
+        for (unsigned q = 0; q < n_q; ++q)
+          {
+            const Tensor<2, 3> F = L.scene.small_strain_law
+                                     ? Tensor<2, 3>(unit_symmetric_tensor<3>())
+                                     : Tensor<2, 3>(unit_symmetric_tensor<3>()) + grad_u[q];
+            const Tensor<2, 3> FtG   = transpose(F) * grad_v[q];
+            const Tensor<2, 3> E_dot = 0.5 * (FtG + transpose(FtG));
+            const Tensor<2, 3> S = lambda * trace(E_dot) * Tensor<2, 3>(unit_symmetric_tensor<3>()) +
+                                   2 * mu * E_dot;
+            const Tensor<2, 3> P  = F * S;
+            const double       dx = fv.JxW(q);
+            for (unsigned i = 0; i < n_dofs; ++i)
+              {
+                g[i] = fv.shape_grad_component(i, q, component[i]);
+                for (int d = 0; d < 3; ++d)
+                  f[i][d] = F[component[i]][d];
+                cell_f(i) += (P * g[i])[component[i]] * dx;
+              }
+            if (!D)
+              continue;
+            // Shape j's velocity gradient e_{c_j} (x) g_j gives F^T G = f_j (x) g_j, so
+            // D_ij = lambda (f_j . g_j)(f_i . g_i) + mu ((f_i . f_j)(g_i . g_j) + (f_i . g_j)(f_j . g_i)),
+            // K0 at F = I.
+            for (unsigned i = 0; i < n_dofs; ++i)
+              for (unsigned j = 0; j < n_dofs; ++j)
+                cell_D(i, j) += dx * (lambda * (f[j] * g[j]) * (f[i] * g[i]) +
+                                      mu * ((f[i] * f[j]) * (g[i] * g[j]) + (f[i] * g[j]) * (f[j] * g[i])));
+          }
+        for (unsigned i = 0; i < n_dofs; ++i)
+          f_d(dofs[i]) += cell_f(i);
+        if (D)
+          D->add(dofs, cell_D);
+      }
+  }
+
   NonlinearElasticity::NonlinearElasticity(const Scene &scene)
     : impl_(std::make_unique<Impl>(scene))
   {}

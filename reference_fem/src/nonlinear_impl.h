@@ -31,6 +31,17 @@ namespace irdm::fem
     assemble(const Vector<double> &u, Vector<double> &f_int, SparseMatrix<double> *K,
              bool constrained, double *energy = nullptr) const;
 
+    /// Stiffness-proportional damping made objective (issue 14): the force int F S_d : grad phi
+    /// with S_d = C0 : dE/dt, the reference elasticity tensor C0 on the rate of the
+    /// Green-Lagrange strain, dE/dt = sym(F^T grad v). At F = I it is K0 v, the Rayleigh beta
+    /// term of the linear FEM; unlike K0 v it is zero for every rigid velocity of a rotated body
+    /// (K0 v damps the spin of a free body once it has turned a finite angle). Sets f_d; if
+    /// D is given, the tangent d f_d / d v at this u (its dependence on u is left out of
+    /// Newton's tangent). The small-strain law keeps K0 v exactly (F = I).
+    void
+    damping_force(const Vector<double> &u, const Vector<double> &v, Vector<double> &f_d,
+                  SparseMatrix<double> *D) const;
+
     /// Penalty contact of the scene's planes at time t on the body displaced by u: sets f_c
     /// (force on the body) and, if K is given, adds the penalty tangent
     /// k int (n . phi_i)(n . phi_j) dA over the points in contact.

@@ -48,8 +48,17 @@ namespace irdm::validation
       Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
       double          height = 0.02;
       Eigen::Vector3d velocity = Eigen::Vector3d::Zero(), spin = Eigen::Vector3d::Zero();
-      bool            wall = false;
+      bool            wall     = false;
+      double          duration = 0; // s; 0: the options' duration
     };
+
+    // Dropped 2 cm spinning at 8 rad/s about y: it rolls over within 2 s (the issue's scene 3).
+    Case
+    rolling_case()
+    {
+      return {"spin_roll", Eigen::Vector3d::UnitZ(), 0.02, Eigen::Vector3d::Zero(),
+              Eigen::Vector3d(0, 8, 0), false, 2.0};
+    }
 
     std::vector<Case>
     cases(const bool quick)
@@ -63,8 +72,7 @@ namespace irdm::validation
       if (!quick)
         {
           c.push_back({"drop_10cm", Eigen::Vector3d::UnitZ(), 0.10});
-          c.push_back({"spin_roll", Eigen::Vector3d::UnitZ(), 0.02, Eigen::Vector3d::Zero(),
-                       Eigen::Vector3d(0, 8, 0)});
+          c.push_back(rolling_case());
           c.push_back({"wall_throw", Eigen::Vector3d::UnitZ(), 0.005, Eigen::Vector3d(0.6, 0, 0),
                        Eigen::Vector3d::Zero(), true});
         }
@@ -118,14 +126,22 @@ namespace irdm::validation
 
     struct Row
     {
-      std::string c;
+      std::string c, method;
       double      E = 0;
       double      com_error = 0, angle_error = 0, force_error = 0, impulse_error = 0,
              deformation_error = 0, irdm_us = 0, fem_ms = 0, peak_ratio = 0, rotation_deg = 0,
-             distance = 0, centrifugal = 0, energy_growth = 0;
+             turned_deg = 0, distance = 0, centrifugal = 0, energy_growth = 0;
       bool        stable = true;
       std::string fem_failed; // the FEM's error message when it could not run the case
     };
+
+    std::string
+    format_g(const double x)
+    {
+      std::ostringstream s;
+      s << x;
+      return s.str();
+    }
 
     std::string
     material_name(const double E)
@@ -134,6 +150,61 @@ namespace irdm::validation
       s << E / 1000 << "kPa";
       return s.str();
     }
+
+    // The two routes of issue 14 (reference_fem/impulse_response.h, FreeBodyRoute).
+    struct Route
+    {
+      const char        *method; // free.csv's method column
+      fem::FreeBodyRoute route;
+      const char        *file_suffix;
+    };
+    constexpr Route routes[] = {{"route1_rigid_fit", fem::FreeBodyRoute::rigid_fit, "_rigid_fit"},
+                                {"route2_modal", fem::FreeBodyRoute::modal, ""}};
+
+    // Precomputes the body's model by one route and keeps its modal realization (H itself,
+    // a gigabyte for the cat, is dropped).
+    ModalModel
+    free_model(const fem::Scene &body, const std::string &file, const fem::FreeBodyRoute route,
+               const unsigned surface_modes, std::ostream &log)
+    {
+      fem::PrecomputeOptions po;
+      po.output      = file;
+      po.restart     = true;
+      po.free_route  = route;
+      po.fit_weights = fem::RigidFitWeights::uniform;
+      log << "validate-free: precomputing " << file << std::endl;
+      fem::precompute_impulse_responses(body, po);
+      const ImpulseResponseModel model = load_model(file, body.time_step);
+      ModalModelOptions          mo;
+      mo.surface_modes = std::min(surface_modes, model.modes.n_modes);
+      return make_modal_model(model, mo);
+    }
+
+    // Energy the runtime's body has above its start, (E(t) - E(0)) / E_in: E = rigid kinetic
+    // + deformation + gravity's potential; E_in = the initial kinetic energy plus the weight
+    // times the drop height, what the scene brings in.
+    struct EnergyWatch
+    {
+      const FreeBodyInteraction &irdm;
+      Eigen::Vector3d            gravity;
+      double                     e0 = 0, e_in = 1;
+      double
+      energy() const
+      {
+        return irdm.energy() - irdm.rigid().inertia().mass * gravity.dot(irdm.rigid().state().position);
+      }
+      void
+      start(const double height)
+      {
+        e0   = energy();
+        e_in = irdm.rigid().kinetic_energy() + irdm.rigid().inertia().mass * gravity.norm() * height;
+      }
+      double
+      growth() const
+      {
+        return (energy() - e0) / std::max(e_in, 1e-300);
+      }
+    };
   } // namespace
 
   void
@@ -162,9 +233,15 @@ namespace irdm::validation
     const OutputLock models_lock((fs::path(o.model_dir) / "free_cat").string());
 
     std::vector<Row> rows;
-    std::ostringstream series;
-    series << "case,material,time_s,fem_force_N,irdm_force_N,fem_com_z_m,irdm_com_z_m,"
+    // Series per time step (series.csv), the surfaces at a few times of the rolling cat
+    // (frames.csv), and the long runs of the runtime alone (stability).
+    std::ostringstream series, frames;
+    series << "case,material,method,time_s,fem_force_N,irdm_force_N,fem_com_z_m,irdm_com_z_m,"
               "fem_angle_deg,irdm_angle_deg\n";
+    frames << "case,material,method,time_s,vertex,x_m,y_m,z_m\n";
+    std::ostringstream       stability;
+    std::vector<std::string> free_flight_lines;
+    std::vector<std::array<unsigned, 3>> triangles;
     for (const double E : o.materials)
       {
         // The body in this material: the scene's text with its modulus replaced, so that the
@@ -180,23 +257,24 @@ namespace irdm::validation
         const fem::Scene body = fem::parse_scene(text, base_dir, o.scene);
         const double     tau  = body.time_step;
 
-        // Route 2: the free-body model (the six rigid modes removed, every elastic mode kept).
-        fem::PrecomputeOptions po;
-        po.output  = (fs::path(o.model_dir) / ("free_cat_" + material_name(E) + ".h5")).string();
-        po.restart = true;
-        log << "validate-free: E = " << E << " Pa: precomputing the free model " << po.output
-            << std::endl;
-        fem::precompute_impulse_responses(body, po);
-        const ImpulseResponseModel model = load_model(po.output, tau);
-        ModalModelOptions          mo;
-        mo.surface_modes = std::min(o.surface_modes, model.modes.n_modes);
-        const ModalModel modal = make_modal_model(model, mo);
-        const double     area  = mean_free_vertex_area(model);
-        std::vector<Eigen::Vector3d> rest(model.n_outputs / 3);
+        std::vector<ModalModel> models;
+        for (const Route &route : routes)
+          models.push_back(free_model(
+            body,
+            (fs::path(o.model_dir) / ("free_cat_" + material_name(E) + route.file_suffix + ".h5")).string(),
+            route.route, o.surface_modes, log));
+        const ModalModel &frame = models.back(); // the mesh, the vertices, the mass: shared
+        const double      area  = mean_free_vertex_area(frame);
+        triangles               = frame.triangles;
+        std::vector<Eigen::Vector3d> rest(frame.n_outputs / 3);
         for (size_t v = 0; v < rest.size(); ++v)
-          rest[v] = vec(model.output_coordinates[v]);
-        const Eigen::Vector3d c0 = vec(model.center_of_mass);
+          rest[v] = vec(frame.output_coordinates[v]);
+        const Eigen::Vector3d c0   = vec(frame.center_of_mass);
+        const double          mass = frame.mass;
+        const double r_gyration = std::sqrt(0.5 * (frame.inertia[0][0] + frame.inertia[1][1] +
+                                                   frame.inertia[2][2]) / mass);
 
+        double floor_stiffness = 0; // N/m per vertex: the FEM penalty's, from its runs
         for (const Case &k : cases(o.quick))
           {
             log << "validate-free: " << k.name << ", E = " << E << " Pa" << std::endl;
@@ -216,6 +294,7 @@ namespace irdm::validation
                 w.position = fem::History::constant({farthest_x + 0.02, 0, 0});
                 planes.push_back(w);
               }
+            const double duration = k.duration > 0 ? k.duration : o.duration;
             fem::Scene s               = body;
             s.kinematics               = fem::Kinematics::nonlinear;
             s.gravity_enabled          = true;
@@ -223,7 +302,7 @@ namespace irdm::validation
             s.initial_velocity         = arr(k.velocity);
             s.initial_angular_velocity = arr(k.spin);
             s.planes                   = planes;
-            s.duration                 = o.duration;
+            s.duration                 = duration;
             s.outputs                  = fem::Scene::Outputs();
             s.outputs.hdf5 = s.outputs.csv = false;
             s.outputs.surface                = true;
@@ -238,103 +317,202 @@ namespace irdm::validation
                 // The truth itself failed (Newton at a large, fast deformation): nothing to
                 // compare this case with; say so in the report.
                 log << "  the FEM failed: " << e.what() << std::endl;
-                Row row;
-                row.c = k.name, row.E = E, row.fem_failed = e.what();
-                rows.push_back(row);
+                for (const Route &route : routes)
+                  {
+                    Row row;
+                    row.c = k.name, row.method = route.method, row.E = E, row.fem_failed = e.what();
+                    rows.push_back(row);
+                  }
                 continue;
               }
             const double fem_seconds = std::chrono::duration<double>(Clock::now() - t_fem).count();
             const unsigned n = s.n_steps();
+            floor_stiffness  = fem_r.plane_penalty.at("floor") * area;
             std::map<long long, unsigned> at;
             for (unsigned i = 0; i < fem_r.surface.node_tags.size(); ++i)
               at[fem_r.surface.node_tags[i]] = i;
-
-            // The runtime, with the FEM's penalty as a per-vertex stiffness.
-            FreeBodyOptions fo;
-            fo.gravity = -9.81 * k.up;
-            FreeBodyInteraction irdm(modal, fo);
-            irdm.rigid().set_velocity(k.velocity, k.spin);
-            std::vector<PlaneTarget> targets(planes.size());
-            for (size_t p = 0; p < planes.size(); ++p)
-              {
-                targets[p].normal    = planes[p].normal;
-                targets[p].point     = planes[p].position.at(0);
-                targets[p].stiffness = fem_r.plane_penalty.at(planes[p].name) * area;
-              }
-            const double mass = model.mass;
-            const auto   energy = [&] {
-              return irdm.energy() - mass * fo.gravity.dot(irdm.rigid().state().position);
-            };
-            const double energy0 = energy();
-            double       r_gyration = std::sqrt(0.5 * (model.inertia[0][0] + model.inertia[1][1] +
-                                                       model.inertia[2][2]) / mass);
-
-            Row row;
-            row.c = k.name, row.E = E;
-            row.fem_ms = 1e3 * fem_seconds / n;
-            std::vector<double>          x(model.n_outputs);
-            std::vector<Eigen::Vector3d> xf(rest.size()), xi(rest.size());
-            double f2 = 0, df2 = 0, peak_f = 0, peak_i = 0, d2 = 0, dd2 = 0, step_seconds = 0,
-                   centrifugal = 0, peak_contact = mass * 9.81;
-            Eigen::Vector3d J_f = Eigen::Vector3d::Zero(), J_i = Eigen::Vector3d::Zero(),
-                            c_prev = c0;
+            // The FEM's surface, fitted pose and deformation, once for both routes.
+            std::vector<std::vector<Eigen::Vector3d>> fem_x(n + 1, std::vector<Eigen::Vector3d>(rest.size()));
+            std::vector<Fit> fem_fit(n + 1);
             for (unsigned step = 1; step <= n; ++step)
               {
-                const auto t0 = Clock::now();
-                const bool ok = irdm.step(targets.data(), static_cast<int>(targets.size()));
-                step_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
-                row.stable = row.stable && ok;
-                irdm.surface_positions(x.data());
-                Eigen::Vector3d F_f = Eigen::Vector3d::Zero(), F_i = Eigen::Vector3d::Zero();
+                for (size_t v = 0; v < rest.size(); ++v)
+                  {
+                    const unsigned j = at.at(frame.output_node_tags[v]);
+                    for (int d = 0; d < 3; ++d)
+                      fem_x[step][v](d) = rest[v](d) + fem_r.surface_displacement[step][3 * j + d];
+                  }
+                fem_fit[step] = fit(rest, fem_x[step]);
+              }
+            // Frames of the rolling cat: six times evenly over the run.
+            const bool     with_frames = k.name == "spin_roll";
+            const auto     is_frame    = [&](const unsigned step) {
+              return with_frames && step % std::max(1u, n / 6) == 0;
+            };
+            const auto     write_frame = [&](const char *method, const unsigned step,
+                                         const std::vector<Eigen::Vector3d> &x) {
+              for (size_t v = 0; v < x.size(); ++v)
+                frames << k.name << ',' << material_name(E) << ',' << method << ',' << step * tau
+                       << ',' << v << ',' << x[v](0) << ',' << x[v](1) << ',' << x[v](2) << '\n';
+            };
+            for (unsigned step = 1; step <= n; ++step)
+              if (is_frame(step))
+                write_frame("fem", step, fem_x[step]);
+
+            for (size_t r = 0; r < models.size(); ++r)
+              {
+                // The runtime, with the FEM's penalty as a per-vertex stiffness.
+                FreeBodyOptions fo;
+                fo.gravity = -9.81 * k.up;
+                FreeBodyInteraction irdm(models[r], fo);
+                irdm.rigid().set_velocity(k.velocity, k.spin);
+                std::vector<PlaneTarget> targets(planes.size());
                 for (size_t p = 0; p < planes.size(); ++p)
                   {
-                    F_f += vec(fem_r.plane_force.at(planes[p].name)[step]);
-                    F_i += irdm.plane_force(static_cast<int>(p));
+                    targets[p].normal    = planes[p].normal;
+                    targets[p].point     = planes[p].position.at(0);
+                    targets[p].stiffness = fem_r.plane_penalty.at(planes[p].name) * area;
                   }
-                f2 += F_f.squaredNorm(), df2 += (F_f - F_i).squaredNorm();
-                J_f += tau * F_f, J_i += tau * F_i;
-                peak_f = std::max(peak_f, F_f.norm()), peak_i = std::max(peak_i, F_i.norm());
-                peak_contact = std::max(peak_contact, F_f.norm());
-                const Eigen::Vector3d c_f = c0 + vec(fem_r.center_of_mass_displacement[step]);
-                const Eigen::Vector3d c_i = irdm.rigid().state().position;
-                row.distance += (c_f - c_prev).norm();
-                c_prev        = c_f;
-                row.com_error = std::max(row.com_error, (c_f - c_i).norm());
-                for (size_t v = 0; v < rest.size(); ++v)
+                EnergyWatch watch{irdm, fo.gravity};
+                watch.start(k.height);
+
+                Row row;
+                row.c = k.name, row.method = routes[r].method, row.E = E;
+                row.fem_ms = 1e3 * fem_seconds / n;
+                std::vector<double>          x(frame.n_outputs);
+                std::vector<Eigen::Vector3d> xi(rest.size());
+                double f2 = 0, df2 = 0, peak_f = 0, peak_i = 0, d2 = 0, dd2 = 0, step_seconds = 0,
+                       centrifugal = 0, peak_contact = mass * 9.81;
+                Eigen::Vector3d J_f = Eigen::Vector3d::Zero(), J_i = Eigen::Vector3d::Zero(),
+                                c_prev = c0;
+                Eigen::Matrix3d R_prev = Eigen::Matrix3d::Identity();
+                for (unsigned step = 1; step <= n; ++step)
                   {
-                    const unsigned j = at.at(model.output_node_tags[v]);
-                    for (int d = 0; d < 3; ++d)
-                      xf[v](d) = rest[v](d) + fem_r.surface_displacement[step][3 * j + d];
-                    xi[v] = Eigen::Vector3d(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
-                    row.stable = row.stable && xi[v].allFinite();
+                    const auto t0 = Clock::now();
+                    const bool ok = irdm.step(targets.data(), static_cast<int>(targets.size()));
+                    step_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+                    row.stable = row.stable && ok;
+                    irdm.surface_positions(x.data());
+                    Eigen::Vector3d F_f = Eigen::Vector3d::Zero(), F_i = Eigen::Vector3d::Zero();
+                    for (size_t p = 0; p < planes.size(); ++p)
+                      {
+                        F_f += vec(fem_r.plane_force.at(planes[p].name)[step]);
+                        F_i += irdm.plane_force(static_cast<int>(p));
+                      }
+                    f2 += F_f.squaredNorm(), df2 += (F_f - F_i).squaredNorm();
+                    J_f += tau * F_f, J_i += tau * F_i;
+                    peak_f = std::max(peak_f, F_f.norm()), peak_i = std::max(peak_i, F_i.norm());
+                    peak_contact = std::max(peak_contact, F_f.norm());
+                    const Eigen::Vector3d c_f = c0 + vec(fem_r.center_of_mass_displacement[step]);
+                    const Eigen::Vector3d c_i = irdm.rigid().state().position;
+                    row.distance += (c_f - c_prev).norm();
+                    c_prev        = c_f;
+                    row.com_error = std::max(row.com_error, (c_f - c_i).norm());
+                    for (size_t v = 0; v < rest.size(); ++v)
+                      {
+                        xi[v]      = Eigen::Vector3d(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+                        row.stable = row.stable && xi[v].allFinite();
+                      }
+                    const Fit &ff = fem_fit[step], fi = fit(rest, xi);
+                    row.angle_error  = std::max(row.angle_error, angle_deg(fi.R * ff.R.transpose()));
+                    row.rotation_deg = std::max(row.rotation_deg, angle_deg(ff.R));
+                    row.turned_deg += angle_deg(ff.R * R_prev.transpose());
+                    R_prev = ff.R;
+                    for (size_t v = 0; v < rest.size(); ++v)
+                      d2 += ff.deformation[v].squaredNorm(),
+                        dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
+                    const double w = irdm.rigid().angular_velocity().norm();
+                    centrifugal    = std::max(centrifugal, mass * w * w * r_gyration);
+                    row.energy_growth = std::max(row.energy_growth, watch.growth());
+                    series << k.name << ',' << material_name(E) << ',' << routes[r].method << ','
+                           << step * tau << ',' << F_f.dot(k.up) << ',' << F_i.dot(k.up) << ','
+                           << c_f(2) << ',' << c_i(2) << ',' << angle_deg(ff.R) << ','
+                           << angle_deg(fi.R) << '\n';
+                    if (is_frame(step))
+                      write_frame(routes[r].method, step, xi);
                   }
-                const Fit ff = fit(rest, xf), fi = fit(rest, xi);
-                row.angle_error  = std::max(row.angle_error, angle_deg(fi.R * ff.R.transpose()));
-                row.rotation_deg = std::max(row.rotation_deg, angle_deg(ff.R));
-                for (size_t v = 0; v < rest.size(); ++v)
-                  d2 += ff.deformation[v].squaredNorm(),
-                    dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
-                const double w = irdm.rigid().angular_velocity().norm();
-                centrifugal    = std::max(centrifugal, mass * w * w * r_gyration);
-                row.energy_growth = std::max(row.energy_growth, (energy() - energy0) / std::abs(energy0));
-                series << k.name << ',' << material_name(E) << ',' << step * tau << ','
-                       << F_f.dot(k.up) << ',' << F_i.dot(k.up) << ',' << c_f(2) << ',' << c_i(2)
-                       << ',' << angle_deg(ff.R) << ',' << angle_deg(fi.R) << '\n';
+                row.com_error /= std::max(row.distance, 1e-12);
+                row.force_error       = std::sqrt(df2 / std::max(f2, 1e-300));
+                row.impulse_error     = (J_i - J_f).norm() / std::max(J_f.norm(), 1e-300);
+                row.deformation_error = std::sqrt(dd2 / std::max(d2, 1e-300));
+                row.peak_ratio        = peak_i / std::max(peak_f, 1e-300);
+                row.irdm_us           = 1e6 * step_seconds / n;
+                row.centrifugal       = centrifugal / peak_contact;
+                row.stable            = row.stable && row.energy_growth < 0.05;
+                log << "  " << row.method << ": com " << row.com_error << ", angle "
+                    << row.angle_error << " deg, force " << row.force_error << ", impulse "
+                    << row.impulse_error << ", deformation " << row.deformation_error << ", IRDM "
+                    << row.irdm_us << " us/step, FEM " << row.fem_ms << " ms/step" << std::endl;
+                rows.push_back(row);
               }
-            row.com_error /= std::max(row.distance, 1e-12);
-            row.force_error       = std::sqrt(df2 / std::max(f2, 1e-300));
-            row.impulse_error     = (J_i - J_f).norm() / std::max(J_f.norm(), 1e-300);
-            row.deformation_error = std::sqrt(dd2 / std::max(d2, 1e-300));
-            row.peak_ratio        = peak_i / std::max(peak_f, 1e-300);
-            row.irdm_us           = 1e6 * step_seconds / n;
-            row.centrifugal       = centrifugal / peak_contact;
-            row.stable            = row.stable && row.energy_growth < 0.05;
-            log << "  com " << row.com_error << ", angle " << row.angle_error << " deg, force "
-                << row.force_error << ", impulse " << row.impulse_error << ", deformation "
-                << row.deformation_error << ", IRDM " << row.irdm_us << " us/step, FEM "
-                << row.fem_ms << " ms/step" << std::endl;
-            rows.push_back(row);
           }
+
+        // Stability: the rolling cat (spin_roll's start) for a long run of the runtime alone,
+        // by each route; and free flight with no plane for 10 s.
+        for (size_t r = 0; r < models.size() && floor_stiffness > 0; ++r)
+          {
+            const Case roll   = rolling_case();
+            double     lowest = 1e300;
+            for (const auto &X : rest)
+              lowest = std::min(lowest, X(2));
+            FreeBodyOptions     fo;
+            FreeBodyInteraction irdm(models[r], fo);
+            irdm.rigid().set_velocity(roll.velocity, roll.spin);
+            PlaneTarget floor;
+            floor.normal    = {0, 0, 1};
+            floor.point     = {0, 0, lowest - roll.height};
+            floor.stiffness = floor_stiffness;
+            EnergyWatch watch{irdm, fo.gravity};
+            watch.start(roll.height);
+            const unsigned steps = static_cast<unsigned>(std::lround(o.stability_seconds / tau));
+            double growth = 0, turned = 0, seconds = 0;
+            unsigned failed = 0;
+            Eigen::Matrix3d R_prev = Eigen::Matrix3d::Identity();
+            for (unsigned step = 1; step <= steps; ++step)
+              {
+                const auto t0 = Clock::now();
+                failed += irdm.step(&floor, 1) ? 0 : 1;
+                seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+                growth = std::max(growth, watch.growth());
+                turned += angle_deg(irdm.rigid().rotation() * R_prev.transpose());
+                R_prev = irdm.rigid().rotation();
+              }
+            stability << "| rolling, " << o.stability_seconds << " s | " << material_name(E) << " | "
+                      << routes[r].method << " | " << growth << " | " << turned << " | "
+                      << watch.growth() << " | " << failed << " | " << 1e6 * seconds / steps
+                      << " |\n";
+            log << "validate-free: " << o.stability_seconds << " s rolling, " << routes[r].method
+                << ": largest energy gain " << growth << " of the energy brought in, turned "
+                << turned << " deg, " << failed << " failed steps" << std::endl;
+          }
+        {
+          // Free flight: no plane, 10 s, spinning about an axis off the principal ones.
+          FreeBodyOptions fo;
+          FreeBodyInteraction irdm(models.back(), fo);
+          const Eigen::Vector3d v0(0.3, -0.2, 1.0), w0(3, 8, -5);
+          irdm.rigid().set_velocity(v0, w0);
+          const Eigen::Vector3d p0 = irdm.rigid().state().linear_momentum,
+                                L0 = irdm.rigid().state().angular_momentum;
+          EnergyWatch watch{irdm, fo.gravity};
+          watch.start(0);
+          const unsigned steps = static_cast<unsigned>(std::lround(10.0 / tau));
+          double dp = 0, dL = 0, growth = 0;
+          for (unsigned step = 1; step <= steps; ++step)
+            {
+              irdm.step(nullptr, 0);
+              const Eigen::Vector3d p = p0 + mass * fo.gravity * (step * tau);
+              dp     = std::max(dp, (irdm.rigid().state().linear_momentum - p).norm() / p0.norm());
+              dL     = std::max(dL, (irdm.rigid().state().angular_momentum - L0).norm() / L0.norm());
+              growth = std::max(growth, watch.growth());
+            }
+          stability << "| free flight, 10 s | " << material_name(E) << " | either (no contact) | "
+                    << growth << " | | | 0 | |\n";
+          free_flight_lines.push_back(material_name(E) + ": linear momentum within " +
+                                      format_g(dp) + " of p0 + m g t (relative to |p0|), angular "
+                                      "momentum within " + format_g(dL) + " of L0, energy gain " +
+                                      format_g(growth) + " of the initial kinetic energy, the "
+                                      "deformation's energy " + format_g(irdm.deformation().elastic_energy()) + " J");
+        }
       }
 
     std::ostringstream csv;
@@ -342,58 +520,109 @@ namespace irdm::validation
            "deformation_error,irdm_us_per_step,fem_ms_per_step,stable\n";
     for (const Row &r : rows)
       {
+        csv << r.c << ',' << material_name(r.E) << ',' << r.method << ',';
         if (!r.fem_failed.empty())
-          {
-            csv << r.c << ',' << material_name(r.E) << ",modal,nan,nan,nan,nan,nan,nan,nan,fem_failed\n";
-            continue;
-          }
-        csv << r.c << ',' << material_name(r.E) << ",modal," << r.com_error << ',' << r.angle_error
-            << ',' << r.force_error << ',' << r.impulse_error << ',' << r.deformation_error << ','
-            << r.irdm_us << ',' << r.fem_ms << ',' << (r.stable ? "yes" : "no") << '\n';
+          csv << "nan,nan,nan,nan,nan,nan,nan,fem_failed\n";
+        else
+          csv << r.com_error << ',' << r.angle_error << ',' << r.force_error << ','
+              << r.impulse_error << ',' << r.deformation_error << ',' << r.irdm_us << ','
+              << r.fem_ms << ',' << (r.stable ? "yes" : "no") << '\n';
       }
+    std::ostringstream tri;
+    tri << "a,b,c\n";
+    for (const auto &t : triangles)
+      tri << t[0] << ',' << t[1] << ',' << t[2] << '\n';
     write_text_file((fs::path(dir) / "free.csv").string(), csv.str());
     write_text_file((fs::path(dir) / "series.csv").string(), series.str());
+    write_text_file((fs::path(dir) / "frames.csv").string(), frames.str());
+    write_text_file((fs::path(dir) / "triangles.csv").string(), tri.str());
+
+    // Charts (matplotlib from Debian); the report stands without them.
+    bool charts = false;
+    if (!o.plot_script.empty())
+      {
+        const std::string cmd = "/usr/bin/python3 '" + o.plot_script + "' '" + dir + "'";
+        charts                = std::system(cmd.c_str()) == 0;
+        if (!charts)
+          log << "validate-free: the charts were not drawn (" << cmd << " failed)" << std::endl;
+      }
 
     std::ostringstream md;
-    md << "# Free body against the nonlinear FEM (issue 14, first part)\n\n"
+    md << "# Free body against the nonlinear FEM (issue 14)\n\n"
        << "Written by `irdm validate-free" << (o.quick ? " --quick" : "") << "`. Body: `" << o.scene
        << "` (the cat, P1, fixed to nothing), Newmark average acceleration, tau = "
        << base.time_step * 1e3 << " ms, " << o.duration
-       << " s per case, gravity 9.81 m/s^2 against the floor's normal. Truth: the nonlinear FEM on "
-          "the same mesh (neo-Hookean, penalty planes, default penalty 100 E / h). IRDM: "
-          "`FreeBodyInteraction` (rigid body + the modal deformation of the free-body model, "
-          "route 2, every elastic mode in the force loop, "
+       << " s per case (spin_roll 2 s), gravity 9.81 m/s^2 against the floor's normal. Truth: "
+          "the nonlinear FEM on the same mesh (neo-Hookean, penalty planes, default penalty "
+          "100 E / h). IRDM: `FreeBodyInteraction` (rigid body + the modal deformation of the "
+          "free-body model, every elastic mode in the force loop, "
        << o.surface_modes << " in the surface), many-vertex contact with the FEM penalty's "
           "per-vertex equivalent as the plane stiffness. Method and discretization are not "
           "separated here: the FEM and the model share the P1 mesh, so every error below is the "
           "method's (linear elasticity in the body frame against neo-Hookean, vertex against "
           "face-integrated contact), not the mesh's.\n\n"
+       << "Two routes (`irdm precompute --free-route`, docs/model-format.md):\n\n"
+          "- `route1_rigid_fit`, the seed's: the free body's whole recorded response (rigid "
+          "modes included) minus, at every sample, its best rigid fit by least squares over the "
+          "surface vertices with uniform weights. Uniform, because that is the seed's fit over "
+          "corresponding surface nodes and the surface is what is recorded; the linear FEM's "
+          "rigid motions are infinitesimal, so the best fit is the linear projection onto the six "
+          "rigid fields (exact on the linear FEM, where a finite-rotation Kabsch fit would "
+          "misread the linearized rotation as stretch). Test: "
+          "`FreeBody.RigidFitRouteIsTheRecordedResponseMinusItsBestFit` (recorded FEM minus fit "
+          "= H to 1e-10). The fit is not mass-orthogonal: the deformation keeps some momentum, "
+          "which the rigid body then does not carry.\n"
+          "- `route2_modal`: the six rigid-body modes dropped, mass-orthogonal (the best fit "
+          "with the consistent mass over every node, to first order); the deformation carries no "
+          "momentum.\n\n"
+          "What each includes of the body's own motion: gravity and the inertia of the body's "
+          "linear and angular acceleration are rigid fields, M-orthogonal to route 2's elastic "
+          "modes, so they drive no deformation (exact for linear elasticity); route 1's "
+          "deformation is route 2's minus a rigid field, so the same holds. Both leave out the "
+          "centrifugal and Coriolis forces of the spin; the column `centrifugal / contact` "
+          "measures their size.\n\n"
        << "Errors: centre of mass, the largest distance between the two paths over the run, "
           "relative to the distance the FEM's centre travelled; orientation, the largest angle "
           "between the two surfaces' best-fit rotations (Kabsch, uniform weights over the "
           "surface vertices, the same estimator on both); plane force, relative L2 of the total "
           "plane force over the run, and the total impulse's relative error; deformation, "
           "relative RMS of the surface in its best-fit frame. Stable: every step solved, finite, "
-          "and the runtime's energy (rigid, elastic, gravity) never above its start by 5 %.\n\n"
-       << "| case | material | com | angle (deg) | force | impulse | peak IRDM/FEM | deformation "
-          "| FEM rotation (deg) | centrifugal / contact | IRDM us/step | FEM ms/step | stable |\n"
-       << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "and the runtime's energy (rigid, elastic, gravity) never above its start by 5 % of the "
+          "energy the scene brings in (initial kinetic energy plus weight times drop height).\n\n"
+       << "| case | material | method | com | angle (deg) | force | impulse | peak IRDM/FEM | "
+          "deformation | FEM rotation, largest / turned (deg) | centrifugal / contact | IRDM "
+          "us/step | FEM ms/step | stable |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const Row &r : rows)
       if (!r.fem_failed.empty())
-        md << "| " << r.c << " | " << material_name(r.E) << " | the FEM failed: " << r.fem_failed
-           << " |||||||||||\n";
+        md << "| " << r.c << " | " << material_name(r.E) << " | " << r.method
+           << " | the FEM failed: " << r.fem_failed << " ||||||||||\n";
       else
-        md << "| " << r.c << " | " << material_name(r.E) << " | " << r.com_error << " | "
-           << r.angle_error << " | " << r.force_error << " | " << r.impulse_error << " | "
-           << r.peak_ratio << " | " << r.deformation_error << " | " << r.rotation_deg << " | "
-           << r.centrifugal << " | " << r.irdm_us << " | " << r.fem_ms << " | "
-           << (r.stable ? "yes" : "no") << " |\n";
+        md << "| " << r.c << " | " << material_name(r.E) << " | " << r.method << " | "
+           << r.com_error << " | " << r.angle_error << " | " << r.force_error << " | "
+           << r.impulse_error << " | " << r.peak_ratio << " | " << r.deformation_error << " | "
+           << r.rotation_deg << " / " << r.turned_deg << " | " << r.centrifugal << " | "
+           << r.irdm_us << " | " << r.fem_ms << " | " << (r.stable ? "yes" : "no") << " |\n";
     md << "\n\"centrifugal / contact\": the largest centrifugal load of the body's spin (m w^2 "
           "times its radius of gyration) over the largest plane force (at least its weight): "
-          "the size of what the runtime leaves out of the deformation (irdm/free_body.h).\n\n"
-          "Not yet here (issue 14 continues): route 1 (recorded response minus the best rigid "
-          "fit) beside route 2, the free-flight and 60 s checks in this report (they are tests: "
-          "`FreeBodyRuntime.*`), the Fig. 6 chart and frames.\n";
+          "the size of what the runtime leaves out of the deformation (irdm/free_body.h). "
+          "\"turned\": the FEM surface's best-fit rotation summed step by step.\n\n"
+       << "## Fig. 6: the floor force of the rolling cat\n\n"
+       << (charts ? "![floor force](fig6.png)\n\nThe floor force along its normal against time, "
+                    "spin_roll (dropped 2 cm spinning at 8 rad/s), the FEM and both routes "
+                    "(series.csv).\n\n![frames](frames.png)\n\nThe rolling cat, FEM and both "
+                    "routes side by side at six times (frames.csv).\n\n"
+                  : "(charts not drawn: series.csv and frames.csv hold the data)\n\n")
+       << "## Stability: the runtime alone\n\n"
+          "The rolling cat's start (spin_roll) run for " << o.stability_seconds
+       << " s by each route on the floor, and free flight with no plane for 10 s (spinning at "
+          "(3, 8, -5) rad/s, thrown at (0.3, -0.2, 1) m/s). Energy gain: the largest E(t) - E(0) "
+          "over the energy brought in; final: at the end.\n\n"
+          "| run | material | method | largest energy gain | turned (deg) | final | failed steps "
+          "| us/step |\n|---|---|---|---|---|---|---|---|\n"
+       << stability.str() << "\nFree flight:\n\n";
+    for (const auto &line : free_flight_lines)
+      md << "- " << line << "\n";
     write_text_file((fs::path(dir) / "report.md").string(), md.str());
     log << "validate-free: wrote " << dir << "/free.csv, series.csv, report.md" << std::endl;
   }

@@ -34,7 +34,10 @@ namespace irdm
     double              highest_frequency_hz = 0; // of the surface modes
     double              build_seconds        = 0;
     std::vector<double> shapes;       // [output DoF][surface mode]
-    std::vector<double> input_shapes; // [input DoF][mode], every mode
+    std::vector<double> input_shapes; // [input DoF][mode], every mode: displacement there
+    // [input DoF][mode]: the modal force of a unit force there, when it differs from
+    // input_shapes (ModalData::load_shapes); empty: input_shapes.
+    std::vector<double> input_load_shapes;
     std::vector<double> step;         // [mode][3 x 5], as ModalData::step
     std::vector<double> w2;           // (rad/s)^2 per mode
     std::vector<double> h0_inputs;    // the force loop's feed-through, input DoF k to the output
@@ -45,7 +48,8 @@ namespace irdm
     double
     bytes() const
     {
-      return 8.0 * (shapes.size() + input_shapes.size() + step.size() + h0_inputs.size()) +
+      return 8.0 * (shapes.size() + input_shapes.size() + input_load_shapes.size() +
+                    step.size() + h0_inputs.size()) +
              4.0 * residual.size();
     }
   };

@@ -46,7 +46,11 @@ namespace irdm
     unsigned            n_modes = 0;   // 0: the file holds no realization
     std::vector<double> frequency_hz;  // ascending
     std::vector<double> damping_ratio;
-    std::vector<double> shapes;        // [output DoF][mode]
+    std::vector<double> shapes;        // [output DoF][mode]: the response (displacement) shapes
+    // [output DoF][mode]: the shapes a force at an output drives, when they differ from
+    // `shapes` (a free body's rigid-fit route: H[s] = shapes diag(q[s]) load_shapes^T is not
+    // symmetric). Empty: the same as `shapes`.
+    std::vector<double> load_shapes;
     std::vector<double> step;          // [mode][3 x 5]: [A | b_new | b_old], row-major
   };
 

@@ -26,7 +26,9 @@
 // mass-weighted projection (the best rigid fit with mass weights, to first order), and the
 // deformation it gives carries no linear or angular momentum. Its static compliance is the
 // inertia-relief pseudo-inverse of K. The file stores the body's mass, centre of mass and
-// inertia for the runtime's rigid-body dynamics (docs/model-format.md, version 2).
+// inertia for the runtime's rigid-body dynamics (docs/model-format.md, version 2). That is
+// route 2; route 1 (FreeBodyRoute::rigid_fit, the seed's) removes the best rigid fit over the
+// outputs instead, which is not mass-orthogonal.
 #include <reference_fem/scene.h>
 
 #include <functional>
@@ -35,6 +37,26 @@
 
 namespace irdm::fem
 {
+  /// How a free body's precompute takes the rigid motion out of its response (issue 14).
+  enum class FreeBodyRoute
+  {
+    // Route 2: the six rigid-body modes dropped; the elastic modes are mass-orthogonal to
+    // every rigid motion (the deformation carries no momentum).
+    modal,
+    // Route 1, the seed's: the FEM's whole response (rigid modes included) minus, at every
+    // sample, its best rigid fit over the output vertices by weighted least squares. The linear
+    // FEM's rigid motions are infinitesimal (t + theta x r), so its best fit is the linear
+    // least-squares projection onto those six fields, and the route has an exact modal
+    // realization: every elastic mode's output shape with its own best fit removed (the rigid
+    // modes' shapes are removed whole), the load shapes unchanged. H is then not symmetric.
+    rigid_fit
+  };
+  enum class RigidFitWeights
+  {
+    uniform, // every output vertex alike: the seed's least squares over corresponding nodes
+    mass     // each output vertex by its lumped (row-sum) mass
+  };
+
   struct PrecomputeOptions
   {
     std::string             output;         // model file (.h5)
@@ -53,6 +75,8 @@ namespace irdm::fem
     unsigned                    input_stride = 1;
     std::optional<VertexRegion> inputs_always;
     bool allow_large = false; // run even if the memory or disk estimate exceeds what is free
+    FreeBodyRoute   free_route  = FreeBodyRoute::modal;    // free bodies only
+    RigidFitWeights fit_weights = RigidFitWeights::uniform; // rigid_fit only
     std::function<void(const std::string &)> log;      // progress lines (rank 0 only)
   };
 
@@ -65,6 +89,11 @@ namespace irdm::fem
     bool     sparse  = false;   // the sparse route (lowest modes + residual modes)
     bool     free_body = false; // no fixed surface: the 6 rigid-body modes are not kept
     double   rigid_w2_max = 0;  // free body: largest |w^2| of those 6, (rad/s)^2 (round-off)
+    bool     rigid_fit = false; // free body, route 1 (FreeBodyRoute::rigid_fit)
+    // Route 1: the share of an elastic mode's output shape its best rigid fit removes,
+    // |R c_i| / |phi_i| (Euclidean over the outputs): largest and mean over the modes. Zero
+    // would make route 1 route 2.
+    double   rigid_fit_share_max = 0, rigid_fit_share_mean = 0;
     double   eigen_residual = 0; // sparse: largest |K x - w2 M x| / |K x| of the modes kept
     unsigned eigen_iterations = 0; // sparse: Krylov-Schur restarts
     double   seconds_static = 0;   // sparse: K^-1 at (outputs, inputs), within seconds_eigen

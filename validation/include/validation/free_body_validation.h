@@ -2,8 +2,8 @@
 // The free body against the nonlinear reference FEM (issue 14): the cat fixed to nothing,
 // dropped on a floor upright from several heights, tilted, spinning, and thrown against a
 // wall, for a soft material (the seeds') and a firmer gel. The runtime is FreeBodyInteraction
-// (irdm/free_body.h): rigid-body dynamics and the modal deformation of the free-body model
-// (route 2). Errors over time of the centre of mass, the orientation, the plane forces and the
+// (irdm/free_body.h): rigid-body dynamics and the modal deformation of the free-body model,
+// by both routes (route 1, the seed's rigid fit; route 2, modal). Errors over time of the centre of mass, the orientation, the plane forces and the
 // deformation in the body frame; cost per step of both methods in the same run. Writes
 // reports/free/ (free.csv, series.csv, report.md).
 #include <ostream>
@@ -20,7 +20,9 @@ namespace irdm::validation
     std::vector<double> materials  = {2000, 50000};     // Young's moduli, Pa
     double              duration   = 0.6;               // s per case
     unsigned            surface_modes = 100;            // in the runtime's surface update
+    double              stability_seconds = 60; // the runtime alone, rolling on the floor
     bool                quick = false; // the 5 cm drop and the tilt only
+    std::string         plot_script = "validation/plot_free.py"; // empty: no charts
   };
 
   void

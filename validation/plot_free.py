@@ -1,0 +1,127 @@
+#!/usr/bin/python3
+"""Charts of `irdm validate-free`: our Fig. 6 and frames of the rolling cat.
+
+Usage: /usr/bin/python3 validation/plot_free.py REPORT_DIR
+
+REPORT_DIR (reports/free) holds series.csv (case, material, method, time_s, fem_force_N,
+irdm_force_N, ...), frames.csv (case, material, method, time_s, vertex, x_m, y_m, z_m) and
+triangles.csv (a, b, c: surface triangles, vertex indices). Writes:
+  fig6.png    the floor force along its normal against time for the rolling cat (spin_roll),
+              the FEM and both IRDM routes, one panel per material (N, s);
+  frames.png  the rolling cat at six times, FEM and both routes side by side, the firmest
+              material (m in the files, mm on the axes).
+"""
+import csv
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+
+CASE = "spin_roll"
+LABELS = {"fem": "nonlinear FEM", "route1_rigid_fit": "IRDM route 1 (rigid fit)",
+          "route2_modal": "IRDM route 2 (modal)"}
+
+
+def material_key(name):
+    return float(name.replace("kPa", ""))
+
+
+def fig6(folder):
+    series = defaultdict(lambda: defaultdict(list))  # material -> column -> values
+    with open(folder / "series.csv") as f:
+        for row in csv.DictReader(f):
+            if row["case"] != CASE:
+                continue
+            s = series[row["material"]]
+            s[row["method"] + ":t"].append(float(row["time_s"]))
+            s[row["method"] + ":irdm"].append(float(row["irdm_force_N"]))
+            if row["method"] == "route2_modal":
+                s["fem:t"].append(float(row["time_s"]))
+                s["fem:irdm"].append(float(row["fem_force_N"]))
+    if not series:
+        return False
+    materials = sorted(series, key=material_key)
+    fig, axes = plt.subplots(len(materials), 1, figsize=(8, 3.2 * len(materials)), squeeze=False)
+    for ax, material in zip(axes[:, 0], materials):
+        s = series[material]
+        for method, style in (("fem", "k-"), ("route1_rigid_fit", "C1--"), ("route2_modal", "C0-")):
+            if s[method + ":t"]:
+                ax.plot(s[method + ":t"], s[method + ":irdm"], style, lw=1.2 if method == "fem" else 1,
+                        label=LABELS[method])
+        ax.set_title(f"{CASE}, E = {material}: floor force")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("force along the floor normal (N)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(folder / "fig6.png", dpi=110)
+    plt.close(fig)
+    return True
+
+
+def frames(folder):
+    tris = np.loadtxt(folder / "triangles.csv", delimiter=",", skiprows=1, dtype=int, ndmin=2)
+    data = defaultdict(dict)  # (material, method) -> time -> points
+    with open(folder / "frames.csv") as f:
+        for row in csv.DictReader(f):
+            if row["case"] != CASE:
+                continue
+            pts = data[(row["material"], row["method"])].setdefault(float(row["time_s"]), [])
+            pts.append((int(row["vertex"]), float(row["x_m"]), float(row["y_m"]), float(row["z_m"])))
+    if not data:
+        return False
+    material = max({m for m, _ in data}, key=material_key)
+    methods = [m for m in ("fem", "route1_rigid_fit", "route2_modal") if (material, m) in data]
+    times = sorted(data[(material, "fem")])
+    fig = plt.figure(figsize=(2.4 * len(times), 2.6 * len(methods)))
+    all_pts = np.array([[p[1], p[2], p[3]] for m in methods for t in times
+                        for p in data[(material, m)].get(t, [])])
+    lo, hi = all_pts.min(axis=0) * 1e3, all_pts.max(axis=0) * 1e3
+    half = 0.5 * (hi - lo).max()
+    mid = 0.5 * (hi + lo)
+    for r, method in enumerate(methods):
+        for c, t in enumerate(times):
+            ax = fig.add_subplot(len(methods), len(times), r * len(times) + c + 1, projection="3d")
+            pts = sorted(data[(material, method)].get(t, []))
+            if not pts:
+                ax.set_axis_off()
+                continue
+            x = np.array([[p[1], p[2], p[3]] for p in pts]) * 1e3
+            poly = Poly3DCollection(x[tris], facecolor="C0" if method != "fem" else "0.6",
+                                    edgecolor="k", linewidth=0.05, alpha=0.9)
+            ax.add_collection3d(poly)
+            for i, axis in enumerate((ax.set_xlim, ax.set_ylim, ax.set_zlim)):
+                axis(mid[i] - half, mid[i] + half)
+            ax.view_init(elev=10, azim=-90)  # from -y: the spin is about y
+            ax.set_box_aspect((1, 1, 1))
+            ax.tick_params(labelsize=5)
+            if r == 0:
+                ax.set_title(f"t = {t:.2f} s", fontsize=8)
+            if c == 0:
+                ax.text2D(-0.15, 0.5, LABELS[method], transform=ax.transAxes, rotation=90,
+                          va="center", fontsize=7)
+    fig.suptitle(f"{CASE}, E = {material} (mm; viewed along +y)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(folder / "frames.png", dpi=100)
+    plt.close(fig)
+    return True
+
+
+def main():
+    if len(sys.argv) != 2:
+        print(__doc__, file=sys.stderr)
+        return 2
+    folder = Path(sys.argv[1])
+    ok = fig6(folder)
+    ok = frames(folder) and ok
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
