@@ -150,7 +150,7 @@ namespace irdm::fem
     Vector<double> u(n), v(n), a(n), f(n), f_c(n);         // state n and its loads
     Vector<double> u_new(n), v_new(n), a_new(n), f_new(n), f_c_new(n);
     Vector<double> f_int(n), r(n), du(n), trial(n), r_trial(n), tmp(n), w(n);
-    SparseMatrix<double> tangent(L.sparsity), K_T(L.sparsity), K_D(L.sparsity);
+    SparseMatrix<double> tangent(L.sparsity), K_T(L.sparsity), K_D(L.sparsity), K_Du(L.sparsity);
     Vector<double>       u_alpha(n);
 
     v = L.initial_velocity();
@@ -240,7 +240,7 @@ namespace irdm::fem
       if (sc.rayleigh_beta != 0)
         {
           // Objective: no damping of rigid motion however far the body has turned.
-          I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr);
+          I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr, T ? &K_Du : nullptr);
           res.add(sc.rayleigh_beta, tmp);
         }
       res += f_int;
@@ -249,11 +249,15 @@ namespace irdm::fem
       L.constraints.set_zero(res);
       if (T)
         {
-          // dR/dx = c_m M + c_c C + (1 - af)(K_T(u_alpha) + K_contact(x)).
+          // dR/dx = c_m M + c_c C(u_alpha) + (1 - af)(K_T(u_alpha) + beta sym(dC/du v) +
+          // K_contact(x)), C v the objective damping force.
           T->copy_from(L.mass);
           *T *= k.c_m + k.c_c * sc.rayleigh_alpha;
           if (sc.rayleigh_beta != 0)
-            T->add(k.c_c * sc.rayleigh_beta, K_D);
+            {
+              T->add(k.c_c * sc.rayleigh_beta, K_D);
+              T->add((1 - af) * sc.rayleigh_beta, K_Du);
+            }
           T->add(1 - af, K_T);
           *T = L.condensed(*T);
         }
@@ -279,9 +283,12 @@ namespace irdm::fem
             u_new = u; // the predictor inverted an element: start from the last state
             residual(t1, u_new, r, nullptr, contact);
           }
-        unsigned it        = 0;
-        bool     converged = false;
-        for (; it < 40; ++it)
+        // Newton iterations per step: the damping's tangent is only its symmetric part, so
+        // a fast, soft body can need more than the quadratic rate would.
+        constexpr unsigned max_newton = 100;
+        unsigned           it         = 0;
+        bool               converged  = false;
+        for (; it < max_newton; ++it)
           {
             const double r_norm = r.l2_norm();
             if (r_norm <= 1e-7 * scale || scale == 0)
@@ -357,8 +364,9 @@ namespace irdm::fem
               }
           }
         if (!converged)
-          throw InputError("nonlinear dynamics: Newton did not converge in 40 iterations at "
-                           "step " + std::to_string(step) + " (t = " + std::to_string(t1) +
+          throw InputError("nonlinear dynamics: Newton did not converge in " +
+                           std::to_string(max_newton) + " iterations at step " +
+                           std::to_string(step) + " (t = " + std::to_string(t1) +
                            " s, residual " + std::to_string(r.l2_norm() / scale) +
                            " of the force scale); use a smaller time step");
         out.newton_iterations += it;

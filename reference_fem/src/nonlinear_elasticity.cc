@@ -161,30 +161,40 @@ namespace irdm::fem
 
   void
   NonlinearElasticity::Impl::damping_force(const Vector<double> &u, const Vector<double> &v,
-                                           Vector<double> &f_d, SparseMatrix<double> *D) const
+                                           Vector<double> &f_d, SparseMatrix<double> *D,
+                                           SparseMatrix<double> *D_u) const
   {
+    if (linear.scene.small_strain_law && D_u)
+      {
+        *D_u = 0; // F = I: f_d = K0 v does not depend on u
+        D_u  = nullptr;
+      }
     const auto &L = linear;
     const FEValuesExtractors::Vector displacement(0);
     FEValues<3> fv(L.mapping, L.fe, stiffness_quadrature, update_gradients | update_JxW_values);
     const unsigned n_dofs = L.fe.n_dofs_per_cell(), n_q = stiffness_quadrature.size();
-    FullMatrix<double>                   cell_D(n_dofs, n_dofs);
+    FullMatrix<double>                   cell_D(n_dofs, n_dofs), cell_Du(n_dofs, n_dofs);
     Vector<double>                       cell_f(n_dofs);
     std::vector<types::global_dof_index> dofs(n_dofs);
     std::vector<Tensor<2, 3>>            grad_u(n_q), grad_v(n_q);
     std::vector<unsigned>                component(n_dofs);
     std::vector<Tensor<1, 3>>            g(n_dofs), f(n_dofs); // f_i: row c_i of F
+    std::vector<Tensor<1, 3>>            h(n_dofs), Sg(n_dofs); // row c_i of grad v; S g_i
     for (unsigned i = 0; i < n_dofs; ++i)
       component[i] = L.fe.system_to_component_index(i).first;
     f_d.reinit(L.dof_handler.n_dofs());
     if (D)
       *D = 0;
+    if (D_u)
+      *D_u = 0;
     for (const auto &cell : L.dof_handler.active_cell_iterators())
       {
         fv.reinit(cell);
         fv[displacement].get_function_gradients(u, grad_u);
         fv[displacement].get_function_gradients(v, grad_v);
         cell->get_dof_indices(dofs);
-        cell_D = 0;
+        cell_D  = 0;
+        cell_Du = 0;
         cell_f = 0;
         for (unsigned q = 0; q < n_q; ++q)
           {
@@ -204,6 +214,27 @@ namespace irdm::fem
                   f[i][d] = F[component[i]][d];
                 cell_f(i) += (P * g[i])[component[i]] * dx;
               }
+            if (D_u)
+              {
+                // Shape j's displacement gradient G = e_{c_j} (x) g_j changes P = F S by
+                // G S + F C0 : sym(G^T grad v), G^T grad v = g_j (x) h_j:
+                // (d f_d / d u)_ij = d_{c_i c_j} g_i . S g_j + lambda (g_j . h_j)(f_i . g_i)
+                //                    + mu ((f_i . g_j)(h_j . g_i) + (f_i . h_j)(g_j . g_i)).
+                for (unsigned i = 0; i < n_dofs; ++i)
+                  {
+                    for (int d = 0; d < 3; ++d)
+                      h[i][d] = grad_v[q][component[i]][d];
+                    Sg[i] = S * g[i];
+                  }
+                const auto du_ij = [&](const unsigned i, const unsigned j) {
+                  return (component[i] == component[j] ? g[i] * Sg[j] : 0.0) +
+                         lambda * (g[j] * h[j]) * (f[i] * g[i]) +
+                         mu * ((f[i] * g[j]) * (h[j] * g[i]) + (f[i] * h[j]) * (g[j] * g[i]));
+                };
+                for (unsigned i = 0; i < n_dofs; ++i)
+                  for (unsigned j = 0; j < n_dofs; ++j)
+                    cell_Du(i, j) += 0.5 * dx * (du_ij(i, j) + du_ij(j, i));
+              }
             if (!D)
               continue;
             // Shape j's velocity gradient e_{c_j} (x) g_j gives F^T G = f_j (x) g_j, so
@@ -218,6 +249,8 @@ namespace irdm::fem
           f_d(dofs[i]) += cell_f(i);
         if (D)
           D->add(dofs, cell_D);
+        if (D_u)
+          D_u->add(dofs, cell_Du);
       }
   }
 

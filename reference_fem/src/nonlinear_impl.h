@@ -36,11 +36,13 @@ namespace irdm::fem
     /// Green-Lagrange strain, dE/dt = sym(F^T grad v). At F = I it is K0 v, the Rayleigh beta
     /// term of the linear FEM; unlike K0 v it is zero for every rigid velocity of a rotated body
     /// (K0 v damps the spin of a free body once it has turned a finite angle). Sets f_d; if
-    /// D is given, the tangent d f_d / d v at this u (its dependence on u is left out of
-    /// Newton's tangent). The small-strain law keeps K0 v exactly (F = I).
+    /// D is given, the tangent d f_d / d v at this u, and if D_u is given, the symmetric part
+    /// of d f_d / d u (the full one is not symmetric, and the direct solver is; Newton keeps
+    /// its quadratic rate only to the extent the skew part is small). The small-strain law
+    /// keeps K0 v exactly (F = I, no dependence on u).
     void
     damping_force(const Vector<double> &u, const Vector<double> &v, Vector<double> &f_d,
-                  SparseMatrix<double> *D) const;
+                  SparseMatrix<double> *D, SparseMatrix<double> *D_u = nullptr) const;
 
     /// Penalty contact of the scene's planes at time t on the body displaced by u: sets f_c
     /// (force on the body) and, if K is given, adds the penalty tangent
