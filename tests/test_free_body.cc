@@ -93,6 +93,28 @@ namespace
     return fem.run();
   }
 
+  // The free beam's model by one route (T = 60), written to `file` and loaded.
+  struct FreeBeamModel
+  {
+    fem::PrecomputeReport report;
+    ImpulseResponseModel  model;
+  };
+  FreeBeamModel
+  precompute_free_beam(const std::string &file, const fem::FreeBodyRoute route)
+  {
+    const fem::Scene       scene = free_beam();
+    fem::PrecomputeOptions o;
+    o.output      = tmp(file);
+    o.restart     = true;
+    o.length      = 60;
+    o.free_route  = route;
+    o.fit_weights = fem::RigidFitWeights::uniform;
+    FreeBeamModel m;
+    m.report = fem::precompute_impulse_responses(scene, o);
+    m.model  = load_model(o.output, scene.time_step);
+    return m;
+  }
+
   // The FEM's displacement of every model output at FEM step `step`, in the model's DoF order.
   std::vector<double>
   at_outputs(const fem::RunResult &r, const ImpulseResponseModel &model, const unsigned step)
@@ -112,13 +134,10 @@ namespace
 // at every step, to round-off; and the rigid part is far from round-off (the body moves).
 TEST(FreeBody, PrecomputeRemovesExactlyTheRigidMotion)
 {
-  const fem::Scene scene = free_beam();
-  fem::PrecomputeOptions o;
-  o.output  = tmp("free_beam.h5");
-  o.restart = true;
-  o.length  = 60;
-  const fem::PrecomputeReport rep = fem::precompute_impulse_responses(scene, o);
-  const ImpulseResponseModel  model = load_model(o.output, scene.time_step);
+  const fem::Scene             scene = free_beam();
+  const FreeBeamModel          m     = precompute_free_beam("free_beam.h5", fem::FreeBodyRoute::modal);
+  const fem::PrecomputeReport &rep   = m.report;
+  const ImpulseResponseModel  &model = m.model;
   EXPECT_TRUE(rep.free_body);
   EXPECT_TRUE(model.free_body);
   EXPECT_EQ(rep.n_modes, rep.n_free - 6);
@@ -158,15 +177,9 @@ TEST(FreeBody, PrecomputeRemovesExactlyTheRigidMotion)
 // runs the same as H: a probe pressed into the beam meets the same force through both.
 TEST(FreeBody, RigidFitRouteIsTheRecordedResponseMinusItsBestFit)
 {
-  const fem::Scene       scene = free_beam();
-  fem::PrecomputeOptions o;
-  o.output      = tmp("free_beam_fit.h5");
-  o.restart     = true;
-  o.length      = 60;
-  o.free_route  = fem::FreeBodyRoute::rigid_fit;
-  o.fit_weights = fem::RigidFitWeights::uniform;
-  const fem::PrecomputeReport rep   = fem::precompute_impulse_responses(scene, o);
-  const ImpulseResponseModel  model = load_model(o.output, scene.time_step);
+  const FreeBeamModel m = precompute_free_beam("free_beam_fit.h5", fem::FreeBodyRoute::rigid_fit);
+  const fem::PrecomputeReport &rep   = m.report;
+  const ImpulseResponseModel  &model = m.model;
   EXPECT_TRUE(rep.rigid_fit);
   ASSERT_EQ(model.modes.load_shapes.size(), model.modes.shapes.size());
   // The fit takes a visible share of some modes' shapes (it would be 0 were it route 2's).

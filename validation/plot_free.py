@@ -12,6 +12,7 @@ triangles.csv (a, b, c: surface triangles, vertex indices). Writes:
               material (m in the files, mm on the axes).
 """
 import csv
+import os
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -26,6 +27,14 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 CASE = "spin_roll"
 LABELS = {"fem": "nonlinear FEM", "route1_rigid_fit": "IRDM route 1 (rigid fit)",
           "route2_modal": "IRDM route 2 (modal)"}
+
+
+def save(fig, path, dpi):
+    """Written under a part name, then renamed: a failed run leaves no half-written picture."""
+    part = path.with_name(path.name + ".part.png")
+    fig.savefig(part, dpi=dpi)
+    plt.close(fig)
+    os.replace(part, path)
 
 
 def material_key(name):
@@ -60,8 +69,7 @@ def fig6(folder):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(folder / "fig6.png", dpi=110)
-    plt.close(fig)
+    save(fig, folder / "fig6.png", 110)
     return True
 
 
@@ -108,8 +116,7 @@ def frames(folder):
                           va="center", fontsize=7)
     fig.suptitle(f"{CASE}, E = {material} (mm; viewed along +y)", fontsize=9)
     fig.tight_layout()
-    fig.savefig(folder / "frames.png", dpi=100)
-    plt.close(fig)
+    save(fig, folder / "frames.png", 100)
     return True
 
 
