@@ -318,6 +318,10 @@ namespace
                   o.output.c_str(), r.n_orientations, r.length, r.n_surface, r.ranks,
                   r.seconds_total, r.seconds_per_orientation_mean, r.seconds_per_orientation_max,
                   r.newton_iterations, r.impulse_force_min, r.impulse_force_max);
+    if (mpi_rank() == 0 && r.free_body)
+      std::printf("free body (no fixed surface): rigid motion taken out by the best fit, %.3g %% "
+                  "of the recorded displacement on average, %.3g %% at most\n",
+                  100 * r.rigid_share_mean, 100 * r.rigid_share_max);
     return 0;
   }
 
@@ -542,11 +546,13 @@ namespace
     PrecomputeVdofArgs pv;
     auto *precompute_vdof = app.add_subcommand("precompute-vdof", "virtual-DOF model (plane contact, seed 001); mpirun-able");
     precompute_vdof->footer("Virtual degrees of freedom (seed 001): for each plane orientation (the vertices of a "
-      "geodesic dome), hits the scene's grounded body once with a rigid frictionless wall in "
+      "geodesic dome), hits the scene's body once with a rigid frictionless wall in "
       "the nonlinear FEM (neo-Hookean, penalty contact) and records the responses of the "
       "surface and of every virtual DOF to that impulse, per newton of wall force "
       "(docs/model-format.md). Uses the scene's mesh, material, damping, integrator, step, "
-      "fixed surfaces and model length T; loads, probes and gravity are left out. Under "
+      "fixed surfaces and model length T; loads, probes and gravity are left out. A scene "
+      "with no fixed surface is a free body: its rigid motion (the best rigid fit at every "
+      "sample) is taken out of the responses (route 1 of issue 14). Under "
       "'mpirun -np N' the orientations are dealt to the ranks; rank 0 writes.");
     precompute_vdof->add_option("scene", pv.scene, "scene file (JSON)")->required()->check(CLI::ExistingFile);
     precompute_vdof->add_option("--out", pv.out, "model file to write")->required();
@@ -716,7 +722,8 @@ namespace
       "2: the rigid-body modes removed) for each Young's modulus of --materials, then runs every "
       "case through the nonlinear FEM (neo-Hookean, penalty planes) and FreeBodyInteraction "
       "(rigid body + modal deformation, many-vertex contact at the FEM penalty's per-vertex "
-      "equivalent) with each model: drops from 2, 5 and 10 cm, a drop with a spin (2 s), a "
+      "equivalent) with each model, and through FreeBodyVirtualDofs with the seed's virtual "
+      "DOFs of the free body (irdm precompute-vdof on it; rigid walls): drops from 2, 5 and 10 cm, a drop with a spin (2 s), a "
       "throw at a wall, and a drop on a floor tilted 25 degrees; then the runtime alone rolls "
       "for --stability seconds and flies free for 10 s. Writes DIR/free/free.csv (one row per "
       "case, material and method), series.csv (forces, heights and angles against time), "
@@ -742,6 +749,18 @@ namespace
       ->capture_default_str()
       ->check(CLI::Range(0.002, 3600.0));
     validate_free->add_flag("--quick", vfb.quick, "the 5 cm drop and the tilted drop only");
+    validate_free->add_option("--vdof-subdivisions", vfb.vdof_subdivisions,
+                              "the virtual-DOF model's dome: 10 * 4^S + 2 orientations; -1: no "
+                              "virtual-DOF method")
+      ->capture_default_str()
+      ->check(CLI::Range(-1, 4));
+    validate_free->add_option("--vdof-length", vfb.vdof_length,
+                              "samples per virtual-DOF response (T; the step is the scene's)")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 100000u));
+    validate_free->add_flag("--reuse-models", vfb.reuse_models,
+                            "take a virtual-DOF model already in --model-dir instead of "
+                            "precomputing it (it must be of the same scene and material)");
 
     // play
     irdm::play::PlayOptions po;

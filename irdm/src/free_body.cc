@@ -6,23 +6,6 @@ namespace irdm
 {
   namespace
   {
-    RigidBodyInertia
-    inertia_of(const ModelFrame &m)
-    {
-      if (!m.free_body)
-        throw InputError("free body: the model is of a grounded body (it has a fixed surface); "
-                         "precompute a scene with no fixed surface");
-      RigidBodyInertia in;
-      in.mass = m.mass;
-      for (int i = 0; i < 3; ++i)
-        {
-          in.center(i) = m.center_of_mass[i];
-          for (int j = 0; j < 3; ++j)
-            in.inertia(i, j) = m.inertia[i][j];
-        }
-      return in;
-    }
-
     Eigen::Vector3d
     vec(const std::array<double, 3> &a)
     {
@@ -33,17 +16,154 @@ namespace irdm
     {
       return {v(0), v(1), v(2)};
     }
+
+    RigidBodyInertia
+    inertia_from(const double mass, const std::array<double, 3> &center,
+                 const std::array<std::array<double, 3>, 3> &inertia)
+    {
+      RigidBodyInertia in;
+      in.mass   = mass;
+      in.center = vec(center);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          in.inertia(i, j) = inertia[i][j];
+      return in;
+    }
   } // namespace
 
-  FreeBodyInteraction::FreeBodyInteraction(const ModalModel &model, const FreeBodyOptions &options)
+  // ---- The modal deformation under many-vertex contact.
+
+  RigidBodyInertia
+  ModalDeformation::inertia(const ModalModel &m)
+  {
+    if (!m.free_body)
+      throw InputError("free body: the model is of a grounded body (it has a fixed surface); "
+                       "precompute a scene with no fixed surface");
+    return inertia_from(m.mass, m.center_of_mass, m.inertia);
+  }
+
+  ModalDeformation::ModalDeformation(const ModalModel &model, const FreeBodyOptions &options)
     : model_(model)
-    , options_(options)
-    , tau_(model.time_step)
-    , rigid_(inertia_of(model))
-    , compliance_(rigid_.step_compliance(model.time_step))
-    , deformation_(model, options.contact)
-    , u_(model.n_outputs, 0.0)
+    , interaction_(model, options.contact)
     , vertex_done_(model.n_inputs / 3, 0)
+  {}
+
+  bool
+  ModalDeformation::step(const PlaneTarget *body_planes, const int n_planes,
+                         const RigidStepCompliance &rigid)
+  {
+    return interaction_.step(body_planes, n_planes, rigid);
+  }
+
+  void
+  ModalDeformation::contact_wrench(const Eigen::Vector3d &center, Eigen::Vector3d &force,
+                                   Eigen::Vector3d &torque)
+  {
+    force.setZero();
+    torque.setZero();
+    for (const unsigned k : interaction_.pushed_inputs())
+      {
+        const unsigned vertex = k / 3;
+        if (vertex_done_[vertex])
+          continue; // its three DoFs are taken together
+        vertex_done_[vertex] = 1;
+        Eigen::Vector3d f, r = vec(model_.output_coordinates[model_.input_output_index[vertex]]) - center;
+        for (int d = 0; d < 3; ++d)
+          {
+            f(d) = interaction_.force_on_input(3 * vertex + d);
+            r(d) += interaction_.input_displacement(3 * vertex + d);
+          }
+        force += f;
+        torque += r.cross(f);
+      }
+    for (const unsigned k : interaction_.pushed_inputs())
+      vertex_done_[k / 3] = 0;
+  }
+
+  Eigen::Vector3d
+  ModalDeformation::plane_force(const int p) const
+  {
+    return vec(interaction_.vertex_contact().plane(p).force);
+  }
+
+  // ---- The seed's virtual DOFs.
+
+  RigidBodyInertia
+  VirtualDofDeformation::inertia(const VirtualDofModel &m)
+  {
+    if (!m.free_body)
+      throw InputError("free body: the virtual-DOF model is of a grounded body (it has a fixed "
+                       "surface); run irdm precompute-vdof on a scene with no fixed surface");
+    return inertia_from(m.mass, m.center_of_mass, m.inertia);
+  }
+
+  VirtualDofDeformation::VirtualDofDeformation(const VirtualDofModel &model,
+                                               const FreeBodyOptions &options)
+    : model_(model)
+    , interaction_(model, options.mapping)
+  {}
+
+  bool
+  VirtualDofDeformation::step(const PlaneTarget *body_planes, const int n_planes,
+                              const RigidStepCompliance &rigid)
+  {
+    if (n_planes < 0 || n_planes > PlaneInteraction::max_walls)
+      return false;
+    // A plane (normal n toward the body, through p) is the wall {x : d . x > w} with d = -n,
+    // w = d . p, as stiff as the precompute's penalty wall. A rigid wall would stop the body
+    // within one step: with the rigid body's trapezoidal impulse that is a bounce faster than
+    // the fall (energy from nowhere), which the spring in series avoids.
+    std::array<VirtualDofWall, PlaneInteraction::max_walls> walls;
+    for (int a = 0; a < n_planes; ++a)
+      {
+        const auto &n = body_planes[a].normal, &p = body_planes[a].point;
+        walls[a].direction = {-n[0], -n[1], -n[2]};
+        walls[a].position  = -(n[0] * p[0] + n[1] * p[1] + n[2] * p[2]);
+        walls[a].stiffness = VirtualDofWall::precompute_wall;
+      }
+    n_walls_ = n_planes;
+    return interaction_.step(walls.data(), n_planes, force_.data(), rigid);
+  }
+
+  void
+  VirtualDofDeformation::contact_wrench(const Eigen::Vector3d &center, Eigen::Vector3d &force,
+                                        Eigen::Vector3d &torque)
+  {
+    force.setZero();
+    torque.setZero();
+    for (int a = 0; a < n_walls_; ++a)
+      {
+        const Eigen::Vector3d f = plane_force(a);
+        force += f;
+        torque += (vec(interaction_.contact_point(a)) - center).cross(f);
+      }
+  }
+
+  Eigen::Vector3d
+  VirtualDofDeformation::plane_force(const int p) const
+  {
+    // Wall p pushes along -d = its plane's normal.
+    return p < n_walls_ ? Eigen::Vector3d(-force_[p] * vec(interaction_.wall_direction(p)))
+                        : Eigen::Vector3d::Zero();
+  }
+
+  void
+  VirtualDofDeformation::surface_displacement(double *u) const
+  {
+    const std::vector<double> &s = interaction_.update_surface();
+    std::copy(s.begin(), s.end(), u);
+  }
+
+  // ---- The rigid step, shared.
+
+  template <class Deformation>
+  FreeBody<Deformation>::FreeBody(const Model &model, const FreeBodyOptions &options)
+    : options_(options)
+    , tau_(model.time_step)
+    , rigid_(Deformation::inertia(model))
+    , compliance_(rigid_.step_compliance(model.time_step))
+    , deformation_(model, options)
+    , u_(3 * deformation_.n_vertices(), 0.0)
   {
     if (!options.gravity.allFinite())
       throw InputError("free body: gravity must be finite");
@@ -52,13 +172,14 @@ namespace irdm
     rigid_.set_load(rigid_.inertia().mass * options.gravity, Eigen::Vector3d::Zero()); // t = 0
   }
 
+  template <class Deformation>
   bool
-  FreeBodyInteraction::step(const PlaneTarget *world_planes, const int n_planes)
+  FreeBody<Deformation>::step(const PlaneTarget *world_planes, const int n_planes)
   {
     if (n_planes < 0 || n_planes > contact::max_planes)
       return false;
-    const RigidBodyState  start   = rigid_.state();
-    const Eigen::Vector3d weight  = rigid_.inertia().mass * options_.gravity;
+    const RigidBodyState   start  = rigid_.state();
+    const Eigen::Vector3d  weight = rigid_.inertia().mass * options_.gravity;
     const Eigen::Vector3d &center = rigid_.inertia().center;
     // 1. Where the step takes the body with no contact, and the planes in that frame.
     rigid_.step(weight, Eigen::Vector3d::Zero(), tau_);
@@ -76,45 +197,32 @@ namespace irdm
         rigid_.set_state(start);
         return false;
       }
-    // 3. Net force and torque of the contact at the deformed points (model frame), then the
-    // rigid step again with them.
-    Eigen::Vector3d force = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
-    for (const unsigned k : deformation_.pushed_inputs())
-      {
-        const unsigned vertex = k / 3;
-        if (vertex_done_[vertex])
-          continue; // its three DoFs are taken together
-        vertex_done_[vertex] = 1;
-        Eigen::Vector3d f, r = vec(model_.output_coordinates[model_.input_output_index[vertex]]) - center;
-        for (int d = 0; d < 3; ++d)
-          {
-            f(d) = deformation_.force_on_input(3 * vertex + d);
-            r(d) += deformation_.input_displacement(3 * vertex + d);
-          }
-        force += f;
-        torque += r.cross(f);
-      }
-    for (const unsigned k : deformation_.pushed_inputs())
-      vertex_done_[k / 3] = 0;
+    // 3. Net force and torque of the contact, then the rigid step again with them.
+    Eigen::Vector3d force, torque;
+    deformation_.contact_wrench(center, force, torque);
     for (int p = 0; p < n_planes; ++p)
-      world_force_[p] = R * vec(deformation_.vertex_contact().plane(p).force);
+      world_force_[p] = R * deformation_.plane_force(p);
     rigid_.set_state(start);
     rigid_.step(weight + R * force, R * torque, tau_);
     return true;
   }
 
+  template <class Deformation>
   void
-  FreeBodyInteraction::surface_positions(double *x) const
+  FreeBody<Deformation>::surface_positions(double *x) const
   {
     deformation_.surface_displacement(u_.data());
     const Eigen::Matrix3d &R = rigid_.rotation();
     const Eigen::Vector3d  c = rigid_.state().position, c0 = rigid_.inertia().center;
-    for (unsigned v = 0; v < model_.n_outputs / 3; ++v)
+    for (unsigned v = 0; v < deformation_.n_vertices(); ++v)
       {
-        const Eigen::Vector3d X = vec(model_.output_coordinates[v]);
+        const Eigen::Vector3d X = vec(deformation_.rest_position(v));
         const Eigen::Vector3d p = c + R * (X - c0 + Eigen::Vector3d(u_[3 * v], u_[3 * v + 1], u_[3 * v + 2]));
         for (int d = 0; d < 3; ++d)
           x[3 * v + d] = p(d);
       }
   }
+
+  template class FreeBody<ModalDeformation>;
+  template class FreeBody<VirtualDofDeformation>;
 } // namespace irdm

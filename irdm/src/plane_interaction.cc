@@ -88,6 +88,30 @@ namespace irdm
       m.fixed.push_back(f != 0);
     if (std::count(m.fixed.begin(), m.fixed.end(), 0) == 0)
       throw InputError("'" + path + "': every surface vertex is fixed");
+    if (r.exists("/virtual_dofs/wall_stiffness"))
+      {
+        m.wall_stiffness = r.read_double("/virtual_dofs/wall_stiffness", {K});
+        for (const double k : m.wall_stiffness)
+          if (!(k > 0) || !std::isfinite(k))
+            throw InputError("'" + path + "': virtual_dofs/wall_stiffness must be > 0 and finite");
+      }
+    m.free_body = r.has_attribute("/", "body") && r.string_attribute("/", "body") == "free";
+    if (m.free_body)
+      {
+        if (!r.exists("/rigid_body/mass_kg"))
+          throw InputError("'" + path + "': a free body's model has no /rigid_body group");
+        m.mass         = r.read_double("/rigid_body/mass_kg", {1})[0];
+        const auto c   = r.read_double("/rigid_body/center_of_mass_m", {3});
+        const auto in  = r.read_double("/rigid_body/inertia_kg_m2", {3, 3});
+        for (int i = 0; i < 3; ++i)
+          {
+            m.center_of_mass[i] = c[i];
+            for (int j = 0; j < 3; ++j)
+              m.inertia[i][j] = in[3 * i + j];
+          }
+        if (!(m.mass > 0) || !std::isfinite(m.mass))
+          throw InputError("'" + path + "': /rigid_body/mass_kg must be > 0");
+      }
     const auto tri_shape = r.shape("/surface/triangles");
     if (tri_shape.size() != 2 || tri_shape[1] != 3)
       throw InputError("'" + path + "': surface/triangles must have shape (n, 3)");
@@ -205,7 +229,29 @@ namespace irdm
     , ring_(static_cast<size_t>(model.n_orientations) * 2 * model.length, 0.0)
     , last_active_(model.n_orientations, 0)
     , surface_(3 * model.n_surface, 0.0)
-  {}
+    , band_centroid_(model.n_orientations, {0, 0, 0})
+  {
+    // Band k: the free surface vertices within `band` of plane k at first contact (as in the
+    // precompute).
+    for (unsigned k = 0; k < model.n_orientations; ++k)
+      {
+        const auto &d     = model.directions[k];
+        unsigned    count = 0;
+        for (unsigned i = 0; i < model.n_surface; ++i)
+          {
+            const auto &x = model.coordinates[i];
+            if (!model.fixed[i] &&
+                d[0] * x[0] + d[1] * x[1] + d[2] * x[2] >= model.first_contact[k] - model.band)
+              {
+                for (int a = 0; a < 3; ++a)
+                  band_centroid_[k][a] += x[a];
+                ++count;
+              }
+          }
+        for (int a = 0; a < 3; ++a)
+          band_centroid_[k][a] /= std::max(count, 1u);
+      }
+  }
 
   double
   PlaneInteraction::history(const unsigned j) const
@@ -281,8 +327,37 @@ namespace irdm
     return c;
   }
 
+  void
+  PlaneInteraction::place_contact(Mapped &wall, const double position) const
+  {
+    // The blend of the mapped virtual DOFs' band centroids, where each one's precomputed hit
+    // pushed, moved onto the wall's plane. Body-fixed per virtual DOF: the point does not jump
+    // with a small tilt of a flat face, as the centroid of the surface the wall overlaps would.
+    const auto &d = wall.direction;
+    double      c[3] = {0, 0, 0};
+    for (unsigned i = 0; i < wall.weights.n; ++i)
+      for (int a = 0; a < 3; ++a)
+        c[a] += wall.weights.w[i] * band_centroid_[wall.weights.k[i]][a];
+    const double along = position - (d[0] * c[0] + d[1] * c[1] + d[2] * c[2]);
+    wall.point         = {c[0] + along * d[0], c[1] + along * d[1], c[2] + along * d[2]};
+  }
+
   bool
   PlaneInteraction::step(const VirtualDofWall *walls, const int n, double *force)
+  {
+    return solve(walls, n, force, nullptr);
+  }
+
+  bool
+  PlaneInteraction::step(const VirtualDofWall *walls, const int n, double *force,
+                         const RigidStepCompliance &rigid)
+  {
+    return solve(walls, n, force, &rigid);
+  }
+
+  bool
+  PlaneInteraction::solve(const VirtualDofWall *walls, const int n, double *force,
+                          const RigidStepCompliance *rigid)
   {
     if (n < 0 || n > max_walls)
       return false;
@@ -292,6 +367,8 @@ namespace irdm
     //   g_a = (h_a - (r_a - w_a)) + sum_b c_ab F_b + F_a / k_a >= 0,
     // is complementary to F_a >= 0: the solver's g = W F + q with W = c + diag(1/k).
     double W[max_walls * max_walls], q[max_walls], h[max_walls];
+    double Wr[max_walls * max_walls] = {}; // the rigid body's share of W (free body)
+    double stiffness[max_walls];
     char   active[max_walls];
     for (int a = 0; a < n; ++a)
       {
@@ -302,8 +379,37 @@ namespace irdm
         active[a]             = q[a] < 0;
         for (int b = 0; b <= a; ++b)
           W[a * max_walls + b] = feed_through(walls_[a], walls_[b]);
-        if (walls[a].stiffness > 0)
-          W[a * max_walls + a] += 1 / walls[a].stiffness;
+        stiffness[a] = walls[a].stiffness;
+        if (stiffness[a] == VirtualDofWall::precompute_wall)
+          {
+            if (m_.wall_stiffness.empty())
+              return false; // the file gives no impulse depth
+            stiffness[a] = 0;
+            for (unsigned i = 0; i < walls_[a].weights.n; ++i)
+              stiffness[a] += walls_[a].weights.w[i] * m_.wall_stiffness[walls_[a].weights.k[i]];
+          }
+        if (stiffness[a] > 0)
+          W[a * max_walls + a] += 1 / stiffness[a];
+      }
+    if (rigid)
+      {
+        // The body's rigid give over the step: wall b's force along -d_b at p_b moves p_a by
+        // C(p_a, p_b) (-d_b) F_b, a recession along -d_a of d_a^T C(p_a, p_b) d_b F_b.
+        for (int a = 0; a < n; ++a)
+          place_contact(walls_[a], walls[a].position);
+        for (int a = 0; a < n; ++a)
+          for (int b = 0; b <= a; ++b)
+            {
+              const auto &pa = walls_[a].point, &pb = walls_[b].point;
+              const auto &da = walls_[a].direction, &db = walls_[b].direction;
+              const Eigen::Vector3d Xa(pa[0], pa[1], pa[2]), Xb(pb[0], pb[1], pb[2]);
+              double c = 0;
+              for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                  c += da[i] * rigid->entry(Xa, i, Xb, j) * db[j];
+              W[a * max_walls + b] += c;
+              Wr[a * max_walls + b] = c;
+            }
       }
     if (n > 0 && solver_.solve(n, W, max_walls, q, active, force) < 0)
       {
@@ -315,9 +421,10 @@ namespace irdm
       {
         walls_[a].y = h[a];
         for (int b = 0; b < n; ++b)
-          walls_[a].y += (a >= b ? W[a * max_walls + b] : W[b * max_walls + a]) * force[b];
-        if (walls[a].stiffness > 0)
-          walls_[a].y -= force[a] / walls[a].stiffness;
+          walls_[a].y += (a >= b ? W[a * max_walls + b] - Wr[a * max_walls + b]
+                                 : W[b * max_walls + a] - Wr[b * max_walls + a]) * force[b];
+        if (stiffness[a] > 0)
+          walls_[a].y -= force[a] / stiffness[a];
       }
     record(force);
     return true;

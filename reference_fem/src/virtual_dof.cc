@@ -3,6 +3,8 @@
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
 #include <irdm_common/h5.h>
+#include <irdm_common/rigid_fit.h>
+#include <reference_fem/mesh.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/nonlinear_elasticity.h>
 #include <reference_fem/virtual_dof.h>
@@ -109,9 +111,8 @@ namespace irdm::fem
         check_output_file("--out", options.output, {scene.mesh_file});
         output_lock = OutputLock(options.output);
       }
-    if (scene.fixed_surfaces.empty())
-      throw InputError("virtual DOFs: the scene fixes no surface; a free body hit by a wall "
-                       "moves away rigidly (non-grounded objects are not supported yet)");
+    // No fixed surface: a free body, whose rigid motion the best fit takes out (header).
+    const bool free_body = scene.fixed_surfaces.empty();
     if (!(options.impulse_depth > 0) || !(options.band > 0))
       throw InputError("virtual DOFs: the impulse depth and the band must be > 0");
 
@@ -150,6 +151,13 @@ namespace irdm::fem
         rest_position[k] /= band[k].size();
       }
 
+    const MassProperties mass = mass_properties(read_gmsh(scene.mesh_file), scene.density);
+    const Eigen::Vector3d center_of_mass(mass.center[0], mass.center[1], mass.center[2]);
+    std::vector<Eigen::Vector3d> rest(n_surface);
+    for (unsigned i = 0; i < n_surface; ++i)
+      rest[i] = Eigen::Vector3d(surface.coordinates[i][0], surface.coordinates[i][1],
+                                surface.coordinates[i][2]);
+
     // The scene of orientation k: the body alone, hit once by the wall.
     const auto hit_scene = [&](const unsigned k) {
       Scene s = scene;
@@ -161,6 +169,7 @@ namespace irdm::fem
       s.prescribed.clear();
       s.initial          = InitialState::rest;
       s.initial_velocity = {0, 0, 0};
+      s.initial_angular_velocity = {0, 0, 0};
       s.duration         = (T + 1) * dt;
       s.outputs          = Scene::Outputs();
       s.outputs.surface  = true;
@@ -182,7 +191,7 @@ namespace irdm::fem
     struct Rows
     {
       std::vector<double> surface, dofs; // T x 3n, T x K
-      double force = 0, seconds = 0, band_size = 0, newton = 0;
+      double force = 0, seconds = 0, band_size = 0, newton = 0, rigid_share = 0, wall_stiffness = 0;
     };
     std::map<unsigned, Rows> mine;
     unsigned n_done = 0, n_mine = 0;
@@ -220,9 +229,49 @@ namespace irdm::fem
         const auto  n3 = 3 * surface.node_tags.size();
         rows.surface.resize(static_cast<size_t>(T) * n3);
         rows.dofs.resize(static_cast<size_t>(T) * K);
+        std::vector<double> deformation(n3);
         for (unsigned s2 = 0; s2 < T; ++s2)
           {
-            const auto &u = r.surface_displacement[1 + s2];
+            const std::vector<double> *recorded = &r.surface_displacement[1 + s2];
+            if (s2 == 0)
+              {
+                // The precompute's penalty wall as a spring: its overlap with the recorded
+                // (whole) motion of band k at the impulse step.
+                double y = 0;
+                for (const unsigned i : band[k])
+                  y -= dot(d, {(*recorded)[3 * i], (*recorded)[3 * i + 1], (*recorded)[3 * i + 2]});
+                y /= band[k].size();
+                rows.wall_stiffness = F / std::max(options.impulse_depth - y, 1e-300);
+              }
+            if (free_body)
+              {
+                // The deformation: the recorded motion less its best rigid fit.
+                std::vector<Eigen::Vector3d> x(n_surface);
+                double u2 = 0, d2 = 0;
+                for (unsigned i = 0; i < n_surface; ++i)
+                  for (int a = 0; a < 3; ++a)
+                    {
+                      x[i](a) = rest[i](a) + (*recorded)[3 * i + a];
+                      u2 += (*recorded)[3 * i + a] * (*recorded)[3 * i + a];
+                    }
+                // Translation: the centre of mass's (the run-time rigid body carries the
+                // whole impulse, so the deformation may carry no momentum); rotation: the best
+                // about it over the surface vertices.
+                const auto &dc = r.center_of_mass_displacement[1 + s2];
+                const std::pair<Eigen::Vector3d, Eigen::Vector3d> centers(
+                  center_of_mass, center_of_mass + Eigen::Vector3d(dc[0], dc[1], dc[2]));
+                const RigidFit fit = best_rigid_fit(rest, x, &centers);
+                for (unsigned i = 0; i < n_surface; ++i)
+                  for (int a = 0; a < 3; ++a)
+                    {
+                      deformation[3 * i + a] = fit.deformation[i](a);
+                      d2 += fit.deformation[i](a) * fit.deformation[i](a);
+                    }
+                if (u2 > 0)
+                  rows.rigid_share = std::max(rows.rigid_share, std::sqrt(std::max(0.0, 1 - d2 / u2)));
+                recorded = &deformation;
+              }
+            const auto &u = *recorded;
             for (size_t i = 0; i < n3; ++i)
               rows.surface[s2 * n3 + i] = u[i] / F;
             for (unsigned j = 0; j < K; ++j)
@@ -260,14 +309,15 @@ namespace irdm::fem
     const unsigned long long n3 = 3 * n_surface;
     rep.n_surface = n_surface;
     std::unique_ptr<h5::Writer> w;
-    std::vector<double> force(K), seconds(K), band_size(K), newton(K);
+    std::vector<double> force(K), seconds(K), band_size(K), newton(K), rigid_share(K),
+      wall_stiffness(K);
     if (rank == 0)
       {
         w = std::make_unique<h5::Writer>(options.output, h5::Writer::Mode::create,
                                          std::move(output_lock));
         auto &f = *w;
         f.attribute("/", "format", std::string("irdm-virtual-dof-model"));
-        f.attribute("/", "format_version", 2LL);
+        f.attribute("/", "format_version", 3LL);
         write_provenance(f, scene, IntegratorCoefficients::from_scene(scene));
         f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; responses in m/N"));
         f.attribute("/", "convention",
@@ -280,6 +330,27 @@ namespace irdm::fem
                                 "contact"));
         f.attribute("/", "kinematics", std::string("nonlinear (Total Lagrangian neo-Hookean), "
                                                    "penalty plane contact"));
+        f.attribute("/", "body", std::string(free_body ? "free" : "fixed"));
+        if (free_body)
+          {
+            f.attribute("/", "free_body_route", std::string("rigid_fit"));
+            f.attribute("/", "rigid_fit_weights",
+                        std::string("translation: the centre of mass (mass); rotation: the "
+                                    "best about it over the surface vertices (uniform)"));
+            f.attribute("/", "free_body_convention",
+                        std::string("the responses are the recorded surface motion less, at "
+                                    "every sample, its rigid part (the centre of mass's "
+                                    "translation and the best rotation about it by least "
+                                    "squares over the surface vertices, Kabsch), in that "
+                                    "frame; the run-time rigid body makes the motion"));
+            const MassProperties &mp = mass;
+            f.create_group("/rigid_body");
+            f.write("/rigid_body/mass_kg", {1}, &mp.mass);
+            f.write("/rigid_body/center_of_mass_m", {3}, mp.center.data());
+            f.write("/rigid_body/inertia_kg_m2", {3, 3}, &mp.inertia[0][0]);
+            f.attribute("/rigid_body", "frame",
+                        std::string("model (mesh) frame; inertia about the centre of mass"));
+          }
         f.attribute("/", "length", static_cast<long long>(T));
         f.attribute("/", "storage", std::string(dbl ? "double" : "float"));
         f.attribute("/", "subdivisions", static_cast<long long>(options.subdivisions));
@@ -339,10 +410,11 @@ namespace irdm::fem
           }
         if (owner != 0)
           {
-            double scalars[4] = {rows.force, rows.seconds, rows.band_size, rows.newton};
+            double scalars[6] = {rows.force, rows.seconds, rows.band_size, rows.newton,
+                                 rows.rigid_share, rows.wall_stiffness};
             if (owner == rank)
               {
-                MPI_Send(scalars, 4, MPI_DOUBLE, 0, 3 * k, MPI_COMM_WORLD);
+                MPI_Send(scalars, 6, MPI_DOUBLE, 0, 3 * k, MPI_COMM_WORLD);
                 MPI_Send(rows.surface.data(), rows.surface.size(), MPI_DOUBLE, 0, 3 * k + 1,
                          MPI_COMM_WORLD);
                 MPI_Send(rows.dofs.data(), rows.dofs.size(), MPI_DOUBLE, 0, 3 * k + 2,
@@ -350,7 +422,7 @@ namespace irdm::fem
               }
             else if (rank == 0)
               {
-                MPI_Recv(scalars, 4, MPI_DOUBLE, owner, 3 * k, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+                MPI_Recv(scalars, 6, MPI_DOUBLE, owner, 3 * k, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
                 MPI_Recv(rows.surface.data(), rows.surface.size(), MPI_DOUBLE, owner, 3 * k + 1,
                          MPI_COMM_WORLD, MPI_STATUS_IGNORE);
                 MPI_Recv(rows.dofs.data(), rows.dofs.size(), MPI_DOUBLE, owner, 3 * k + 2,
@@ -359,6 +431,8 @@ namespace irdm::fem
                 rows.seconds   = scalars[1];
                 rows.band_size = scalars[2];
                 rows.newton    = scalars[3];
+                rows.rigid_share = scalars[4];
+                rows.wall_stiffness = scalars[5];
               }
           }
         if (rank == 0)
@@ -369,6 +443,8 @@ namespace irdm::fem
             seconds[k]   = rows.seconds;
             band_size[k] = rows.band_size;
             newton[k]    = rows.newton;
+            rigid_share[k] = rows.rigid_share;
+            wall_stiffness[k] = rows.wall_stiffness;
           }
       }
     if (rank == 0)
@@ -376,9 +452,22 @@ namespace irdm::fem
         w->write("/virtual_dofs/impulse_force", {K}, force.data());
         w->attribute("/virtual_dofs/impulse_force", "meaning",
                      std::string("N: F_k, the wall's resultant along -d_k at its impulse step"));
+        w->write("/virtual_dofs/wall_stiffness", {K}, wall_stiffness.data());
+        w->attribute("/virtual_dofs/wall_stiffness", "meaning",
+                     std::string("N/m: the precompute's penalty wall as a spring, F_k over its "
+                                 "overlap with band k (impulse_depth less the band's recorded "
+                                 "recession) at the impulse step"));
         w->write("/virtual_dofs/band_size", {K}, band_size.data());
         w->write("/virtual_dofs/seconds", {K}, seconds.data());
         w->write("/virtual_dofs/newton_iterations", {K}, newton.data());
+        if (free_body)
+          {
+            w->write("/virtual_dofs/rigid_share", {K}, rigid_share.data());
+            w->attribute("/virtual_dofs/rigid_share", "meaning",
+                         std::string("the rigid motion the fit took out, as a share of the "
+                                     "recorded surface displacement (RMS over the surface, "
+                                     "largest over the samples)"));
+          }
         w->commit();
         rep.seconds_per_orientation_max  = *std::max_element(seconds.begin(), seconds.end());
         rep.seconds_per_orientation_mean = 0;
@@ -388,6 +477,13 @@ namespace irdm::fem
         rep.impulse_force_max = *std::max_element(force.begin(), force.end());
         for (const double x : newton)
           rep.newton_iterations += static_cast<unsigned>(x);
+        rep.free_body = free_body;
+        if (free_body)
+          {
+            rep.rigid_share_max = *std::max_element(rigid_share.begin(), rigid_share.end());
+            for (const double x : rigid_share)
+              rep.rigid_share_mean += x / K;
+          }
       }
     rep.seconds_total = seconds_since(t_start);
     return rep;

@@ -3,21 +3,23 @@
 #include <irdm/modal_model.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
+#include <irdm_common/rigid_fit.h>
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/nonlinear_elasticity.h>
 #include <reference_fem/scene.h>
+#include <reference_fem/virtual_dof.h>
 #include <validation/free_body_validation.h>
 
 #include "scene_runs.h"
 
 #include <Eigen/Dense>
-#include <Eigen/SVD>
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -80,44 +82,6 @@ namespace irdm::validation
       return c;
     }
 
-    // Rotation best fitting the points q to p (both centred), uniform weights (Kabsch): the
-    // surface's orientation, measured the same way on both methods.
-    Eigen::Matrix3d
-    best_rotation(const std::vector<Eigen::Vector3d> &p, const std::vector<Eigen::Vector3d> &q)
-    {
-      Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-      for (size_t i = 0; i < p.size(); ++i)
-        H += p[i] * q[i].transpose();
-      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-      D(2, 2)           = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
-      return svd.matrixV() * D * svd.matrixU().transpose();
-    }
-
-    // A deformed surface split into its fitted rigid pose and the deformation in that frame.
-    struct Fit
-    {
-      Eigen::Matrix3d              R;
-      std::vector<Eigen::Vector3d> deformation; // R^T (x - centroid) - (X - rest centroid)
-    };
-
-    Fit
-    fit(const std::vector<Eigen::Vector3d> &rest, const std::vector<Eigen::Vector3d> &x)
-    {
-      Eigen::Vector3d c = Eigen::Vector3d::Zero(), c0 = Eigen::Vector3d::Zero();
-      for (size_t i = 0; i < x.size(); ++i)
-        c += x[i] / x.size(), c0 += rest[i] / x.size();
-      std::vector<Eigen::Vector3d> p(x.size()), q(x.size());
-      for (size_t i = 0; i < x.size(); ++i)
-        p[i] = rest[i] - c0, q[i] = x[i] - c;
-      Fit f;
-      f.R = best_rotation(p, q);
-      f.deformation.resize(x.size());
-      for (size_t i = 0; i < x.size(); ++i)
-        f.deformation[i] = f.R.transpose() * q[i] - p[i];
-      return f;
-    }
-
     double
     angle_deg(const Eigen::Matrix3d &R)
     {
@@ -158,6 +122,7 @@ namespace irdm::validation
       fem::FreeBodyRoute route;
       const char        *file_suffix;
     };
+    constexpr const char *vdof_method = "vdof_rigid_fit"; // the seed's virtual DOFs, route 1
     constexpr Route routes[] = {{"route1_rigid_fit", fem::FreeBodyRoute::rigid_fit, "_rigid_fit"},
                                 {"route2_modal", fem::FreeBodyRoute::modal, ""}};
 
@@ -182,11 +147,12 @@ namespace irdm::validation
 
     // Energy the runtime's body has above its start, (E(t) - E(0)) / E_in: E = rigid kinetic
     // + deformation + gravity's potential; E_in = the initial kinetic energy plus the weight
-    // times the drop height, what the scene brings in.
+    // times the drop height, what the scene brings in. (Virtual DOFs: no deformation energy.)
+    template <class Body>
     struct EnergyWatch
     {
-      const FreeBodyInteraction &irdm;
-      Eigen::Vector3d            gravity;
+      const Body     &irdm;
+      Eigen::Vector3d gravity;
       double                     e0 = 0, e_in = 1;
       double
       energy() const
@@ -273,6 +239,43 @@ namespace irdm::validation
         const double          mass = frame.mass;
         const double r_gyration = std::sqrt(0.5 * (frame.inertia[0][0] + frame.inertia[1][1] +
                                                    frame.inertia[2][2]) / mass);
+        std::vector<unsigned> identity(rest.size());
+        for (unsigned v = 0; v < identity.size(); ++v)
+          identity[v] = v;
+        // The seed's virtual DOFs of the free body (route 1 with the nonlinear FEM's wall hits).
+        std::optional<VirtualDofModel> vdof;
+        std::vector<unsigned>          vdof_order(rest.size());
+        if (o.vdof_subdivisions >= 0)
+          {
+            const std::string file =
+              (fs::path(o.model_dir) / ("free_cat_" + material_name(E) + "_vdof.h5")).string();
+            if (o.reuse_models && fs::exists(file))
+              log << "validate-free: reusing " << file << std::endl;
+            else
+              {
+                fem::VirtualDofOptions vo;
+                vo.output       = file;
+                vo.subdivisions = static_cast<unsigned>(o.vdof_subdivisions);
+                vo.length       = o.vdof_length;
+                vo.log          = [&log](const std::string &line) { log << line << std::endl; };
+                log << "validate-free: precomputing " << file << std::endl;
+                fem::precompute_virtual_dofs(body, vo);
+              }
+            vdof = load_virtual_dof_model(file, tau);
+            if (!vdof->free_body)
+              throw InputError("validate-free: '" + file + "' is not a free body's model");
+            std::map<long long, unsigned> at;
+            for (unsigned i = 0; i < vdof->node_tags.size(); ++i)
+              at[vdof->node_tags[i]] = i;
+            for (size_t v = 0; v < rest.size(); ++v)
+              {
+                const auto it = at.find(frame.output_node_tags[v]);
+                if (it == at.end())
+                  throw InputError("validate-free: the virtual-DOF model's surface lacks a vertex "
+                                   "of the modal model's");
+                vdof_order[v] = it->second;
+              }
+          }
 
         double floor_stiffness = 0; // N/m per vertex: the FEM penalty's, from its runs
         for (const Case &k : cases(o.quick))
@@ -317,10 +320,15 @@ namespace irdm::validation
                 // The truth itself failed (Newton at a large, fast deformation): nothing to
                 // compare this case with; say so in the report.
                 log << "  the FEM failed: " << e.what() << std::endl;
+                std::vector<std::string> methods;
                 for (const Route &route : routes)
+                  methods.push_back(route.method);
+                if (vdof)
+                  methods.push_back(vdof_method);
+                for (const std::string &method : methods)
                   {
                     Row row;
-                    row.c = k.name, row.method = route.method, row.E = E, row.fem_failed = e.what();
+                    row.c = k.name, row.method = method, row.E = E, row.fem_failed = e.what();
                     rows.push_back(row);
                   }
                 continue;
@@ -333,7 +341,7 @@ namespace irdm::validation
               at[fem_r.surface.node_tags[i]] = i;
             // The FEM's surface, fitted pose and deformation, once for both routes.
             std::vector<std::vector<Eigen::Vector3d>> fem_x(n + 1, std::vector<Eigen::Vector3d>(rest.size()));
-            std::vector<Fit> fem_fit(n + 1);
+            std::vector<RigidFit> fem_fit(n + 1);
             for (unsigned step = 1; step <= n; ++step)
               {
                 for (size_t v = 0; v < rest.size(); ++v)
@@ -342,7 +350,7 @@ namespace irdm::validation
                     for (int d = 0; d < 3; ++d)
                       fem_x[step][v](d) = rest[v](d) + fem_r.surface_displacement[step][3 * j + d];
                   }
-                fem_fit[step] = fit(rest, fem_x[step]);
+                fem_fit[step] = best_rigid_fit(rest, fem_x[step]);
               }
             // Frames of the rolling cat: six times evenly over the run.
             const bool     with_frames = k.name == "spin_roll";
@@ -359,12 +367,13 @@ namespace irdm::validation
               if (is_frame(step))
                 write_frame("fem", step, fem_x[step]);
 
-            for (size_t r = 0; r < models.size(); ++r)
-              {
-                // The runtime, with the FEM's penalty as a per-vertex stiffness.
-                FreeBodyOptions fo;
-                fo.gravity = -9.81 * k.up;
-                FreeBodyInteraction irdm(models[r], fo);
+            // The runtime by one method, with the FEM's penalty as a per-vertex stiffness
+            // (many-vertex contact; the virtual DOFs' walls are rigid). `order[v]`: the
+            // runtime's index of the comparison's vertex v.
+            FreeBodyOptions fo;
+            fo.gravity = -9.81 * k.up;
+            const auto run_method = [&](auto &irdm, const char *method,
+                                        const std::vector<unsigned> &order) {
                 irdm.rigid().set_velocity(k.velocity, k.spin);
                 std::vector<PlaneTarget> targets(planes.size());
                 for (size_t p = 0; p < planes.size(); ++p)
@@ -373,13 +382,13 @@ namespace irdm::validation
                     targets[p].point     = planes[p].position.at(0);
                     targets[p].stiffness = fem_r.plane_penalty.at(planes[p].name) * area;
                   }
-                EnergyWatch watch{irdm, fo.gravity};
+                EnergyWatch<std::decay_t<decltype(irdm)>> watch{irdm, fo.gravity};
                 watch.start(k.height);
 
                 Row row;
-                row.c = k.name, row.method = routes[r].method, row.E = E;
+                row.c = k.name, row.method = method, row.E = E;
                 row.fem_ms = 1e3 * fem_seconds / n;
-                std::vector<double>          x(frame.n_outputs);
+                std::vector<double>          x(3 * irdm.deformation().n_vertices());
                 std::vector<Eigen::Vector3d> xi(rest.size());
                 double f2 = 0, df2 = 0, peak_f = 0, peak_i = 0, d2 = 0, dd2 = 0, step_seconds = 0,
                        centrifugal = 0, peak_contact = mass * 9.81;
@@ -410,26 +419,27 @@ namespace irdm::validation
                     row.com_error = std::max(row.com_error, (c_f - c_i).norm());
                     for (size_t v = 0; v < rest.size(); ++v)
                       {
-                        xi[v]      = Eigen::Vector3d(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+                        const unsigned j = order[v];
+                        xi[v]      = Eigen::Vector3d(x[3 * j], x[3 * j + 1], x[3 * j + 2]);
                         row.stable = row.stable && xi[v].allFinite();
                       }
-                    const Fit &ff = fem_fit[step], fi = fit(rest, xi);
-                    row.angle_error  = std::max(row.angle_error, angle_deg(fi.R * ff.R.transpose()));
-                    row.rotation_deg = std::max(row.rotation_deg, angle_deg(ff.R));
-                    row.turned_deg += angle_deg(ff.R * R_prev.transpose());
-                    R_prev = ff.R;
+                    const RigidFit &ff = fem_fit[step], fi = best_rigid_fit(rest, xi);
+                    row.angle_error  = std::max(row.angle_error, angle_deg(fi.rotation * ff.rotation.transpose()));
+                    row.rotation_deg = std::max(row.rotation_deg, angle_deg(ff.rotation));
+                    row.turned_deg += angle_deg(ff.rotation * R_prev.transpose());
+                    R_prev = ff.rotation;
                     for (size_t v = 0; v < rest.size(); ++v)
                       d2 += ff.deformation[v].squaredNorm(),
                         dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
                     const double w = irdm.rigid().angular_velocity().norm();
                     centrifugal    = std::max(centrifugal, mass * w * w * r_gyration);
                     row.energy_growth = std::max(row.energy_growth, watch.growth());
-                    series << k.name << ',' << material_name(E) << ',' << routes[r].method << ','
+                    series << k.name << ',' << material_name(E) << ',' << method << ','
                            << step * tau << ',' << F_f.dot(k.up) << ',' << F_i.dot(k.up) << ','
-                           << c_f(2) << ',' << c_i(2) << ',' << angle_deg(ff.R) << ','
-                           << angle_deg(fi.R) << '\n';
+                           << c_f(2) << ',' << c_i(2) << ',' << angle_deg(ff.rotation) << ','
+                           << angle_deg(fi.rotation) << '\n';
                     if (is_frame(step))
-                      write_frame(routes[r].method, step, xi);
+                      write_frame(method, step, xi);
                   }
                 row.com_error /= std::max(row.distance, 1e-12);
                 row.force_error       = std::sqrt(df2 / std::max(f2, 1e-300));
@@ -444,25 +454,33 @@ namespace irdm::validation
                     << row.impulse_error << ", deformation " << row.deformation_error << ", IRDM "
                     << row.irdm_us << " us/step, FEM " << row.fem_ms << " ms/step" << std::endl;
                 rows.push_back(row);
+            };
+            for (size_t r = 0; r < models.size(); ++r)
+              {
+                FreeBodyInteraction irdm(models[r], fo);
+                run_method(irdm, routes[r].method, identity);
+              }
+            if (vdof)
+              {
+                FreeBodyVirtualDofs irdm(*vdof, fo);
+                run_method(irdm, vdof_method, vdof_order);
               }
           }
 
         // Stability: the rolling cat (spin_roll's start) for a long run of the runtime alone,
         // by each route; and free flight with no plane for 10 s.
-        for (size_t r = 0; r < models.size() && floor_stiffness > 0; ++r)
-          {
+        const auto roll_for_long = [&](auto &irdm, const char *method) {
             const Case roll   = rolling_case();
             double     lowest = 1e300;
             for (const auto &X : rest)
               lowest = std::min(lowest, X(2));
-            FreeBodyOptions     fo;
-            FreeBodyInteraction irdm(models[r], fo);
+            const FreeBodyOptions fo;
             irdm.rigid().set_velocity(roll.velocity, roll.spin);
             PlaneTarget floor;
             floor.normal    = {0, 0, 1};
             floor.point     = {0, 0, lowest - roll.height};
             floor.stiffness = floor_stiffness;
-            EnergyWatch watch{irdm, fo.gravity};
+            EnergyWatch<std::decay_t<decltype(irdm)>> watch{irdm, fo.gravity};
             watch.start(roll.height);
             const unsigned steps = static_cast<unsigned>(std::lround(o.stability_seconds / tau));
             double growth = 0, turned = 0, seconds = 0;
@@ -478,12 +496,22 @@ namespace irdm::validation
                 R_prev = irdm.rigid().rotation();
               }
             stability << "| rolling, " << o.stability_seconds << " s | " << material_name(E) << " | "
-                      << routes[r].method << " | " << growth << " | " << turned << " | "
+                      << method << " | " << growth << " | " << turned << " | "
                       << watch.growth() << " | " << failed << " | " << 1e6 * seconds / steps
                       << " |\n";
-            log << "validate-free: " << o.stability_seconds << " s rolling, " << routes[r].method
+            log << "validate-free: " << o.stability_seconds << " s rolling, " << method
                 << ": largest energy gain " << growth << " of the energy brought in, turned "
                 << turned << " deg, " << failed << " failed steps" << std::endl;
+        };
+        for (size_t r = 0; r < models.size() && floor_stiffness > 0; ++r)
+          {
+            FreeBodyInteraction irdm(models[r], FreeBodyOptions());
+            roll_for_long(irdm, routes[r].method);
+          }
+        if (vdof && floor_stiffness > 0)
+          {
+            FreeBodyVirtualDofs irdm(*vdof, FreeBodyOptions());
+            roll_for_long(irdm, vdof_method);
           }
         {
           // Free flight: no plane, 10 s, spinning about an axis off the principal ones.
@@ -493,7 +521,7 @@ namespace irdm::validation
           irdm.rigid().set_velocity(v0, w0);
           const Eigen::Vector3d p0 = irdm.rigid().state().linear_momentum,
                                 L0 = irdm.rigid().state().angular_momentum;
-          EnergyWatch watch{irdm, fo.gravity};
+          EnergyWatch<std::decay_t<decltype(irdm)>> watch{irdm, fo.gravity};
           watch.start(0);
           const unsigned steps = static_cast<unsigned>(std::lround(10.0 / tau));
           double dp = 0, dL = 0, growth = 0;

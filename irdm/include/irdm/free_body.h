@@ -1,20 +1,24 @@
 #pragma once
 // A free (non-grounded) body at run time (issue 14; shared/notes/irdm-method.md section 6):
-// rigid-body dynamics (irdm/rigid_body.h) moves the body, and the modal IRDM of a free-body
-// model (irdm/modal_model.h; its six rigid-body modes removed by the precompute) deforms it in
-// its own frame. Units SI; impulse = force x time step, as everywhere.
+// rigid-body dynamics (irdm/rigid_body.h) moves the body, and IRDM deforms it in its own frame.
+// Units SI; impulse = force x time step, as everywhere. Two kinds of deformation and contact
+// share the rigid step below (FreeBody<Deformation>):
+//   FreeBodyInteraction: the modal IRDM of a free-body model from `irdm precompute` (either
+//     route; irdm/modal_model.h) under many-vertex contact (irdm/vertex_contact.h);
+//   FreeBodyVirtualDofs: the seed's virtual DOFs from `irdm precompute-vdof` on a free body
+//     (irdm/plane_interaction.h; the nonlinear FEM's wall hits less their best rigid fit).
 //
 // One step of length tau, with planes (floor, walls) given in the world:
 //   1. the rigid body's step without contact (gravity only) predicts the pose (c', R') at the
 //      step's end; the planes are taken into the model frame by that pose;
-//   2. the many-vertex contact (irdm/vertex_contact.h) is solved in the model frame against
-//      the deformation's history, with a feed-through that is the deformation's H[0] plus
-//      the rigid body's own compliance over the step (RigidStepCompliance): a contact force
-//      moves the body as well as denting it, both within the step;
+//   2. the contact is solved in the model frame against the deformation's history, with a
+//      feed-through that is the deformation's H[0] plus the rigid body's own compliance over
+//      the step (RigidStepCompliance): a contact force moves the body as well as denting it,
+//      both within the step;
 //   3. the contact forces join the deformation's force history (model frame), and the rigid
 //      body takes its step again from where it was, with gravity and the contact forces'
-//      net force and torque about the centre of mass, at the deformed contact points, turned
-//      into the world by R'.
+//      net force and torque about the centre of mass, at the contact points, turned into the
+//      world by R'.
 // The contact is exact to first order in the step's rotation (the compliance is linear in
 // the torque); the pose, the momenta and the energy are the rigid body's exact integrator.
 //
@@ -26,8 +30,18 @@
 // forces of the body's spin (-M omega x (omega x r), -2 M omega x v), which are not rigid
 // motions; free_body_validation measures their size against the contact's.
 //
+// Virtual DOFs: the deformation is what the nonlinear FEM's free body did after a wall hit,
+// less its best rigid fit, so it holds what the hit's own acceleration did to the body; the
+// spin's forces are left out here as well. A virtual-DOF wall is the precompute's penalty wall
+// (VirtualDofModel::wall_stiffness, a spring in series with the body; a rigid wall stops the
+// body within a step and, with the rigid body's trapezoidal impulse, bounces it off faster
+// than it came) and its force acts where the wall meets the body (PlaneInteraction::
+// contact_point). The deformation's energy is not known from the responses: energy() is the
+// rigid body's alone for this kind.
+//
 // Memory is sized at construction; step() allocates nothing and takes no lock.
 #include <irdm/modal_model.h>
+#include <irdm/plane_interaction.h>
 #include <irdm/rigid_body.h>
 #include <irdm/vertex_contact.h>
 
@@ -39,14 +53,138 @@ namespace irdm
   struct FreeBodyOptions
   {
     Eigen::Vector3d      gravity = Eigen::Vector3d(0, 0, -9.81); // m/s^2, world
-    VertexContactOptions contact;
+    VertexContactOptions contact; // FreeBodyInteraction: the many-vertex contact
+    // FreeBodyVirtualDofs: how a plane maps to the dome's virtual DOFs.
+    OrientationMapping mapping = OrientationMapping::nearest;
   };
 
-  class FreeBodyInteraction
+  /// The modal deformation under many-vertex contact (FreeBodyInteraction's).
+  class ModalDeformation
   {
   public:
+    using Model = ModalModel;
     /// Throws InputError if the model is not of a free body (ModelFrame::free_body).
-    FreeBodyInteraction(const ModalModel &model, const FreeBodyOptions &options = {});
+    ModalDeformation(const ModalModel &model, const FreeBodyOptions &options);
+    static RigidBodyInertia
+    inertia(const ModalModel &model);
+    double
+    time_step() const
+    {
+      return model_.time_step;
+    }
+    /// The contact of up to contact::max_planes planes (model frame) with the rigid
+    /// compliance in its feed-through.
+    bool
+    step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid);
+    /// Net force and torque about `center` of the latest step's contact (model frame), at the
+    /// deformed contact points.
+    void
+    contact_wrench(const Eigen::Vector3d &center, Eigen::Vector3d &force, Eigen::Vector3d &torque);
+    Eigen::Vector3d
+    plane_force(int p) const; // N, model frame
+    const PlaneContactResult &
+    plane_result(int p) const
+    {
+      return interaction_.vertex_contact().plane(p);
+    }
+    unsigned
+    n_vertices() const
+    {
+      return model_.n_outputs / 3;
+    }
+    const std::array<double, 3> &
+    rest_position(unsigned v) const
+    {
+      return model_.output_coordinates[v];
+    }
+    /// Displacement of every output vertex (m, model frame, 3 per vertex).
+    void
+    surface_displacement(double *u) const
+    {
+      interaction_.surface_displacement(u);
+    }
+    double
+    elastic_energy() const
+    {
+      return interaction_.elastic_energy();
+    }
+    const ModalInteraction &
+    interaction() const
+    {
+      return interaction_;
+    }
+
+  private:
+    const ModalModel &model_;
+    ModalInteraction  interaction_;
+    std::vector<char> vertex_done_; // [input vertex], scratch
+  };
+
+  /// The seed's virtual DOFs of a free body (FreeBodyVirtualDofs').
+  class VirtualDofDeformation
+  {
+  public:
+    using Model = VirtualDofModel;
+    /// Throws InputError if the model is not of a free body (VirtualDofModel::free_body).
+    VirtualDofDeformation(const VirtualDofModel &model, const FreeBodyOptions &options);
+    static RigidBodyInertia
+    inertia(const VirtualDofModel &model);
+    double
+    time_step() const
+    {
+      return model_.time_step;
+    }
+    /// Up to PlaneInteraction::max_walls walls, as stiff as the precompute's (a plane's own
+    /// stiffness is not used).
+    bool
+    step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid);
+    void
+    contact_wrench(const Eigen::Vector3d &center, Eigen::Vector3d &force, Eigen::Vector3d &torque);
+    Eigen::Vector3d
+    plane_force(int p) const; // N, model frame
+    unsigned
+    n_vertices() const
+    {
+      return model_.n_surface;
+    }
+    const std::array<double, 3> &
+    rest_position(unsigned v) const
+    {
+      return model_.coordinates[v];
+    }
+    /// The surface convolution (PlaneInteraction::update_surface): costs the active virtual
+    /// DOFs x T x surface; the seed runs it at the display rate, not every force step.
+    void
+    surface_displacement(double *u) const;
+    /// Not known from the responses (header): 0.
+    double
+    elastic_energy() const
+    {
+      return 0;
+    }
+    const PlaneInteraction &
+    interaction() const
+    {
+      return interaction_;
+    }
+
+  private:
+    const VirtualDofModel &model_;
+    // update_surface() fills the interaction's own buffer: a cache, not the body's state.
+    mutable PlaneInteraction interaction_;
+    int                      n_walls_ = 0;
+    std::array<double, PlaneInteraction::max_walls> force_{}; // N, along -d
+  };
+
+  /// A free body: the rigid step above with a deformation kind (ModalDeformation,
+  /// VirtualDofDeformation). Instantiated for those two in free_body.cc.
+  template <class Deformation>
+  class FreeBody
+  {
+  public:
+    using Model = typename Deformation::Model;
+    /// Throws InputError if the model is not of a free body.
+    FreeBody(const Model &model, const FreeBodyOptions &options = {});
 
     /// The rigid motion; set its pose and velocity before the first step (it starts at the
     /// model frame's pose, at rest).
@@ -61,7 +199,7 @@ namespace irdm
       return rigid_;
     }
     /// The deformation in the model frame.
-    const ModalInteraction &
+    const Deformation &
     deformation() const
     {
       return deformation_;
@@ -69,7 +207,7 @@ namespace irdm
 
     /// One step with up to contact::max_planes planes in the world frame (PlaneTarget: unit
     /// normal toward the body, a point of the plane at the step's end; stiffness as there).
-    /// Returns false (no step taken) if the contact cannot be solved (too many candidates).
+    /// Returns false (no step taken) if the contact cannot be solved.
     bool
     step(const PlaneTarget *world_planes, int n_planes);
 
@@ -79,14 +217,8 @@ namespace irdm
     {
       return world_force_[p];
     }
-    /// Vertices of plane p in contact and its candidates, at the latest step.
-    const PlaneContactResult &
-    plane_result(int p) const
-    {
-      return deformation_.vertex_contact().plane(p);
-    }
-    /// World position of every output vertex (3 per vertex, m): the surface deformed by the
-    /// M surface modes and placed by the rigid pose. Allocates nothing.
+    /// World position of every surface vertex (3 per vertex, m): the deformed surface placed
+    /// by the rigid pose. Allocates nothing.
     void
     surface_positions(double *x) const;
     /// Rigid kinetic energy plus the deformation's energy (J); with gravity g, add
@@ -103,15 +235,16 @@ namespace irdm
     }
 
   private:
-    const ModalModel                                 &model_;
-    FreeBodyOptions                                   options_;
-    double                                            tau_;
-    RigidBody                                         rigid_;
-    RigidStepCompliance                               compliance_;
-    ModalInteraction                                  deformation_;
-    std::array<PlaneTarget, contact::max_planes>      body_planes_{};
-    std::array<Eigen::Vector3d, contact::max_planes>  world_force_{};
-    mutable std::vector<double>                       u_; // surface displacement, model frame
-    std::vector<char>                                 vertex_done_; // [input vertex], scratch
+    FreeBodyOptions                                  options_;
+    double                                           tau_;
+    RigidBody                                        rigid_;
+    RigidStepCompliance                              compliance_;
+    Deformation                                      deformation_;
+    std::array<PlaneTarget, contact::max_planes>     body_planes_{};
+    std::array<Eigen::Vector3d, contact::max_planes> world_force_{};
+    mutable std::vector<double>                      u_; // surface displacement, model frame
   };
+
+  using FreeBodyInteraction = FreeBody<ModalDeformation>;
+  using FreeBodyVirtualDofs = FreeBody<VirtualDofDeformation>;
 } // namespace irdm

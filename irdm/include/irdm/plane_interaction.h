@@ -17,6 +17,7 @@
 // depth. This is what the precompute did: its wall at first_contact_k - depth met a band resting
 // at r_k (docs/model-format.md).
 // The surface follows by convolution: u[n] = sum_k sum_s S_k[s] f_k[n - s].
+#include <irdm/rigid_body.h>
 #include <irdm_common/complementarity.h>
 
 #include <array>
@@ -42,6 +43,16 @@ namespace irdm
     std::vector<std::array<unsigned, 3>> triangles;
     std::string                          mesh_hash, integrator;
     double                               band = 0.001; // m, band_m of the precompute
+    // A free body (format 3, body = free): the responses are the deformation left after the
+    // best rigid fit (route 1); run it through FreeBodyVirtualDofs (irdm/free_body.h), which
+    // makes the rigid motion from these mass properties (model frame).
+    bool                                 free_body = false;
+    // N/m per orientation: the precompute's penalty wall as a spring in series with the body,
+    // F_k over its overlap with band k at the impulse step (format 3); empty in older files.
+    std::vector<double>                  wall_stiffness;
+    double                               mass = 0; // kg
+    std::array<double, 3>                center_of_mass{};                  // m
+    std::array<std::array<double, 3>, 3> inertia{}; // kg m^2, about the centre of mass
 
     double
     Y(unsigned k, unsigned s, unsigned j) const
@@ -90,9 +101,12 @@ namespace irdm
   surface_support(const VirtualDofModel &m, const std::array<double, 3> &d);
 
   /// One wall during one step: direction d (unit, from the object toward the wall), position
-  /// w (m; the wall occupies {x : d . x > w}), and stiffness (N/m of the virtual DOF; 0: rigid).
+  /// w (m; the wall occupies {x : d . x > w}), and stiffness (N/m of the virtual DOF; 0: rigid;
+  /// precompute_wall: the precompute's own penalty wall, VirtualDofModel::wall_stiffness of the
+  /// mapped orientations, blended by their weights).
   struct VirtualDofWall
   {
+    static constexpr double precompute_wall = -1;
     std::array<double, 3> direction = {0, 0, -1};
     double                position  = 0;
     double                stiffness = 0;
@@ -120,6 +134,28 @@ namespace irdm
     /// out of range (no step taken) or the solve fails (the step is taken with no force).
     bool
     step(const VirtualDofWall *walls, int n, double *force);
+
+    /// The same for a free body (irdm/free_body.h): the walls are in the model frame at the
+    /// step's predicted pose, and the rigid body's own compliance over the step joins the
+    /// feed-through, at each wall's contact point (contact_point): a wall force moves the body
+    /// as well as denting it.
+    bool
+    step(const VirtualDofWall *walls, int n, double *force, const RigidStepCompliance &rigid);
+
+    /// Where wall a's force acts at the latest free-body step (model frame, m): on the wall's
+    /// plane, at the blend (by the orientation weights) of the mapped virtual DOFs' band
+    /// centroids, where their precomputed hits pushed.
+    std::array<double, 3>
+    contact_point(int a) const
+    {
+      return walls_[a].point;
+    }
+    /// Direction d of wall a at the latest step (unit, model frame).
+    const std::array<double, 3> &
+    wall_direction(int a) const
+    {
+      return walls_[a].direction;
+    }
 
     /// One step with a known wall force F (N, along -d) instead of a wall position: the force
     /// history and the surface follow it (open loop; to drive the model by a measured force).
@@ -163,6 +199,7 @@ namespace irdm
     std::vector<double>   ring_;
     std::vector<unsigned> last_active_; // last step + 1 with f_k != 0 (0: never)
     std::vector<double>   surface_;
+    std::vector<std::array<double, 3>> band_centroid_; // per virtual DOF, model frame
     // Per wall: its mapping and the surface's support along its direction, kept while the
     // direction does not change (a floor or a wall moving along its normal).
     struct Mapped
@@ -170,6 +207,7 @@ namespace irdm
       std::array<double, 3> direction{};
       OrientationWeights    weights;
       double                support = 0, rest = 0, penetration = 0, y = 0;
+      std::array<double, 3> point{}; // free body: where the force acts (contact_point)
     };
     std::array<Mapped, max_walls> walls_{};
     int                           n_walls_ = 0;
@@ -177,6 +215,10 @@ namespace irdm
 
     void
     map_direction(Mapped &wall, const std::array<double, 3> &d);
+    void
+    place_contact(Mapped &wall, double position) const; // sets wall.point
+    bool
+    solve(const VirtualDofWall *walls, int n, double *force, const RigidStepCompliance *rigid);
     double
     history(unsigned j) const; // sum_{k, s >= 1} Y_jk[s] f_k[n - s], n the step being taken
     void

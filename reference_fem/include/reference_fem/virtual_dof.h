@@ -19,6 +19,17 @@
 // surface there has receded from wall j. At run time a wall force history f_k[n] (N along
 // -d_k during step n) gives y[n] = sum_s Y[s] f[n - s] and the surface likewise.
 //
+// A free body (a scene with no fixed surface; issue 14, route 1 of the seed): the wall's hit
+// also sends the body away rigidly. At every sample the rigid part is taken out and S and Y
+// record what is left, in that frame: the translation of the centre of mass (from the FEM:
+// mass weights, because the run-time rigid body carries the whole impulse and the deformation
+// may then carry no momentum; with uniform weights over the surface, the dent of the hit
+// region would pull the fitted translation and the run-time contact force would be a few
+// percent off), and the best rotation about it over the surface vertices (the seed's
+// "corresponding nodes", Kabsch: exact at any angle; irdm_common/rigid_fit.h). The run-time
+// rigid body makes the motion (irdm/free_body.h). The file then says body = free,
+// free_body_route = rigid_fit and stores the mass, centre of mass and inertia (format 3).
+//
 // Runs under mpirun: orientations are dealt to ranks (k % size), rank 0 writes the file.
 #include <reference_fem/scene.h>
 
@@ -59,10 +70,13 @@ namespace irdm::fem
     double   seconds_per_orientation_mean = 0, seconds_per_orientation_max = 0; // FEM runs
     double   impulse_force_min = 0, impulse_force_max = 0;                      // N
     unsigned newton_iterations = 0;
+    bool     free_body = false;
+    // Free body: the rigid motion the fit took out, as a share of the recorded displacement
+    // (RMS over the surface, largest over the samples; mean and largest over orientations).
+    double rigid_share_mean = 0, rigid_share_max = 0;
   };
 
-  /// Collective over MPI_COMM_WORLD. Throws InputError for a scene that cannot be hit (no
-  /// fixed surface, probes) or a bad option.
+  /// Collective over MPI_COMM_WORLD. Throws InputError for a bad option.
   VirtualDofReport
   precompute_virtual_dofs(const Scene &scene, const VirtualDofOptions &options);
 } // namespace irdm::fem

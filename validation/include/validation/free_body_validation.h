@@ -22,6 +22,11 @@ namespace irdm::validation
     unsigned            surface_modes = 100;            // in the runtime's surface update
     double              stability_seconds = 60; // the runtime alone, rolling on the floor
     bool                quick = false; // the 5 cm drop and the tilt only
+    // The seed's virtual DOFs of the free body (irdm precompute-vdof on it): icosahedron
+    // subdivisions (2: 162 orientations), -1: not run; T samples per response.
+    int      vdof_subdivisions = 2;
+    unsigned vdof_length       = 100;
+    bool     reuse_models      = false; // take a virtual-DOF model already in model_dir
     std::string         plot_script = "validation/plot_free.py"; // empty: no charts
   };
 
