@@ -722,9 +722,10 @@ namespace
       "2: the rigid-body modes removed) for each Young's modulus of --materials, then runs every "
       "case through the nonlinear FEM (neo-Hookean, penalty planes) and FreeBodyInteraction "
       "(rigid body + modal deformation, many-vertex contact at the FEM penalty's per-vertex "
-      "equivalent) with each model, and through FreeBodyVirtualDofs with the seed's virtual "
-      "DOFs of the free body (irdm precompute-vdof on it; rigid walls): drops from 2, 5 and 10 cm, a drop with a spin (2 s), a "
-      "throw at a wall, and a drop on a floor tilted 25 degrees; then the runtime alone rolls "
+      "equivalent; a probe's force as a known point force) with each model, and through FreeBodyVirtualDofs with the seed's virtual "
+      "DOFs of the free body (irdm precompute-vdof on it; the precompute's penalty walls): drops from 2, 5 and 10 cm, a drop with a spin (2 s), a "
+      "throw at a wall, a drop on a floor tilted 25 degrees, and a push by a probe (the "
+      "virtual DOFs take no probe); then the runtime alone rolls "
       "for --stability seconds and flies free for 10 s. Writes DIR/free/free.csv (one row per "
       "case, material and method), series.csv (forces, heights and angles against time), "
       "frames.csv and triangles.csv (surfaces of the rolling cat), fig6.png, frames.png and "
@@ -749,6 +750,17 @@ namespace
       ->capture_default_str()
       ->check(CLI::Range(0.002, 3600.0));
     validate_free->add_flag("--quick", vfb.quick, "the 5 cm drop and the tilted drop only");
+    validate_free->add_option("--force-modes", vfb.force_modes,
+                              "route 2 also with K modes in the force loop (the rest "
+                              "quasi-static): method route2_modal_k<K>; 0: not run")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 100000u));
+    validate_free->add_option("--cases", vfb.only_cases,
+                              "run only these cases: drop_2cm, drop_5cm, drop_10cm, spin_roll, "
+                              "wall_throw, tilted_5cm, probe_push")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"drop_2cm", "drop_5cm", "drop_10cm", "spin_roll", "wall_throw",
+                             "tilted_5cm", "probe_push"}));
     validate_free->add_option("--vdof-subdivisions", vfb.vdof_subdivisions,
                               "the virtual-DOF model's dome: 10 * 4^S + 2 orientations; -1: no "
                               "virtual-DOF method")

@@ -26,7 +26,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 CASE = "spin_roll"
 LABELS = {"fem": "nonlinear FEM", "route1_rigid_fit": "IRDM route 1 (rigid fit)",
-          "route2_modal": "IRDM route 2 (modal)"}
+          "route2_modal": "IRDM route 2 (modal)", "vdof_rigid_fit": "IRDM virtual DOFs (seed 001)"}
 
 
 def save(fig, path, dpi):
@@ -59,7 +59,8 @@ def fig6(folder):
     fig, axes = plt.subplots(len(materials), 1, figsize=(8, 3.2 * len(materials)), squeeze=False)
     for ax, material in zip(axes[:, 0], materials):
         s = series[material]
-        for method, style in (("fem", "k-"), ("route1_rigid_fit", "C1--"), ("route2_modal", "C0-")):
+        for method, style in (("fem", "k-"), ("route1_rigid_fit", "C1--"), ("route2_modal", "C0-"),
+                              ("vdof_rigid_fit", "C2:")):
             if s[method + ":t"]:
                 ax.plot(s[method + ":t"], s[method + ":irdm"], style, lw=1.2 if method == "fem" else 1,
                         label=LABELS[method])
@@ -85,7 +86,8 @@ def frames(folder):
     if not data:
         return False
     material = max({m for m, _ in data}, key=material_key)
-    methods = [m for m in ("fem", "route1_rigid_fit", "route2_modal") if (material, m) in data]
+    methods = [m for m in ("fem", "route1_rigid_fit", "route2_modal", "vdof_rigid_fit")
+               if (material, m) in data]
     times = sorted(data[(material, "fem")])
     fig = plt.figure(figsize=(2.4 * len(times), 2.6 * len(methods)))
     all_pts = np.array([[p[1], p[2], p[3]] for m in methods for t in times

@@ -50,9 +50,10 @@ namespace irdm
 
   bool
   ModalDeformation::step(const PlaneTarget *body_planes, const int n_planes,
-                         const RigidStepCompliance &rigid)
+                         const RigidStepCompliance &rigid, const AppliedForce *applied,
+                         const int n_applied)
   {
-    return interaction_.step(body_planes, n_planes, rigid);
+    return interaction_.step(body_planes, n_planes, rigid, applied, n_applied);
   }
 
   void
@@ -105,9 +106,10 @@ namespace irdm
 
   bool
   VirtualDofDeformation::step(const PlaneTarget *body_planes, const int n_planes,
-                              const RigidStepCompliance &rigid)
+                              const RigidStepCompliance &rigid, const AppliedForce *,
+                              const int n_applied)
   {
-    if (n_planes < 0 || n_planes > PlaneInteraction::max_walls)
+    if (n_planes < 0 || n_planes > PlaneInteraction::max_walls || n_applied != 0)
       return false;
     // A plane (normal n toward the body, through p) is the wall {x : d . x > w} with d = -n,
     // w = d . p, as stiff as the precompute's penalty wall. A rigid wall would stop the body
@@ -174,10 +176,16 @@ namespace irdm
 
   template <class Deformation>
   bool
-  FreeBody<Deformation>::step(const PlaneTarget *world_planes, const int n_planes)
+  FreeBody<Deformation>::step(const PlaneTarget *world_planes, const int n_planes,
+                              const PointForce *forces, const int n_forces)
   {
-    if (n_planes < 0 || n_planes > contact::max_planes)
+    if (n_planes < 0 || n_planes > contact::max_planes || n_forces < 0 ||
+        n_forces > max_point_forces || (n_forces > 0 && !forces))
       return false;
+    for (int a = 0; a < n_forces; ++a)
+      if (forces[a].vertex >= deformation_.n_vertices() ||
+          deformation_.input_vertex(forces[a].vertex) < 0 || !forces[a].force.allFinite())
+        return false;
     const RigidBodyState   start  = rigid_.state();
     const Eigen::Vector3d  weight = rigid_.inertia().mass * options_.gravity;
     const Eigen::Vector3d &center = rigid_.inertia().center;
@@ -191,13 +199,19 @@ namespace irdm
         body_planes_[p].normal = arr(R.transpose() * vec(world_planes[p].normal));
         body_planes_[p].point  = arr(center + R.transpose() * (vec(world_planes[p].point) - c1));
       }
-    // 2. The contact, rigid compliance included.
-    if (!deformation_.step(body_planes_.data(), n_planes, compliance_))
+    for (int a = 0; a < n_forces; ++a)
+      {
+        body_forces_[a].input_vertex = static_cast<unsigned>(deformation_.input_vertex(forces[a].vertex));
+        body_forces_[a].force        = arr(R.transpose() * forces[a].force);
+      }
+    // 2. The contact, rigid compliance and known forces included.
+    if (!deformation_.step(body_planes_.data(), n_planes, compliance_, body_forces_.data(), n_forces))
       {
         rigid_.set_state(start);
         return false;
       }
-    // 3. Net force and torque of the contact, then the rigid step again with them.
+    // 3. Net force and torque of the contact and the known forces (the modal kind's pushed
+    // inputs hold both), then the rigid step again with them.
     Eigen::Vector3d force, torque;
     deformation_.contact_wrench(center, force, torque);
     for (int p = 0; p < n_planes; ++p)

@@ -227,7 +227,16 @@ namespace irdm
         VecMut(row, N_) = n[0] * Vec(phi, N_) + n[1] * Vec(phi + stride_, N_) +
                           n[2] * Vec(phi + 2 * stride_, N_);
       }
-    return Vec(row, N_).dot(Vec(fu_.data(), N_));
+    double h = Vec(row, N_).dot(Vec(fu_.data(), N_));
+    // Known forces of this step (AppliedForce): their feed-through to this vertex.
+    for (int a = 0; a < n_applied_; ++a)
+      for (unsigned d = 0; d < 3; ++d)
+        for (unsigned e = 0; e < 3; ++e)
+          if (applied_[a].force[e] != 0)
+            h += n[d] * feed_through(3 * applied_[a].input_vertex + e,
+                                     3 * model_.input_output_index[in_vertex] + d) *
+                 applied_[a].force[e];
+    return h;
   }
 
   double
@@ -293,6 +302,39 @@ namespace irdm
     rigid_        = &rigid;
     const bool ok = step(planes, n_planes);
     rigid_        = nullptr;
+    return ok;
+  }
+
+  bool
+  ModalInteraction::step(const PlaneTarget *planes, const int n_planes,
+                         const RigidStepCompliance &rigid, const AppliedForce *applied,
+                         const int n_applied)
+  {
+    if (n_applied < 0 || (n_applied > 0 && !applied))
+      return false;
+    for (int a = 0; a < n_applied; ++a)
+      if (applied[a].input_vertex >= model_.n_inputs / 3)
+        return false;
+    rigid_ = &rigid;
+    begin_step();
+    // The known forces first: the contact's history then includes what they do this step.
+    for (int a = 0; a < n_applied; ++a)
+      for (unsigned d = 0; d < 3; ++d)
+        if (applied[a].force[d] != 0)
+          push(3 * applied[a].input_vertex + d, applied[a].force[d]);
+    applied_   = applied;
+    n_applied_ = n_applied;
+    const bool ok = vertex_contact_.step(
+      model_, planes, n_planes,
+      [&](const unsigned vi, unsigned, const std::array<double, 3> &n, const int slot,
+          const bool fresh) { return history_along(vi, n, slot, fresh); },
+      [&](const unsigned k, const unsigned j) { return feed_through(k, j); },
+      [&](const unsigned k, const double f) { push(k, f); });
+    applied_   = nullptr;
+    n_applied_ = 0;
+    rigid_     = nullptr;
+    if (ok)
+      end_step();
     return ok;
   }
 

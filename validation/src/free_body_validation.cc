@@ -14,6 +14,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -52,6 +53,10 @@ namespace irdm::validation
       Eigen::Vector3d velocity = Eigen::Vector3d::Zero(), spin = Eigen::Vector3d::Zero();
       bool            wall     = false;
       double          duration = 0; // s; 0: the options' duration
+      // A probe: a known force (N, world) on the surface vertex farthest along +x above the
+      // centre of mass, held until probe_seconds, then off within a step. Zero: none.
+      Eigen::Vector3d probe_force   = Eigen::Vector3d::Zero();
+      double          probe_seconds = 0;
     };
 
     // Dropped 2 cm spinning at 8 rad/s about y: it rolls over within 2 s (the issue's scene 3).
@@ -79,6 +84,15 @@ namespace irdm::validation
                        Eigen::Vector3d::Zero(), true});
         }
       c.push_back({"tilted_5cm", tilted, 0.05});
+      if (!quick)
+        {
+          // Resting 1 mm above the floor, pushed back and down at the head for 0.2 s: the
+          // probe of issue 14 drives the rigid body and the deformation.
+          Case poke{"probe_push", Eigen::Vector3d::UnitZ(), 0.001};
+          poke.probe_force   = Eigen::Vector3d(-3, 0, -2);
+          poke.probe_seconds = 0.2;
+          c.push_back(poke);
+        }
       return c;
     }
 
@@ -126,11 +140,20 @@ namespace irdm::validation
     constexpr Route routes[] = {{"route1_rigid_fit", fem::FreeBodyRoute::rigid_fit, "_rigid_fit"},
                                 {"route2_modal", fem::FreeBodyRoute::modal, ""}};
 
+    // A modal realization and its free.csv method name.
+    struct NamedModel
+    {
+      std::string method;
+      ModalModel  model;
+    };
+
     // Precomputes the body's model by one route and keeps its modal realization (H itself,
-    // a gigabyte for the cat, is dropped).
-    ModalModel
+    // a gigabyte for the cat, is dropped); with force_modes > 0 also the realization with
+    // that many modes in the force loop (the rest quasi-static), named method + "_k<K>".
+    std::vector<NamedModel>
     free_model(const fem::Scene &body, const std::string &file, const fem::FreeBodyRoute route,
-               const unsigned surface_modes, std::ostream &log)
+               const std::string &method, const unsigned surface_modes,
+               const unsigned force_modes, std::ostream &log)
     {
       fem::PrecomputeOptions po;
       po.output      = file;
@@ -142,7 +165,15 @@ namespace irdm::validation
       const ImpulseResponseModel model = load_model(file, body.time_step);
       ModalModelOptions          mo;
       mo.surface_modes = std::min(surface_modes, model.modes.n_modes);
-      return make_modal_model(model, mo);
+      std::vector<NamedModel> out;
+      out.push_back({method, make_modal_model(model, mo)});
+      if (force_modes > 0 && force_modes < model.modes.n_modes)
+        {
+          mo.force_modes = std::max(force_modes, mo.surface_modes);
+          mo.surface_modes = std::min(mo.surface_modes, mo.force_modes);
+          out.push_back({method + "_k" + std::to_string(mo.force_modes), make_modal_model(model, mo)});
+        }
+      return out;
     }
 
     // Energy the runtime's body has above its start, (E(t) - E(0)) / E_in: E = rigid kinetic
@@ -223,13 +254,15 @@ namespace irdm::validation
         const fem::Scene body = fem::parse_scene(text, base_dir, o.scene);
         const double     tau  = body.time_step;
 
-        std::vector<ModalModel> models;
+        std::vector<NamedModel> models;
         for (const Route &route : routes)
-          models.push_back(free_model(
-            body,
-            (fs::path(o.model_dir) / ("free_cat_" + material_name(E) + route.file_suffix + ".h5")).string(),
-            route.route, o.surface_modes, log));
-        const ModalModel &frame = models.back(); // the mesh, the vertices, the mass: shared
+          for (NamedModel &m : free_model(
+                 body,
+                 (fs::path(o.model_dir) / ("free_cat_" + material_name(E) + route.file_suffix + ".h5")).string(),
+                 route.route, route.method,
+                 o.surface_modes, route.route == fem::FreeBodyRoute::modal ? o.force_modes : 0, log))
+            models.push_back(std::move(m));
+        const ModalModel &frame = models.back().model; // the mesh, the vertices, the mass: shared
         const double      area  = mean_free_vertex_area(frame);
         triangles               = frame.triangles;
         std::vector<Eigen::Vector3d> rest(frame.n_outputs / 3);
@@ -278,7 +311,12 @@ namespace irdm::validation
           }
 
         double floor_stiffness = 0; // N/m per vertex: the FEM penalty's, from its runs
-        for (const Case &k : cases(o.quick))
+        std::vector<Case> chosen;
+        for (const Case &k : cases(o.quick && o.only_cases.empty()))
+          if (o.only_cases.empty() ||
+              std::find(o.only_cases.begin(), o.only_cases.end(), k.name) != o.only_cases.end())
+            chosen.push_back(k);
+        for (const Case &k : chosen)
           {
             log << "validate-free: " << k.name << ", E = " << E << " Pa" << std::endl;
             // The planes: the floor below the body's lowest point along `up`, and a wall.
@@ -298,6 +336,19 @@ namespace irdm::validation
                 planes.push_back(w);
               }
             const double duration = k.duration > 0 ? k.duration : o.duration;
+            // The probe's vertex and force history, the same for the FEM and the runtime.
+            const bool   probed = k.probe_force.norm() > 0;
+            unsigned     probe_vertex = 0;
+            fem::History probe_history;
+            if (probed)
+              {
+                double best = -1e300;
+                for (size_t v = 0; v < rest.size(); ++v)
+                  if (frame.output_input_index[v] >= 0 && rest[v](2) > c0(2) && rest[v](0) > best)
+                    best = rest[v](0), probe_vertex = static_cast<unsigned>(v);
+                probe_history.times  = {0, k.probe_seconds, k.probe_seconds + tau};
+                probe_history.values = {arr(k.probe_force), arr(k.probe_force), {0, 0, 0}};
+              }
             fem::Scene s               = body;
             s.kinematics               = fem::Kinematics::nonlinear;
             s.gravity_enabled          = true;
@@ -306,6 +357,15 @@ namespace irdm::validation
             s.initial_angular_velocity = arr(k.spin);
             s.planes                   = planes;
             s.duration                 = duration;
+            s.vertex_forces.clear();
+            if (probed)
+              {
+                fem::VertexForce probe;
+                probe.name            = "probe";
+                probe.vertex.node_tag = frame.output_node_tags[probe_vertex];
+                probe.force           = probe_history;
+                s.vertex_forces.push_back(probe);
+              }
             s.outputs                  = fem::Scene::Outputs();
             s.outputs.hdf5 = s.outputs.csv = false;
             s.outputs.surface                = true;
@@ -321,9 +381,9 @@ namespace irdm::validation
                 // compare this case with; say so in the report.
                 log << "  the FEM failed: " << e.what() << std::endl;
                 std::vector<std::string> methods;
-                for (const Route &route : routes)
-                  methods.push_back(route.method);
-                if (vdof)
+                for (const NamedModel &m : models)
+                  methods.push_back(m.method);
+                if (vdof && !probed)
                   methods.push_back(vdof_method);
                 for (const std::string &method : methods)
                   {
@@ -398,7 +458,9 @@ namespace irdm::validation
                 for (unsigned step = 1; step <= n; ++step)
                   {
                     const auto t0 = Clock::now();
-                    const bool ok = irdm.step(targets.data(), static_cast<int>(targets.size()));
+                    const PointForce probe{probe_vertex, vec(probe_history.at(step * tau))};
+                    const bool ok = probed ? irdm.step(targets.data(), static_cast<int>(targets.size()), &probe, 1)
+                                           : irdm.step(targets.data(), static_cast<int>(targets.size()));
                     step_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
                     row.stable = row.stable && ok;
                     irdm.surface_positions(x.data());
@@ -457,10 +519,10 @@ namespace irdm::validation
             };
             for (size_t r = 0; r < models.size(); ++r)
               {
-                FreeBodyInteraction irdm(models[r], fo);
-                run_method(irdm, routes[r].method, identity);
+                FreeBodyInteraction irdm(models[r].model, fo);
+                run_method(irdm, models[r].method.c_str(), identity);
               }
-            if (vdof)
+            if (vdof && !probed) // the virtual-DOF model holds responses to walls only
               {
                 FreeBodyVirtualDofs irdm(*vdof, fo);
                 run_method(irdm, vdof_method, vdof_order);
@@ -505,8 +567,8 @@ namespace irdm::validation
         };
         for (size_t r = 0; r < models.size() && floor_stiffness > 0; ++r)
           {
-            FreeBodyInteraction irdm(models[r], FreeBodyOptions());
-            roll_for_long(irdm, routes[r].method);
+            FreeBodyInteraction irdm(models[r].model, FreeBodyOptions());
+            roll_for_long(irdm, models[r].method.c_str());
           }
         if (vdof && floor_stiffness > 0)
           {
@@ -516,7 +578,7 @@ namespace irdm::validation
         {
           // Free flight: no plane, 10 s, spinning about an axis off the principal ones.
           FreeBodyOptions fo;
-          FreeBodyInteraction irdm(models.back(), fo);
+          FreeBodyInteraction irdm(models.back().model, fo);
           const Eigen::Vector3d v0(0.3, -0.2, 1.0), w0(3, 8, -5);
           irdm.rigid().set_velocity(v0, w0);
           const Eigen::Vector3d p0 = irdm.rigid().state().linear_momentum,
@@ -602,7 +664,29 @@ namespace irdm::validation
           "which the rigid body then does not carry.\n"
           "- `route2_modal`: the six rigid-body modes dropped, mass-orthogonal (the best fit "
           "with the consistent mass over every node, to first order); the deformation carries no "
-          "momentum.\n\n"
+          "momentum.\n";
+    if (o.force_modes > 0)
+      md << "- `route2_modal_k" << o.force_modes << "`: route 2's model with only its lowest "
+         << o.force_modes << " modes in the force loop and the rest quasi-static (their static "
+            "compliance joins the feed-through; docs/compression.md): the cheaper step, and its "
+            "error beside the full model's.\n";
+    if (o.vdof_subdivisions >= 0)
+      md << "- `vdof_rigid_fit`, the seed's virtual DOFs (seed 001) of the free body: `irdm "
+            "precompute-vdof` on it (icosahedron subdivided "
+         << o.vdof_subdivisions << " times, T = " << o.vdof_length
+         << " samples): one nonlinear-FEM wall hit per orientation, the recorded surface less, "
+            "at every sample, its rigid part (the centre of mass's translation, the best "
+            "rotation about it over the surface vertices). At run time "
+            "(`FreeBodyVirtualDofs`) one wall force per plane, solved through the virtual "
+            "DOFs' feed-through, the rigid body's step compliance and the precompute's penalty "
+            "wall in series, acting at the mapped virtual DOF's band centroid (nearest "
+            "mapping). It takes no probe (it holds responses to walls only), so it has no "
+            "`probe_push` row.\n";
+    md << "\nCase `probe_push`: the cat resting 1 mm above the floor, pushed at its head (the "
+          "surface vertex farthest along +x above the centre of mass) by a known force of "
+          "(-3, 0, -2) N for 0.2 s: a vertex force in the FEM, a `PointForce` in the runtime "
+          "(irdm/free_body.h), which joins the contact forces in the rigid body's force and "
+          "torque and the deformation's force history.\n\n"
           "What each includes of the body's own motion: gravity and the inertia of the body's "
           "linear and angular acceleration are rigid fields, M-orthogonal to route 2's elastic "
           "modes, so they drive no deformation (exact for linear elasticity); route 1's "

@@ -39,6 +39,10 @@
 // contact_point). The deformation's energy is not known from the responses: energy() is the
 // rigid body's alone for this kind.
 //
+// Probes: known point forces (PointForce, world frame) join the contact forces in the net
+// force and torque and, turned into the model frame by R', the deformation's force history;
+// the contact solve sees what they do within the step. Only the modal kind takes them.
+//
 // Memory is sized at construction; step() allocates nothing and takes no lock.
 #include <irdm/modal_model.h>
 #include <irdm/plane_interaction.h>
@@ -50,6 +54,14 @@
 
 namespace irdm
 {
+  /// A known force on a surface vertex during a step (a probe's or a haptic device's; N,
+  /// world frame, at the step's end). `vertex` indexes the surface as surface_positions does.
+  struct PointForce
+  {
+    unsigned        vertex = 0;
+    Eigen::Vector3d force  = Eigen::Vector3d::Zero();
+  };
+
   struct FreeBodyOptions
   {
     Eigen::Vector3d      gravity = Eigen::Vector3d(0, 0, -9.81); // m/s^2, world
@@ -73,9 +85,16 @@ namespace irdm
       return model_.time_step;
     }
     /// The contact of up to contact::max_planes planes (model frame) with the rigid
-    /// compliance in its feed-through.
+    /// compliance in its feed-through, and known forces (model frame, input vertices).
     bool
-    step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid);
+    step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid,
+         const AppliedForce *applied, int n_applied);
+    /// The input vertex of surface vertex v, or -1 (no force can be applied there).
+    int
+    input_vertex(unsigned v) const
+    {
+      return model_.output_input_index[v];
+    }
     /// Net force and torque about `center` of the latest step's contact (model frame), at the
     /// deformed contact points.
     void
@@ -135,9 +154,16 @@ namespace irdm
       return model_.time_step;
     }
     /// Up to PlaneInteraction::max_walls walls, as stiff as the precompute's (a plane's own
-    /// stiffness is not used).
+    /// stiffness is not used). Known point forces are refused (false): the model holds
+    /// responses to walls only.
     bool
-    step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid);
+    step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid,
+         const AppliedForce *applied, int n_applied);
+    int
+    input_vertex(unsigned) const
+    {
+      return -1;
+    }
     void
     contact_wrench(const Eigen::Vector3d &center, Eigen::Vector3d &force, Eigen::Vector3d &torque);
     Eigen::Vector3d
@@ -205,11 +231,16 @@ namespace irdm
       return deformation_;
     }
 
+    static constexpr int max_point_forces = 16;
+
     /// One step with up to contact::max_planes planes in the world frame (PlaneTarget: unit
-    /// normal toward the body, a point of the plane at the step's end; stiffness as there).
-    /// Returns false (no step taken) if the contact cannot be solved.
+    /// normal toward the body, a point of the plane at the step's end; stiffness as there)
+    /// and up to max_point_forces known point forces (probes). Returns false (no step taken)
+    /// if the contact cannot be solved or a point force cannot be applied (a vertex out of
+    /// range or not an input of the model; the virtual-DOF kind takes none).
     bool
-    step(const PlaneTarget *world_planes, int n_planes);
+    step(const PlaneTarget *world_planes, int n_planes, const PointForce *forces = nullptr,
+         int n_forces = 0);
 
     /// Force of plane p on the body at the latest step (N, world).
     Eigen::Vector3d
@@ -241,6 +272,7 @@ namespace irdm
     RigidStepCompliance                              compliance_;
     Deformation                                      deformation_;
     std::array<PlaneTarget, contact::max_planes>     body_planes_{};
+    std::array<AppliedForce, max_point_forces>       body_forces_{};
     std::array<Eigen::Vector3d, contact::max_planes> world_force_{};
     mutable std::vector<double>                      u_; // surface displacement, model frame
   };

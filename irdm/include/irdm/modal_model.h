@@ -14,6 +14,7 @@
 #include <irdm/point_interaction.h>
 #include <irdm/rigid_body.h>
 
+#include <array>
 #include <vector>
 
 namespace irdm
@@ -80,6 +81,14 @@ namespace irdm
   void
   surface_displacement(const ModalModel &model, const ModalSurfaceState &state, double *u);
 
+  /// A known force on an input vertex during one step (N, model frame): a probe's or a
+  /// device's, given rather than solved for.
+  struct AppliedForce
+  {
+    unsigned              input_vertex = 0;
+    std::array<double, 3> force{};
+  };
+
   /// Point interaction run from a modal model; same interface and guarantees as
   /// PointInteraction (step() and surface_displacement() allocate nothing).
   class ModalInteraction : public ProbeOutputs
@@ -101,6 +110,13 @@ namespace irdm
     /// rigid motion the forces will cause as well as the deformation.
     bool
     step(const PlaneTarget *planes, int n_planes, const RigidStepCompliance &rigid);
+    /// The same with known forces on input vertices this step (probes on a free body): they
+    /// join the force history, and the contact solve sees what they do within the step
+    /// (their feed-through, rigid compliance included). Returns false if a vertex is out of
+    /// range.
+    bool
+    step(const PlaneTarget *planes, int n_planes, const RigidStepCompliance &rigid,
+         const AppliedForce *applied, int n_applied);
     /// This step's forces: the input DoFs pushed and the force on one (N, model frame).
     const std::vector<unsigned> &
     pushed_inputs() const
@@ -148,6 +164,8 @@ namespace irdm
     // the normal is then one dot product with fu_ (VertexContact::step's slots).
     std::vector<double>    projected_;
     const RigidStepCompliance *rigid_ = nullptr; // during a free body's step
+    const AppliedForce        *applied_ = nullptr; // during a step with known forces
+    int                        n_applied_ = 0;
 
     // The two halves of a step around its contact solve: the state with no force this step,
     // then this step's force into the state.

@@ -20,8 +20,12 @@ namespace irdm::validation
     std::vector<double> materials  = {2000, 50000};     // Young's moduli, Pa
     double              duration   = 0.6;               // s per case
     unsigned            surface_modes = 100;            // in the runtime's surface update
+    // Route 2 also with this many modes in the force loop (the rest quasi-static): method
+    // route2_modal_k<K>, the cheaper step. 0: not run.
+    unsigned            force_modes = 300;
     double              stability_seconds = 60; // the runtime alone, rolling on the floor
     bool                quick = false; // the 5 cm drop and the tilt only
+    std::vector<std::string> only_cases; // run just these cases (names as in free.csv)
     // The seed's virtual DOFs of the free body (irdm precompute-vdof on it): icosahedron
     // subdivisions (2: 162 orientations), -1: not run; T samples per response.
     int      vdof_subdivisions = 2;
