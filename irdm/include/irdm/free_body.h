@@ -33,10 +33,11 @@
 // Virtual DOFs: the deformation is what the nonlinear FEM's free body did after a wall hit,
 // less its best rigid fit, so it holds what the hit's own acceleration did to the body; the
 // spin's forces are left out here as well. A virtual-DOF wall is the precompute's penalty wall
-// (VirtualDofModel::wall_stiffness, a spring in series with the body; a rigid wall stops the
-// body within a step and, with the rigid body's trapezoidal impulse, bounces it off faster
-// than it came) and its force acts where the wall meets the body (PlaneInteraction::
-// contact_point). The deformation's energy is not known from the responses: energy() is the
+// (VirtualDofModel::wall_stiffness, a spring in series with the body) and its force acts at
+// the mapped virtual DOF's band centroid (PlaneInteraction::contact_point). One force at one
+// body-fixed point per plane cannot carry a resting contact's moment (a flat face rests as if
+// balanced on that point) and a wall that stops the body within a step bounces it off faster
+// than it came: reports/free measures where this fails. The deformation's energy is not known from the responses: energy() is the
 // rigid body's alone for this kind.
 //
 // Probes: known point forces (PointForce, world frame) join the contact forces in the net
