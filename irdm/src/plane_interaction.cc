@@ -383,7 +383,7 @@ namespace irdm
         if (stiffness[a] == VirtualDofWall::precompute_wall)
           {
             if (m_.wall_stiffness.empty())
-              return false; // the file gives no impulse depth
+              return false; // the file has no wall stiffness (format 2): no step taken
             stiffness[a] = 0;
             for (unsigned i = 0; i < walls_[a].weights.n; ++i)
               stiffness[a] += walls_[a].weights.w[i] * m_.wall_stiffness[walls_[a].weights.k[i]];

@@ -131,7 +131,8 @@ namespace irdm
     step(const std::array<double, 3> &d, double w);
 
     /// One step with n <= max_walls walls; force[a] (N, along -d_a) out. Returns false if n is
-    /// out of range (no step taken) or the solve fails (the step is taken with no force).
+    /// out of range or a wall asks for precompute_wall of a file without wall stiffness
+    /// (format 2) (no step taken), or if the solve fails (the step is taken with no force).
     bool
     step(const VirtualDofWall *walls, int n, double *force);
 
