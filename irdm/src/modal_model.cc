@@ -283,7 +283,13 @@ namespace irdm
   ModalInteraction::step(const PlaneTarget *planes, const int n_planes)
   {
     begin_step();
-    // On failure nothing was pushed and the state is left as it was.
+    // The known forces of a free body's step (applied_) first: the contact's history then
+    // includes what they do this step.
+    for (int a = 0; a < n_applied_; ++a)
+      for (unsigned d = 0; d < 3; ++d)
+        if (applied_[a].force[d] != 0)
+          push(3 * applied_[a].input_vertex + d, applied_[a].force[d]);
+    // On failure the state is left as it was (the next step's begin_step clears the pushes).
     if (!vertex_contact_.step(
           model_, planes, n_planes,
           [&](const unsigned vi, unsigned, const std::array<double, 3> &n, const int slot,
@@ -299,10 +305,7 @@ namespace irdm
   ModalInteraction::step(const PlaneTarget *planes, const int n_planes,
                          const RigidStepCompliance &rigid)
   {
-    rigid_        = &rigid;
-    const bool ok = step(planes, n_planes);
-    rigid_        = nullptr;
-    return ok;
+    return step(planes, n_planes, rigid, nullptr, 0);
   }
 
   bool
@@ -315,26 +318,13 @@ namespace irdm
     for (int a = 0; a < n_applied; ++a)
       if (applied[a].input_vertex >= model_.n_inputs / 3)
         return false;
-    rigid_ = &rigid;
-    begin_step();
-    // The known forces first: the contact's history then includes what they do this step.
-    for (int a = 0; a < n_applied; ++a)
-      for (unsigned d = 0; d < 3; ++d)
-        if (applied[a].force[d] != 0)
-          push(3 * applied[a].input_vertex + d, applied[a].force[d]);
-    applied_   = applied;
-    n_applied_ = n_applied;
-    const bool ok = vertex_contact_.step(
-      model_, planes, n_planes,
-      [&](const unsigned vi, unsigned, const std::array<double, 3> &n, const int slot,
-          const bool fresh) { return history_along(vi, n, slot, fresh); },
-      [&](const unsigned k, const unsigned j) { return feed_through(k, j); },
-      [&](const unsigned k, const double f) { push(k, f); });
-    applied_   = nullptr;
-    n_applied_ = 0;
-    rigid_     = nullptr;
-    if (ok)
-      end_step();
+    rigid_        = &rigid;
+    applied_      = applied;
+    n_applied_    = n_applied;
+    const bool ok = step(planes, n_planes);
+    rigid_        = nullptr;
+    applied_      = nullptr;
+    n_applied_    = 0;
     return ok;
   }
 
