@@ -751,8 +751,8 @@ namespace
       ->check(CLI::Range(0.002, 3600.0));
     validate_free->add_flag("--quick", vfb.quick, "the 5 cm drop and the tilted drop only");
     validate_free->add_option("--force-modes", vfb.force_modes,
-                              "route 2 also with K modes in the force loop (the rest "
-                              "quasi-static): method route2_modal_k<K>; 0: not run")
+                              "each route also with K modes in the force loop (the rest "
+                              "quasi-static): methods route1_rigid_fit_k<K> and route2_modal_k<K>; 0: not run")
       ->capture_default_str()
       ->check(CLI::Range(0u, 100000u));
     validate_free->add_option("--cases", vfb.only_cases,

@@ -65,15 +65,13 @@ namespace irdm
     out.h0_inputs.resize(static_cast<size_t>(nin) * nin);
     for (unsigned k = 0; k < nin; ++k)
       for (unsigned i = 0; i < nin; ++i)
-        out.h0_inputs[static_cast<size_t>(k) * nin + i] = m.h(k, 0, output_of(i));
+        out.h0_inputs[static_cast<size_t>(i) * nin + k] = m.h(k, 0, output_of(i));
     // A force loop with K < N modes: the modes beyond K respond quasi-statically to this
     // step's force (mode-acceleration method), so the feed-through trades their one-step
     // response q_i[0] for their static compliance 1 / omega_i^2 (M-orthonormal shapes):
-    // H[0] + sum_{i >= K} phi_i phi_i^T (1 / omega_i^2 - q_i[0]). A held force then meets the
-    // body's full static compliance.
-    if (force_modes < N && !md.load_shapes.empty())
-      throw InputError("modal model: a model with separate load shapes (a free body's rigid-fit "
-                       "route) keeps every mode in the force loop");
+    // H[0] + sum_{i >= K} phi_i l_i^T (1 / omega_i^2 - q_i[0]), l_i the load shape (phi_i
+    // itself unless a free body's rigid-fit route gave it its own). A held force then meets
+    // the body's full static compliance.
     if (force_modes < N)
       {
         using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -88,9 +86,12 @@ namespace irdm
             c[i] = 1 / out.w2[mode] - md.step[15 * static_cast<size_t>(mode) + 3];
           }
         const Eigen::Map<const RowMajor> phi(out.input_shapes.data(), nin, N);
-        const RowMajor dropped = phi.rightCols(D);
+        const Eigen::Map<const RowMajor> load(
+          out.input_load_shapes.empty() ? out.input_shapes.data() : out.input_load_shapes.data(), nin, N);
+        // h0_inputs[i][k]: to the output of input i (phi) from input DoF k (its load shape).
+        const RowMajor dropped_load = load.rightCols(D), dropped_phi = phi.rightCols(D);
         Eigen::Map<RowMajor>(out.h0_inputs.data(), nin, nin).noalias() +=
-          dropped * c.asDiagonal() * dropped.transpose();
+          dropped_phi * c.asDiagonal() * dropped_load.transpose();
       }
 
     // Static gain of each surface mode over the model's length: sum_{s<T} q_i[s].
@@ -240,11 +241,18 @@ namespace irdm
   }
 
   double
+  ModalInteraction::deformation_feed_through(const unsigned k, const unsigned j) const
+  {
+    // The input DoF whose output is output DoF j (contact rows are outputs of inputs). Stored
+    // by output: the contact's W reads one output row at a time.
+    const unsigned i = 3u * static_cast<unsigned>(model_.output_input_index[j / 3]) + j % 3;
+    return model_.h0_inputs[static_cast<size_t>(i) * model_.n_inputs + k];
+  }
+
+  double
   ModalInteraction::feed_through(const unsigned k, const unsigned j) const
   {
-    // The input DoF whose output is output DoF j (contact rows are outputs of inputs).
-    const unsigned i = 3u * static_cast<unsigned>(model_.output_input_index[j / 3]) + j % 3;
-    const double   h = model_.h0_inputs[static_cast<size_t>(k) * model_.n_inputs + i];
+    const double h = deformation_feed_through(k, j);
     if (!rigid_)
       return h;
     const auto  &x = model_.output_coordinates[j / 3];
@@ -294,8 +302,8 @@ namespace irdm
           model_, planes, n_planes,
           [&](const unsigned vi, unsigned, const std::array<double, 3> &n, const int slot,
               const bool fresh) { return history_along(vi, n, slot, fresh); },
-          [&](const unsigned k, const unsigned j) { return feed_through(k, j); },
-          [&](const unsigned k, const double f) { push(k, f); }))
+          [&](const unsigned k, const unsigned j) { return deformation_feed_through(k, j); },
+          [&](const unsigned k, const double f) { push(k, f); }, rigid_))
       return false;
     end_step();
     return true;

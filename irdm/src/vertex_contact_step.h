@@ -14,7 +14,8 @@ namespace irdm
   template <class History, class FeedThrough, class Push>
   bool
   VertexContact::step(const ModelFrame &m, const PlaneTarget *planes, const int n_planes,
-                      History &&history, FeedThrough &&h0, Push &&push)
+                      History &&history, FeedThrough &&h0, Push &&push,
+                      const RigidStepCompliance *rigid)
   {
     if (n_planes < 0 || n_planes > contact::max_planes)
       return false;
@@ -89,8 +90,18 @@ namespace irdm
         q_[c] += history(static_cast<unsigned>(m.output_input_index[vertex_[c]]), vertex_[c],
                          planes[plane_[c]].normal, slot_[c], fresh);
       }
-    // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b, copied
-    // from the last step where both rows were rows then.
+    // A free body's levers (the rigid compliance's rank-6 form, vertex_contact.h).
+    if (rigid)
+      for (int c = 0; c < n; ++c)
+        {
+          const auto &X = m.output_coordinates[vertex_[c]];
+          const auto &nn = planes[plane_[c]].normal;
+          lever_[c] = (Eigen::Vector3d(X[0], X[1], X[2]) - rigid->center)
+                        .cross(Eigen::Vector3d(nn[0], nn[1], nn[2]));
+          turn_[c] = rigid->tau2_inverse_inertia * lever_[c];
+        }
+    // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b (plus a
+    // free body's rigid compliance), copied from the last step where both rows were rows then.
     for (int c = 0; c < n; ++c)
       {
         const auto &nc = planes[plane_[c]].normal;
@@ -113,6 +124,8 @@ namespace irdm
                 for (int d = 0; d < 3; ++d)
                   s += nc[d] * nb[e] * h0(k, out_dof(c, d));
               }
+            if (rigid)
+              s += rigid->tau2_over_mass * dot(nc, nb) + lever_[c].dot(turn_[b]);
             w[b] = s + (plane_[b] == plane_[c] ? planes[plane_[c]].coupling_compliance : 0.0);
           }
         const double k = planes[plane_[c]].stiffness;

@@ -269,7 +269,7 @@ namespace irdm::validation
                  body,
                  (fs::path(o.model_dir) / ("free_cat_" + material_name(E) + route.file_suffix + ".h5")).string(),
                  route.route, route.method,
-                 o.surface_modes, route.route == fem::FreeBodyRoute::modal ? o.force_modes : 0, log))
+                 o.surface_modes, o.force_modes, log))
             models.push_back(std::move(m));
         const ModalModel &frame = models.back().model; // the mesh, the vertices, the mass: shared
         const double      area  = mean_free_vertex_area(frame);
@@ -687,10 +687,11 @@ namespace irdm::validation
           "with the consistent mass over every node, to first order); the deformation carries no "
           "momentum.\n";
     if (o.force_modes > 0)
-      md << "- `route2_modal_k" << o.force_modes << "`: route 2's model with only its lowest "
-         << o.force_modes << " modes in the force loop and the rest quasi-static (their static "
-            "compliance joins the feed-through; docs/compression.md): the cheaper step, and its "
-            "error beside the full model's.\n";
+      md << "- `route1_rigid_fit_k" << o.force_modes << "` and `route2_modal_k" << o.force_modes
+         << "`: each route's model with only its lowest " << o.force_modes
+         << " modes in the force loop and the rest quasi-static (their static compliance, "
+            "through route 1's load shapes for route 1, joins the feed-through; "
+            "docs/compression.md): the cheaper step, and its error beside the full model's.\n";
     if (o.vdof_subdivisions >= 0)
       md << "- `vdof_rigid_fit`, the seed's virtual DOFs (seed 001) of the free body: `irdm "
             "precompute-vdof` on it (icosahedron subdivided "

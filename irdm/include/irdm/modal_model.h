@@ -41,9 +41,9 @@ namespace irdm
     std::vector<double> input_load_shapes;
     std::vector<double> step;         // [mode][3 x 5], as ModalData::step
     std::vector<double> w2;           // (rad/s)^2 per mode
-    std::vector<double> h0_inputs;    // the force loop's feed-through, input DoF k to the output
-                                      // of input DoF i, [k][i]: H[0] (with K < N modes, plus
-                                      // the dropped modes' static correction)
+    std::vector<double> h0_inputs;    // the force loop's feed-through to the output of input
+                                      // DoF i from input DoF k, [i][k]: H[0] (with K < N
+                                      // modes, plus the dropped modes' static correction)
     std::vector<float>  residual;     // static correction E, [input DoF][output DoF]
     /// Bytes in memory.
     double
@@ -181,6 +181,9 @@ namespace irdm
     history_along(unsigned in_vertex, const std::array<double, 3> &normal, int slot, bool fresh);
     double
     feed_through(unsigned k, unsigned j) const;
+    // The same without a free body's rigid compliance (the contact adds it in rank-6 form).
+    double
+    deformation_feed_through(unsigned k, unsigned j) const;
     void
     push(unsigned k, double f);
   };

@@ -26,6 +26,7 @@
 // VertexContact and drives it through detail::vertex_contact_step (irdm/src). Memory is sized
 // at construction: the step allocates nothing and takes no lock.
 #include <irdm/model.h>
+#include <irdm/rigid_body.h>
 #include <irdm_common/complementarity.h>
 
 #include <array>
@@ -82,6 +83,8 @@ namespace irdm
       lambda_.assign(cap, 0.0);
       guess_.assign(cap, 0);
       W_.assign(cap * cap, 0.0);
+      lever_.assign(cap, Eigen::Vector3d::Zero());
+      turn_.assign(cap, Eigen::Vector3d::Zero());
       was_active_.assign(contact::max_planes * n_vertices, 0);
       n_candidates_ = 0;
       rounds_       = 0;
@@ -120,10 +123,13 @@ namespace irdm
     // out_vertex, normal, slot, fresh) returns normal . u_hist(out_vertex); slot (0 <=
     // slot < max_candidates) stays the row's while it stays a candidate with the same plane
     // normal, fresh says it was just given (a runtime may cache per slot, see ModalInteraction).
+    // rigid (a free body's step, irdm/free_body.h): the rigid body's step compliance joins W.
+    // It is rank 6, so it is added as mu n_c . n_b + r_c . T r_b with r_c = (X_c - C) x n_c
+    // (one lever per row) rather than entry by entry.
     template <class History, class FeedThrough, class Push>
     bool
     step(const ModelFrame &m, const PlaneTarget *planes, int n_planes, History &&history,
-         FeedThrough &&h0, Push &&push);
+         FeedThrough &&h0, Push &&push, const RigidStepCompliance *rigid = nullptr);
 
   private:
     VertexContactOptions                                  options_;
@@ -133,6 +139,8 @@ namespace irdm
     std::vector<int>                                      slot_;   // [candidate]
     std::vector<char>                                     slot_taken_; // [slot]
     std::vector<double>                                   q_, lambda_, W_;
+    // [candidate] a free body's lever r_c = (X_c - C) x n_c and T r_c (T: tau^2/4 I^-1).
+    std::vector<Eigen::Vector3d>                          lever_, turn_;
     std::vector<char>                                     guess_;
     std::vector<char> was_active_; // [plane][output vertex]: in contact at the last step
     int               n_candidates_ = 0, rounds_ = 0;
