@@ -727,7 +727,9 @@ namespace
       "throw at a wall, a drop on a floor tilted 25 degrees, and a push by a probe (the "
       "virtual DOFs take no probe); then the runtime alone rolls "
       "for --stability seconds and flies free for 10 s. Writes DIR/free/free.csv (one row per "
-      "case, material and method), series.csv (forces, heights and angles against time), "
+      "case, material and method), first_contact.csv (the same measures over the first "
+      "contact alone), truth.csv (with --truth-check), series.csv (forces, heights, angles and "
+      "deformation against time), "
       "frames.csv and triangles.csv (surfaces of the rolling cat), fig6.png, frames.png and "
       "report.md. Units SI.");
     validate_free->add_option("--scene", vfb.scene, "the free body")
@@ -736,8 +738,10 @@ namespace
     validate_free->add_option("--out", vfb.report_dir, "report folder")->capture_default_str();
     validate_free->add_option("--model-dir", vfb.model_dir, "folder of the free models (written)")
       ->capture_default_str();
-    validate_free->add_option("--materials", vfb.materials, "Young's moduli (Pa)")
+    validate_free->add_option("--materials", vfb.materials,
+                              "Young's moduli (Pa), space- or comma-separated")
       ->capture_default_str()
+      ->delimiter(',')
       ->check(CLI::Range(1.0, 1e12));
     validate_free->add_option("--duration", vfb.duration, "seconds per case")
       ->capture_default_str()
@@ -770,6 +774,10 @@ namespace
                               "samples per virtual-DOF response (T; the step is the scene's)")
       ->capture_default_str()
       ->check(CLI::Range(1u, 100000u));
+    validate_free->add_flag("--truth-check", vfb.truth_check,
+                            "also run the FEM at half the time step and compare it with the "
+                            "FEM at the scene's step by the same measures (truth.csv): how "
+                            "well the truth itself is determined; doubles the FEM's time");
     validate_free->add_flag("--reuse-models", vfb.reuse_models,
                             "take a virtual-DOF model already in --model-dir instead of "
                             "precomputing it (it must be of the same scene and material)");

@@ -4,7 +4,7 @@
 Usage: /usr/bin/python3 validation/plot_free.py REPORT_DIR
 
 REPORT_DIR (reports/free) holds series.csv (case, material, method, time_s, fem_force_N,
-irdm_force_N, ...), frames.csv (case, material, method, time_s, vertex, x_m, y_m, z_m) and
+irdm_force_N, ..., fem_deformation_rms_m, deformation_difference_rms_m), frames.csv (case, material, method, time_s, vertex, x_m, y_m, z_m) and
 triangles.csv (a, b, c: surface triangles, vertex indices). Writes:
   fig6.png    the floor force along its normal against time for the rolling cat (spin_roll),
               the FEM and both IRDM routes, one panel per material (N, s);
@@ -54,6 +54,8 @@ def fig6(folder):
                 s["fem:t"].append(float(row["time_s"]))
                 s["fem:irdm"].append(float(row["fem_force_N"]))
     if not series:
+        print(f"plot_free: series.csv holds no {CASE} rows (run the case): no fig6.png",
+              file=sys.stderr)
         return False
     materials = sorted(series, key=material_key)
     fig, axes = plt.subplots(len(materials), 1, figsize=(8, 3.2 * len(materials)), squeeze=False)
@@ -84,6 +86,7 @@ def frames(folder):
             pts = data[(row["material"], row["method"])].setdefault(float(row["time_s"]), [])
             pts.append((int(row["vertex"]), float(row["x_m"]), float(row["y_m"]), float(row["z_m"])))
     if not data:
+        print(f"plot_free: frames.csv holds no {CASE} frames: no frames.png", file=sys.stderr)
         return False
     material = max({m for m, _ in data}, key=material_key)
     methods = [m for m in ("fem", "route1_rigid_fit", "route2_modal", "vdof_rigid_fit")

@@ -20,8 +20,8 @@ namespace irdm::validation
     std::vector<double> materials  = {2000, 50000};     // Young's moduli, Pa
     double              duration   = 0.6;               // s per case
     unsigned            surface_modes = 100;            // in the runtime's surface update
-    // Route 2 also with this many modes in the force loop (the rest quasi-static): method
-    // route2_modal_k<K>, the cheaper step. 0: not run.
+    // Each route also with this many modes in the force loop (the rest quasi-static): methods
+    // route1_rigid_fit_k<K> and route2_modal_k<K>, the cheaper step. 0: not run.
     unsigned            force_modes = 300;
     double              stability_seconds = 60; // the runtime alone, rolling on the floor
     bool                quick = false; // the 5 cm drop and the tilt only
@@ -31,6 +31,9 @@ namespace irdm::validation
     int      vdof_subdivisions = 2;
     unsigned vdof_length       = 100;
     bool     reuse_models      = false; // take a virtual-DOF model already in model_dir
+    // Also run the FEM at half the time step and compare it with the FEM at tau by the same
+    // measures: how well the truth itself is determined (truth.csv, a table in report.md).
+    bool     truth_check = false;
     std::string         plot_script = "validation/plot_free.py"; // empty: no charts
   };
 
