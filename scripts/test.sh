@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Install, build (warnings are errors) and run all tests with ctest, then the robustness tests
-# under the sanitizers.
+# under the sanitizers. Disk: the three builds take about BUILD_GB; each test removes its scratch
+# folder when it passes (tests/scratch.h), so the tests add only what two of them write at once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+echo "test.sh: $(df -h --output=avail . | tail -1 | tr -d ' ') free on this disk at the start"
 scripts/install-deps.sh
 IRDM_WERROR=ON scripts/build.sh
 (cd build && ctest --output-on-failure -j2)
@@ -10,3 +12,4 @@ IRDM_WERROR=ON scripts/build.sh
 scripts/sanitize.sh
 # The two asynchronous loops under ThreadSanitizer (build-tsan/).
 scripts/tsan.sh
+echo "test.sh: $(df -h --output=avail . | tail -1 | tr -d ' ') free at the end; builds: $(du -shc build build-sanitize build-tsan | tail -1 | cut -f1)"

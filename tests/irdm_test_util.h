@@ -1,9 +1,11 @@
 #pragma once
 // Shared by the IRDM tests: a small damped cantilever scene (beam_2) with a model region near
-// the tip, a scratch folder, and a precompute helper.
+// the tip, a scratch folder per test (scratch.h), and a precompute helper.
 #include <irdm/model.h>
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/scene.h>
+
+#include "scratch.h"
 
 #include <cstdlib>
 #include <filesystem>
@@ -43,13 +45,6 @@ namespace irdm_test
       if (const char *value = std::getenv(name))
         env += std::string(name) + "='" + value + "' ";
     return env;
-  }
-
-  inline std::string
-  tmp(const std::string &name)
-  {
-    fs::create_directories(IRDM_TEST_TMP);
-    return (fs::path(IRDM_TEST_TMP) / name).string();
   }
 
   inline ImpulseResponseModel

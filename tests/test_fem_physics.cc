@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "scratch.h"
+
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -227,7 +229,7 @@ TEST(FemPhysics, BadBoundaryConditionsAreInputErrors)
 
 TEST(FemPhysics, OutputsAreWrittenWithTheDocumentedLayout)
 {
-  const std::string dir = IRDM_TEST_TMP "/out";
+  const std::string dir = irdm_test::tmp("out");
   std::filesystem::remove_all(dir);
   auto fem = beam(beam2, 2, R"(, "name": "tapped", "time": {"step_s": 0.05, "duration_s": 0.5},
       "loads": [{"type": "surface_force", "surface": "tip", "total_force_N": [0, 0, -1e-4]}],

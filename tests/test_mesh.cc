@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "scratch.h"
+
 #include <filesystem>
 #include <fstream>
 
@@ -16,8 +18,7 @@ namespace
   std::string
   write_tmp(const std::string &name, const std::string &text)
   {
-    std::filesystem::create_directories(IRDM_TEST_TMP);
-    const std::string path = std::string(IRDM_TEST_TMP) + "/" + name;
+    const std::string path = irdm_test::tmp(name);
     std::ofstream(path) << text;
     return path;
   }
@@ -84,5 +85,5 @@ TEST(Mesh, CorruptMeshesAreRejected)
   expect_error(write_tmp("flat.msh", one_tet("1 2 3 4", "0")), "degenerate");
   expect_error(write_tmp("missing_node.msh", one_tet("1 2 3 9")), "missing node");
   expect_error(write_tmp("garbage.msh", "hello\n"), "not a gmsh");
-  expect_error(IRDM_TEST_TMP "/does_not_exist.msh", "cannot open");
+  expect_error(irdm_test::tmp("does_not_exist.msh"), "cannot open");
 }

@@ -22,6 +22,8 @@
 
 #include <gtest/gtest.h>
 
+#include "scratch.h"
+
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -40,16 +42,12 @@ namespace
   namespace fs = std::filesystem;
   using namespace irdm;
 
-  // Each test has its own folder: ctest runs tests in parallel, and two writers to one file
-  // would (rightly) be refused by its lock.
+  // Each test has its own folder (scratch.h): ctest runs tests in parallel, and two writers to
+  // one file would (rightly) be refused by its lock.
   std::string
   scratch(const std::string &name)
   {
-    const auto    *test = ::testing::UnitTest::GetInstance()->current_test_info();
-    const fs::path dir  = fs::path(IRDM_TEST_TMP) / "robustness" /
-                         (std::string(test->test_suite_name()) + "." + test->name());
-    fs::create_directories(dir);
-    return (dir / name).string();
+    return irdm_test::tmp(name);
   }
 
   // ---- seed corpus ----

@@ -786,7 +786,8 @@ namespace irdm::validation
     std::ostringstream md;
     md << "# Free body against the nonlinear FEM (issue 14)\n\n"
        << "Written by `irdm validate-free" << (o.quick ? " --quick" : "")
-       << (o.reuse_models ? " --reuse-models" : "") << "`. Body: `" << o.scene
+       << (o.reuse_models ? " --reuse-models" : "") << (o.truth_check ? " --truth-check" : "")
+       << "`. Body: `" << o.scene
        << "` (the cat, P1, fixed to nothing), Newmark average acceleration, tau = "
        << base.time_step * 1e3 << " ms, " << o.duration
        << " s per case (spin_roll 2 s), gravity 9.81 m/s^2 against the floor's normal. Truth: "
