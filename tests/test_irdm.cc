@@ -279,7 +279,9 @@ namespace
     EXPECT_GE(switches, 2); // it touched and let go
     EXPECT_LT(ferr / fmax, 1e-9);
     EXPECT_LT(uerr / umax, 1e-9);
-    EXPECT_LT(uerr_modal / umax, 1e-6); // the modal surface's static residual is stored in float
+    // The modal surface's shapes and static residual are stored in float (eps 6e-8, times the
+    // cancellation among the modes; seen: 1.3e-6).
+    EXPECT_LT(uerr_modal / umax, 1e-5);
     return most_vertices;
   }
 
@@ -343,9 +345,10 @@ TEST(Runtime, SurfaceProductKernelsAgreeWithAnExactSum)
   for (const auto &[nout, M] : {std::pair<size_t, size_t>{1, 1}, {7, 3}, {8, 4}, {9, 5}, {13, 25},
                                 {17, 100}, {1554, 100}})
     {
-      std::vector<double> shapes(nout * M), a(M), u(nout);
+      std::vector<float>  shapes(nout * M); // as ModalModel::shapes
+      std::vector<double> a(M), u(nout);
       for (auto &x : shapes)
-        x = dist(gen);
+        x = static_cast<float>(dist(gen));
       for (auto &x : a)
         x = dist(gen);
       std::vector<double> exact(nout), scale(nout);
@@ -512,7 +515,9 @@ namespace
     EXPECT_GE(switches, 2); // touched and let go
     EXPECT_LT(ferr / fmax, 1e-9);
     EXPECT_LT(uerr / umax, 1e-9);
-    EXPECT_LT(uerr_modal / umax, 1e-6); // the modal surface's static residual is stored in float
+    // The modal surface's shapes and static residual are stored in float (eps 6e-8, times the
+    // cancellation among the modes; seen: 1.3e-6).
+    EXPECT_LT(uerr_modal / umax, 1e-5);
     if (stiffness_field.empty() || stiffness_field.find("vertex_stiffness") == std::string::npos)
       EXPECT_LT(deepest, 1e-12); // a rigid plane (or plate) is met, not passed
     else

@@ -49,7 +49,7 @@ namespace
     m.shapes.resize(12 * 3);
     for (unsigned j = 0; j < 12; ++j)
       for (unsigned i = 0; i < 3; ++i)
-        m.shapes[j * 3 + i] = m.input_shapes[j * 6 + i];
+        m.shapes[j * 3 + i] = static_cast<float>(m.input_shapes[j * 6 + i]);
     m.step.assign(6 * 15, 0.0);
     for (unsigned i = 0; i < 6; ++i)
       {

@@ -2,6 +2,8 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
+
 #if defined(__x86_64__) && defined(__GNUC__)
 #  include <immintrin.h>
 #  define IRDM_HAVE_AVX2_KERNEL 1
@@ -9,15 +11,30 @@
 
 namespace irdm::detail
 {
+  // Each row widened to double a chunk at a time (a loop the compiler vectorizes), then
+  // Eigen's vectorized dot product; a plain float-times-double loop would stay scalar (a
+  // floating-point reduction is not reordered without -ffast-math).
   void
-  surface_product_portable(const double *shapes, const std::size_t M,
+  surface_product_portable(const float *shapes, const std::size_t M,
                            const std::size_t n_outputs, const double *a, double *u)
   {
-    const auto m = static_cast<Eigen::Index>(M), n = static_cast<Eigen::Index>(n_outputs);
-    // shapes is [output][mode] row-major, i.e. Phi_M^T column-major.
-    Eigen::Map<Eigen::VectorXd>(u, n).noalias() =
-      Eigen::Map<const Eigen::MatrixXd>(shapes, m, n).transpose() *
-      Eigen::Map<const Eigen::VectorXd>(a, m);
+    constexpr std::size_t chunk = 64;
+    double                wide[chunk];
+    for (std::size_t j = 0; j < n_outputs; ++j)
+      {
+        const float *row = shapes + j * M;
+        double       s   = 0;
+        for (std::size_t m0 = 0; m0 < M; m0 += chunk)
+          {
+            const std::size_t c = std::min(chunk, M - m0);
+            for (std::size_t i = 0; i < c; ++i)
+              wide[i] = static_cast<double>(row[m0 + i]);
+            const auto n = static_cast<Eigen::Index>(c);
+            s += Eigen::Map<const Eigen::VectorXd>(wide, n).dot(
+              Eigen::Map<const Eigen::VectorXd>(a + m0, n));
+          }
+        u[j] = s;
+      }
   }
 
 #ifdef IRDM_HAVE_AVX2_KERNEL
@@ -41,16 +58,17 @@ namespace irdm::detail
   } // namespace
 
   // Eight output rows at a time share each load of a, and their eight independent FMA chains
-  // hide the FMA latency; the rows are read once, front to back (the cost is streaming Phi_M).
+  // hide the FMA latency; the rows are read once, front to back (the cost is streaming Phi_M),
+  // four floats at a time widened to double.
   __attribute__((target("avx2,fma"))) void
-  surface_product_avx2(const double *shapes, const std::size_t M, const std::size_t n_outputs,
+  surface_product_avx2(const float *shapes, const std::size_t M, const std::size_t n_outputs,
                        const double *a, double *u)
   {
     const std::size_t M4 = M - M % 4;
     std::size_t       j  = 0;
     for (; j + 8 <= n_outputs; j += 8)
       {
-        const double *row = shapes + j * M;
+        const float  *row = shapes + j * M;
         __m256d       acc[8];
         for (auto &r : acc)
           r = _mm256_setzero_pd();
@@ -58,7 +76,7 @@ namespace irdm::detail
           {
             const __m256d am = _mm256_loadu_pd(a + m);
             for (int r = 0; r < 8; ++r)
-              acc[r] = _mm256_fmadd_pd(_mm256_loadu_pd(row + r * M + m), am, acc[r]);
+              acc[r] = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + r * M + m)), am, acc[r]);
           }
         __m256d lo = lane_sums(acc[0], acc[1], acc[2], acc[3]);
         __m256d hi = lane_sums(acc[4], acc[5], acc[6], acc[7]);
@@ -67,7 +85,7 @@ namespace irdm::detail
             alignas(32) double tail[8] = {};
             for (int r = 0; r < 8; ++r)
               for (std::size_t m = M4; m < M; ++m)
-                tail[r] += row[r * M + m] * a[m];
+                tail[r] += static_cast<double>(row[r * M + m]) * a[m];
             lo = _mm256_add_pd(lo, _mm256_load_pd(tail));
             hi = _mm256_add_pd(hi, _mm256_load_pd(tail + 4));
           }
@@ -78,7 +96,7 @@ namespace irdm::detail
       {
         double s = 0;
         for (std::size_t m = 0; m < M; ++m)
-          s += shapes[j * M + m] * a[m];
+          s += static_cast<double>(shapes[j * M + m]) * a[m];
         u[j] = s;
       }
   }
@@ -90,7 +108,7 @@ namespace irdm::detail
   }
 
   void
-  surface_product_avx2(const double *shapes, const std::size_t M, const std::size_t n_outputs,
+  surface_product_avx2(const float *shapes, const std::size_t M, const std::size_t n_outputs,
                        const double *a, double *u)
   {
     surface_product_portable(shapes, M, n_outputs, a, u);
@@ -98,7 +116,7 @@ namespace irdm::detail
 #endif
 
   void
-  surface_product(const double *shapes, const std::size_t M, const std::size_t n_outputs,
+  surface_product(const float *shapes, const std::size_t M, const std::size_t n_outputs,
                   const double *a, double *u)
   {
     static const bool avx2 = surface_product_avx2_available(); // thread-safe, decided once

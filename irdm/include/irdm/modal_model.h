@@ -8,7 +8,7 @@
 //   - the full surface update uses the lowest M modes, and the rest as a static correction
 //     E = sum_s (H[s] - H_M[s]) applied to this step's force (dropped modes treated as
 //     quasi-static), so the surface keeps H's static compliance exactly.
-// Memory: shapes at the inputs for all modes, at the outputs for M modes, H[0] among the
+// Memory: shapes at the inputs for all modes, at the outputs for M modes (float), H[0] among the
 // inputs, and E (inputs x outputs). Cost per step: O(N) + O(n_out M) + O(n_out n_active).
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
@@ -34,7 +34,8 @@ namespace irdm
     unsigned            force_modes = 0; // K: modes in the force loop's history (<= n_modes)
     double              highest_frequency_hz = 0; // of the surface modes
     double              build_seconds        = 0;
-    std::vector<double> shapes;       // [output DoF][surface mode]
+    std::vector<float>  shapes;       // [output DoF][surface mode], single precision: the
+                                      // surface update streams them (relative rounding 6e-8)
     std::vector<double> input_shapes; // [input DoF][mode], every mode: displacement there
     // [input DoF][mode]: the modal force of a unit force there, when it differs from
     // input_shapes (ModalData::load_shapes); empty: input_shapes.
@@ -49,9 +50,9 @@ namespace irdm
     double
     bytes() const
     {
-      return 8.0 * (shapes.size() + input_shapes.size() + input_load_shapes.size() +
-                    step.size() + h0_inputs.size()) +
-             4.0 * residual.size();
+      return 8.0 * (input_shapes.size() + input_load_shapes.size() + step.size() +
+                    h0_inputs.size()) +
+             4.0 * (shapes.size() + residual.size());
     }
   };
 
