@@ -2,7 +2,8 @@
 # Installs the runtime into a fresh prefix, builds examples/haptic_loop against the installed
 # package (outside the source and build trees: find_package(irdm) must be all it needs), and
 # runs it on a small model made by the irdm CLI. The example exits 0 only if the surface its
-# deformation thread computed reproduces the prescribed probe displacement to round-off.
+# deformation thread computed reproduces the prescribed probe displacement to 1e-6 (the
+# surface shapes are stored in float).
 #   install_example.sh BUILD_DIR SOURCE_DIR IRDM_CLI MESH_DIR
 set -euo pipefail
 build=$1 source=$2 cli=$3 meshes=$4

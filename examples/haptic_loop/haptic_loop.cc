@@ -7,7 +7,8 @@
 // The probe presses the model's first input vertex along -z by depth_m (ramped over the first
 // half of the run) and holds. Not real time: the point is the API. At the end it prints the
 // probe force and how far the surface the deformation thread computed at the probed vertex is
-// from the prescribed displacement (the surface update uses every mode, so this is round-off).
+// from the prescribed displacement (the surface update uses every mode, so this is the float
+// rounding of the stored surface shapes).
 #include <irdm/modal_model.h>
 #include <irdm/model.h>
 #include <irdm/surface_exchange.h>
@@ -93,7 +94,9 @@ main(int argc, char **argv)
       std::printf("probe force (N): %.6g %.6g %.6g\n", runtime.force(0)[0], runtime.force(0)[1],
                   runtime.force(0)[2]);
       std::printf("probe vertex displacement error (m): %.3g\n", error);
-      return error <= 1e-9 * std::max(depth, 1e-12) + 1e-15 ? 0 : 3;
+      // The surface shapes are stored in float (eps 6e-8): the surface meets the prescribed
+      // displacement to that rounding, not to double round-off (seen: 2e-8 of the depth).
+      return error <= 1e-6 * std::max(depth, 1e-12) + 1e-15 ? 0 : 3;
     }
   catch (const irdm::InputError &e)
     {
