@@ -1,5 +1,9 @@
-// PETSc/MPI (linked through deal.II) must be initialised once per test process.
-#include <deal.II/base/mpi.h>
+// The main of every test binary. Those that link deal.II (IRDM_TEST_MPI) initialise PETSc/MPI
+// once per process; those with a scratch folder (IRDM_TEST_TMP) remove a test's folder when the
+// test passes (scratch.h).
+#ifdef IRDM_TEST_MPI
+#  include <deal.II/base/mpi.h>
+#endif
 
 #include <gtest/gtest.h>
 
@@ -10,7 +14,9 @@
 int
 main(int argc, char **argv)
 {
+#ifdef IRDM_TEST_MPI
   dealii::Utilities::MPI::MPI_InitFinalize mpi(argc, argv, 1);
+#endif
   ::testing::InitGoogleTest(&argc, argv);
 #ifdef IRDM_TEST_TMP
   ::testing::UnitTest::GetInstance()->listeners().Append(

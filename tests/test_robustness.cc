@@ -42,13 +42,9 @@ namespace
   namespace fs = std::filesystem;
   using namespace irdm;
 
-  // Each test has its own folder (scratch.h): ctest runs tests in parallel, and two writers to
-  // one file would (rightly) be refused by its lock.
-  std::string
-  scratch(const std::string &name)
-  {
-    return irdm_test::tmp(name);
-  }
+  // Each test writes in its own folder (irdm_test::tmp, scratch.h): ctest runs tests in parallel,
+  // and two writers to one file would (rightly) be refused by its lock.
+  using irdm_test::tmp;
 
   // ---- seed corpus ----
 
@@ -462,7 +458,7 @@ namespace
   structured_mutations(const std::string &seed, const Loader &load)
   {
     Tally      tally;
-    const auto mutant = scratch("mutant.h5");
+    const auto mutant = tmp("mutant.h5");
     const auto count  = [&](const bool loaded) {
       ++tally.mutants;
       (loaded ? tally.loaded : tally.refused) += 1;
@@ -515,7 +511,7 @@ namespace
     Tally                     tally;
     std::mt19937              rng(20261122);
     const auto                items  = items_of(seed);
-    const auto                mutant = scratch("random_mutant.h5");
+    const auto                mutant = tmp("random_mutant.h5");
     const auto                t0     = std::chrono::steady_clock::now();
     while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < seconds)
       {
@@ -590,21 +586,21 @@ namespace
 
 TEST(ModelLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
 {
-  const auto seed = scratch("seed_model.h5");
+  const auto seed = tmp("seed_model.h5");
   write_seed_model(seed);
   expect_structured_mutations_survive("model loader", seed, load_and_run_model);
 }
 
 TEST(ModelLoaderFuzz, RandomMutationsForAFixedTime)
 {
-  const auto seed = scratch("seed_model.h5");
+  const auto seed = tmp("seed_model.h5");
   write_seed_model(seed);
   expect_random_mutations_survive("model loader", seed, load_and_run_model);
 }
 
 TEST(CompressedLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
 {
-  const auto model = scratch("seed_model.h5"), seed = scratch("seed_compressed.h5");
+  const auto model = tmp("seed_model.h5"), seed = tmp("seed_compressed.h5");
   write_seed_model(model);
   write_seed_compressed(model, seed);
   expect_structured_mutations_survive("compressed loader", seed, load_and_run_compressed);
@@ -612,7 +608,7 @@ TEST(CompressedLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
 
 TEST(CompressedLoaderFuzz, RandomMutationsForAFixedTime)
 {
-  const auto model = scratch("seed_model.h5"), seed = scratch("seed_compressed.h5");
+  const auto model = tmp("seed_model.h5"), seed = tmp("seed_compressed.h5");
   write_seed_model(model);
   write_seed_compressed(model, seed);
   expect_random_mutations_survive("compressed loader", seed, load_and_run_compressed);
@@ -620,14 +616,14 @@ TEST(CompressedLoaderFuzz, RandomMutationsForAFixedTime)
 
 TEST(VirtualDofLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
 {
-  const auto seed = scratch("seed_vdof.h5");
+  const auto seed = tmp("seed_vdof.h5");
   write_seed_virtual_dofs(seed);
   expect_structured_mutations_survive("virtual-DOF loader", seed, load_and_run_virtual_dofs);
 }
 
 TEST(VirtualDofLoaderFuzz, RandomMutationsForAFixedTime)
 {
-  const auto seed = scratch("seed_vdof.h5");
+  const auto seed = tmp("seed_vdof.h5");
   write_seed_virtual_dofs(seed);
   expect_random_mutations_survive("virtual-DOF loader", seed, load_and_run_virtual_dofs);
 }
@@ -636,7 +632,7 @@ TEST(VirtualDofLoaderFuzz, RandomMutationsForAFixedTime)
 
 TEST(ModelLoader, RefusesAnIncompleteModel)
 {
-  const auto path = scratch("incomplete.h5");
+  const auto path = tmp("incomplete.h5");
   write_seed_model(path);
   mutate_dataset(path, "/progress/chunk_done", DataMutation::value, 0, 1);
   try
@@ -653,7 +649,7 @@ TEST(ModelLoader, RefusesAnIncompleteModel)
 
 TEST(ModelLoader, RefusesAnArrayWhereANumberBelongs)
 {
-  const auto path = scratch("array_attribute.h5");
+  const auto path = tmp("array_attribute.h5");
   write_seed_model(path);
   mutate_attribute(path, {"/", "time_step_s"}, AttributeMutation::array, 0.002);
   EXPECT_THROW(load_model(path), InputError);
@@ -661,7 +657,7 @@ TEST(ModelLoader, RefusesAnArrayWhereANumberBelongs)
 
 TEST(ModelLoader, RefusesNaNInModeShapesAndDuplicateOutputIndices)
 {
-  const auto path = scratch("nan_modes.h5");
+  const auto path = tmp("nan_modes.h5");
   write_seed_model(path);
   mutate_dataset(path, "/modes/shapes", DataMutation::value,
                  std::numeric_limits<double>::quiet_NaN(), 5);
@@ -673,7 +669,7 @@ TEST(ModelLoader, RefusesNaNInModeShapesAndDuplicateOutputIndices)
 
 TEST(CompressedLoader, ChecksSlotsOfAmplitudeZeroAndTheDelaySpan)
 {
-  const auto model = scratch("seed_model.h5"), path = scratch("slots.h5");
+  const auto model = tmp("seed_model.h5"), path = tmp("slots.h5");
   write_seed_model(model);
   write_seed_compressed(model, path);
   const auto c = load_representative_model(path);
@@ -708,7 +704,7 @@ namespace
   bool
   load_mesh(const std::string &text)
   {
-    const auto path = scratch("mutant.msh");
+    const auto path = tmp("mutant.msh");
     std::ofstream(path) << text;
     try
       {
@@ -741,7 +737,7 @@ TEST(MeshLoader, RefusesADuplicateTetrahedron)
   const std::string mesh = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n"
                            "3 0 1 0\n4 0 0 1\n$EndNodes\n$Elements\n2\n1 4 2 1 1 1 2 3 4\n"
                            "2 4 2 1 1 2 3 1 4\n$EndElements\n";
-  const auto path = scratch("duplicate.msh");
+  const auto path = tmp("duplicate.msh");
   std::ofstream(path) << mesh;
   try
     {
@@ -837,7 +833,7 @@ TEST(Writers, AFailedWriteIsAnIoErrorAndLeavesNothingUnderTheFinalName)
   // Each must be an IoError, with neither the final name nor a part left.
   for (const int how : {0, 1, 2})
     {
-      const auto path = scratch("full_disk_" + std::to_string(how) + ".h5");
+      const auto path = tmp("full_disk_" + std::to_string(how) + ".h5");
       fs::remove(path);
       bool io_error = false;
       try
@@ -869,7 +865,7 @@ TEST(Writers, AFailedWriteIsAnIoErrorAndLeavesNothingUnderTheFinalName)
       EXPECT_FALSE(fs::exists(path + ".part")) << how;
       EXPECT_FALSE(fs::exists(path + ".lock")) << how;
     }
-  const auto csv = scratch("full_disk.csv");
+  const auto csv = tmp("full_disk.csv");
   fs::remove(csv);
   {
     FileSizeLimit limit(64 * 1024);
@@ -882,7 +878,7 @@ TEST(Writers, AFailedWriteIsAnIoErrorAndLeavesNothingUnderTheFinalName)
 
 TEST(Writers, ASecondWriterToTheSameOutputIsRefusedAndTheFirstFinishes)
 {
-  const auto path = scratch("locked.h5");
+  const auto path = tmp("locked.h5");
   fs::remove(path);
   auto first = std::make_unique<h5::Writer>(path, h5::Writer::Mode::resume);
   first->keep_partial(true);
@@ -908,10 +904,10 @@ TEST(Writers, ASecondWriterToTheSameOutputIsRefusedAndTheFirstFinishes)
 
 TEST(Writers, OutputChecksRefuseInputsFoldersAndMissingFolders)
 {
-  const auto in = scratch("input.h5");
+  const auto in = tmp("input.h5");
   write_seed_model(in);
   EXPECT_THROW(check_output_file("--out", in, {in}), InputError);
-  EXPECT_THROW(check_output_file("--out", scratch(""), {}), InputError);
-  EXPECT_THROW(check_output_file("--out", scratch("no/such/folder/x.h5"), {}), InputError);
-  EXPECT_NO_THROW(check_output_file("--out", scratch("fine.h5"), {in}));
+  EXPECT_THROW(check_output_file("--out", tmp(""), {}), InputError);
+  EXPECT_THROW(check_output_file("--out", tmp("no/such/folder/x.h5"), {}), InputError);
+  EXPECT_NO_THROW(check_output_file("--out", tmp("fine.h5"), {in}));
 }

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <string>
 
 using irdm::InputError;
@@ -185,4 +186,35 @@ TEST(Scene, PointsFarFromTheBodyAndLoadsOnFixedVerticesAreRefused)
   fem_error(scene(R"(, "fixed_surfaces": ["clamp"], "loads": [{"type": "vertex_force",
       "name": "on_clamp", "vertex": {"nearest_to_m": [0, 0, 0]}, "force_N": [0, 0, -1]}])"),
             "lies on a fixed surface");
+}
+
+// The shipped scenes all read, and `irdm validate`'s default folder (validation/scenes, run by
+// scripts/main.sh) holds only scenes with probes: a free-body scene put there once stopped the
+// main job at its first step ("has no probes"). Free-body scenes live in validation/scenes/free.
+TEST(Scene, ShippedScenesReadAndTheValidateFolderHoldsOnlyProbeScenes)
+{
+  namespace fs = std::filesystem;
+  const fs::path source = fs::path(IRDM_MESH_DIR).parent_path();
+  int            top = 0, all = 0;
+  for (const auto &e : fs::recursive_directory_iterator(source / "validation" / "scenes"))
+    {
+      if (e.path().extension() != ".json")
+        continue;
+      SCOPED_TRACE(e.path().string());
+      const auto scene = irdm::fem::read_scene(e.path().string());
+      ++all;
+      if (e.path().parent_path() == source / "validation" / "scenes")
+        {
+          ++top;
+          EXPECT_FALSE(scene.probes.empty()) << "irdm validate would refuse it";
+        }
+    }
+  for (const auto &e : fs::directory_iterator(source / "examples"))
+    if (e.path().extension() == ".json")
+      {
+        SCOPED_TRACE(e.path().string());
+        EXPECT_NO_THROW(irdm::fem::read_scene(e.path().string()));
+      }
+  EXPECT_GE(top, 5); // press, tap, tap_coupled, trace, squeeze
+  EXPECT_GT(all, top); // and the free-body scenes below
 }

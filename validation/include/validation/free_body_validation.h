@@ -14,7 +14,7 @@ namespace irdm::validation
 {
   struct FreeBodyValidationOptions
   {
-    std::string         scene      = "validation/scenes/free_cat.json"; // the body
+    std::string         scene      = "validation/scenes/free/free_cat.json"; // the body
     std::string         report_dir = "reports";
     std::string         model_dir  = "out/models/free"; // one free model per material
     std::vector<double> materials  = {2000, 50000};     // Young's moduli, Pa
