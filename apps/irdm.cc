@@ -234,7 +234,7 @@ namespace
   {
     std::string scene, out, storage, free_route = "modal", fit_weights = "uniform";
     unsigned    length = 0, chunk = 0, modes = 0;
-    bool        restart = false, quiet = false, allow_large = false;
+    bool        restart = false, quiet = false, allow_large = false, every_mode_every_step = false;
   };
 
   std::optional<bool>
@@ -260,6 +260,7 @@ namespace
     o.double_storage   = storage_choice(a.storage);
     o.restart          = a.restart;
     o.allow_large      = a.allow_large;
+    o.every_mode_every_step = a.every_mode_every_step;
     o.free_route       = a.free_route == "rigid_fit" ? irdm::fem::FreeBodyRoute::rigid_fit
                                                      : irdm::fem::FreeBodyRoute::modal;
     o.fit_weights      = a.fit_weights == "mass" ? irdm::fem::RigidFitWeights::mass
@@ -540,6 +541,10 @@ namespace
     precompute->add_flag("--restart", pre.restart, "ignore a partial file and start over");
     precompute->add_flag("--allow-large", pre.allow_large,
                          "run even if the memory or disk estimate exceeds what is free");
+    precompute->add_flag("--every-mode-every-step", pre.every_mode_every_step,
+                         "sum every mode at every step (default: a mode is left out once its "
+                         "terms stay below a tenth of the storage's round-off of the largest "
+                         "response; see the file's /impulse_response/H attributes)");
     precompute->add_flag("--quiet", pre.quiet, "no progress on stderr");
 
     // precompute-vdof
@@ -833,6 +838,11 @@ namespace
                      "the force thread wakes this early and spins to each tick, us (default: "
                      "90 % of the period; 0: sleep to the tick)")
       ->check(CLI::Range(0.0, 1e6));
+    play->add_option("--warm-us", po.warm_us,
+                     "the deformation thread reads the surface shapes into its cache this long "
+                     "before each frame, us (0: never; the update then streams them from memory)")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
     play->add_flag("!--no-baseline", po.baseline,
                    "skip the baseline (the same force loop with no work, run first for as long: "
                    "the machine's own stalls)");

@@ -412,11 +412,11 @@ namespace irdm::play
     std::vector<std::int64_t> wake_ns(n_steps);
     const long display_ticks = static_cast<long>(std::ceil(n_steps / rate * o.display_hz)) + 2;
     const long frame_stride  = std::max<long>(1, (display_ticks + o.max_frames - 1) / std::max(1u, o.max_frames));
-    std::vector<double>    update_us(display_ticks, 0.0), frame_u;
+    std::vector<double>    update_us(display_ticks, 0.0), warm_us(display_ticks, 0.0), frame_u;
     std::vector<long long> frame_step;
     frame_u.assign(static_cast<size_t>((display_ticks / frame_stride + 1)) * model.n_outputs, 0.0);
     frame_step.assign(display_ticks / frame_stride + 1, 0);
-    long                n_updates = 0, n_frames = 0, display_tick_count = 0;
+    long                n_updates = 0, n_warms = 0, n_frames = 0, display_tick_count = 0;
     std::vector<double> surface(model.n_outputs);
     if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 && !o.quiet)
       out << "note: memory not locked (mlockall refused); page faults may add latency\n";
@@ -429,6 +429,8 @@ namespace irdm::play
     const int                       n_cpus = static_cast<int>(std::thread::hardware_concurrency());
     const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(1e9 / rate));
     const std::int64_t display_ns = static_cast<std::int64_t>(std::llround(1e9 / o.display_hz));
+    const std::int64_t warm_ns =
+      std::min(display_ns / 2, static_cast<std::int64_t>(std::llround(1e3 * o.warm_us)));
     const double       spin_us    = o.spin_us < 0 ? 0.9e6 / rate : std::min(o.spin_us, 1e6 / rate);
     const std::int64_t spin_ns    = static_cast<std::int64_t>(std::llround(1e3 * spin_us));
     // The clock starts once both threads run where they should (creating a thread under
@@ -494,6 +496,13 @@ namespace irdm::play
       const std::int64_t start = wait_for_start();
       for (long tick = 0; tick < display_ticks; ++tick)
         {
+          if (warm_ns > 0 && tick > 0)
+            {
+              sleep_until_ns(start + tick * display_ns - warm_ns);
+              const std::int64_t t0 = now_ns();
+              warm_surface(modal);
+              warm_us[n_warms++] = 1e-3 * static_cast<double>(now_ns() - t0);
+            }
           sleep_until_ns(start + tick * display_ns);
           const bool finished = force_done.load(std::memory_order_acquire);
           if (exchange.update())
@@ -524,6 +533,7 @@ namespace irdm::play
     std::transform(jitter_us.begin(), jitter_us.end(), abs_jitter.begin(),
                    [](double x) { return std::abs(x); });
     update_us.resize(n_updates);
+    warm_us.resize(n_warms);
 
     // The same probes offline with every mode in the force loop: the exact model (the modal
     // realization with all modes reproduces H and the FEM, tests/test_irdm.cc).
@@ -608,7 +618,8 @@ namespace irdm::play
                  "baseline_longest_stall_ms", "force_step_p50_us", "force_step_p99_us",
                  "force_step_p999_us", "force_step_max_us", "wake_late_p50_us", "wake_late_p99_us",
                  "period_jitter_p99_us", "surface_update_p50_us", "surface_update_p99_us",
-                 "surface_update_max_us", "surface_updates", "peak_force_N", "force_error"},
+                 "surface_update_max_us", "surface_updates", "peak_force_N", "force_error",
+                 "warm_us", "surface_warm_p50_us", "surface_warm_p99_us"},
                 {one(rate), one(spin_us), one(static_cast<double>(n_steps)),
                  one(static_cast<double>(missed)), one(static_cast<double>(missed_overrun)),
                  one(static_cast<double>(missed - missed_overrun)),
@@ -621,7 +632,8 @@ namespace irdm::play
                  one(percentile(late_us, 0.99)), one(percentile(abs_jitter, 0.99)),
                  one(percentile(update_us, 0.5)), one(percentile(update_us, 0.99)),
                  one(percentile(update_us, 1.0)), one(static_cast<double>(n_updates)),
-                 one(peak_force), one(force_error)});
+                 one(peak_force), one(force_error), one(1e-3 * static_cast<double>(warm_ns)),
+                 one(percentile(warm_us, 0.5)), one(percentile(warm_us, 0.99))});
     }
     std::ostringstream md;
     md << "# irdm play\n\n"
@@ -661,7 +673,16 @@ namespace irdm::play
        << " | " << fmt(percentile(late_us, 0.999)) << " | " << fmt(percentile(late_us, 1.0)) << " |\n"
        << "| surface update (us) | " << fmt(percentile(update_us, 0.5)) << " | "
        << fmt(percentile(update_us, 0.99)) << " | " << fmt(percentile(update_us, 0.999)) << " | "
-       << fmt(percentile(update_us, 1.0)) << " |\n\n"
+       << fmt(percentile(update_us, 1.0)) << " |\n"
+       << "| surface warm-up, before each frame (us) | " << fmt(percentile(warm_us, 0.5)) << " | "
+       << fmt(percentile(warm_us, 0.99)) << " | " << fmt(percentile(warm_us, 0.999)) << " | "
+       << fmt(percentile(warm_us, 1.0)) << " |\n\n"
+       << (warm_ns > 0 ? "The deformation thread reads the surface shapes into its cache " +
+                           fmt(1e-3 * static_cast<double>(warm_ns)) +
+                           " us before each frame (warm_surface, --warm-us); the surface update "
+                           "is the time from the newest force state to the surface.\n\n"
+                       : std::string("No warm-up (--warm-us 0): each update streams the shapes "
+                                     "from wherever the cache left them.\n\n"))
        << "Missed deadlines (a step finished after the next tick was due): " << missed << " of "
        << n_steps << " (" << fmt(100 * missed_fraction) << " %): " << missed_overrun
        << " because the step took longer than a period, " << missed - missed_overrun

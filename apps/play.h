@@ -24,6 +24,9 @@ namespace irdm::play
     // its CPU: a vCPU that keeps running is not descheduled by its host between ticks, which
     // is where the late wake-ups of a sleeping loop come from (reports/play/README.md).
     double spin_us = -1;
+    // The deformation thread wakes this long before each frame and reads the surface shapes
+    // into its cache (warm_surface), then sleeps to the frame (us; 0: no warm-up).
+    double warm_us = 500;
     bool        quiet         = false;
     bool        baseline      = true; // first the same loop with no work: the machine's stalls
     // Virtual coupling (contact::Coupling): the device pulls the probed vertex through a spring

@@ -41,12 +41,18 @@ def main():
                 f"({int(sum(r['baseline_stalls'] for r in ran))}, "
                 f"{g(max(r['baseline_longest_stall_ms'] for r in ran))})")
 
+    def warm(group):
+        # Runs written before the warm-up existed have no such column.
+        if "warm_us" not in group[0] or group[0]["warm_us"] <= 0:
+            return "none"
+        return f"{g(group[0]['warm_us'])}; {g(med(group, 'surface_warm_p50_us'))}"
+
     lines = [
         "| run | rate (Hz) | spin (us) | repetitions | missed deadlines (all repetitions) "
         "| of which step overran / woken late | stalls > 1 period (longest, ms) "
         "| baseline, no work: ticks > 1 period late (stalls, longest ms) | runs within 0.1 % | force step p50 / p99 / p99.9 (us) | wake-up lateness p50 / p99 (us) "
-        "| surface update p50 / p99 (us) | force error against all modes |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| surface update p50 / p99 (us) | warm-up before each frame (us ahead; p50) | force error against all modes |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, group in runs.items():
         steps = sum(r["steps"] for r in group)
@@ -64,6 +70,7 @@ def main():
             f"{g(med(group, 'force_step_p999_us'))} "
             f"| {g(med(group, 'wake_late_p50_us'))} / {g(med(group, 'wake_late_p99_us'))} "
             f"| {g(med(group, 'surface_update_p50_us'))} / {g(med(group, 'surface_update_p99_us'))} "
+            f"| {warm(group)} "
             f"| {g(med(group, 'force_error'))} |")
     text = ("# irdm play, repeated runs\n\n"
             "Made by `scripts/play_study.sh` from `" + os.path.basename(sys.argv[1]) + "`. Sums over "

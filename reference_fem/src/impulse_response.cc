@@ -65,16 +65,102 @@ namespace irdm::fem
     // Row-major C (m x n, row stride ldc) = A (m x k) * B^T, B (n x k) row-major:
     // column-major C^T = B A^T.
     void
-    gemm_abt(int m, int n, int k, const float *A, const float *B, float *C, int ldc)
+    gemm_abt(int m, int n, int k, const float *A, int lda, const float *B, int ldb, float *C,
+             int ldc)
     {
       const float one = 1, zero = 0;
-      sgemm_("T", "N", &n, &m, &k, &one, B, &k, A, &k, &zero, C, &ldc);
+      sgemm_("T", "N", &n, &m, &k, &one, B, &ldb, A, &lda, &zero, C, &ldc);
     }
     void
-    gemm_abt(int m, int n, int k, const double *A, const double *B, double *C, int ldc)
+    gemm_abt(int m, int n, int k, const double *A, int lda, const double *B, int ldb, double *C,
+             int ldc)
     {
       const double one = 1, zero = 0;
-      dgemm_("T", "N", &n, &m, &k, &one, B, &k, A, &k, &zero, C, &ldc);
+      dgemm_("T", "N", &n, &m, &k, &one, B, &ldb, A, &lda, &zero, C, &ldc);
+    }
+
+    // Which modes a step's sum needs. Damping and the integrator's own dissipation
+    // (generalized-alpha with rho_inf < 1 takes a mode far above 1 / tau down by about rho_inf
+    // per step) make most modes' responses vanish within tens of steps, while the lowest ring
+    // for the whole length: at step s the sum H[s] = sum_i h_i[s] phi_out_i phi_in_i^T needs
+    // only the modes still alive. Mode i is kept up to its last step l_i with
+    // |h_i[s]| max_k |phi_in[k][i]| max_j |phi_out[j][i]| > eps D / nm, where D is the largest
+    // driving-point response of an input (max over s and k of |sum_i h_i[s] phi_in[k][i]^2|).
+    // What is left out of any entry at any step is then at most eps D. eps is a tenth of the
+    // storage's unit round-off, so every entry moves by less than the rounding of the largest.
+    struct LiveModes
+    {
+      std::vector<unsigned> order;  // modes by l_i, longest-lived first (stable: by index)
+      std::vector<unsigned> alive;  // alive[s]: modes with l_i >= s, a prefix of `order`
+      std::vector<unsigned> block;  // step blocks [block[b], block[b + 1]) of one GEMM width
+      std::vector<unsigned> width;  // width[b] = alive[block[b]]: the block's modes
+      double                work = 1; // sum over steps of width, over T * nm: the GEMM left
+      double                tolerance = 0; // eps D: the most left out of any entry (m/N)
+    };
+
+    LiveModes
+    live_modes(const std::vector<double> &h, const std::vector<double> &phi_in,
+               const std::vector<double> &phi_out, const unsigned T, const unsigned nm,
+               const double eps)
+    {
+      const size_t nin = phi_in.size() / nm, nout = phi_out.size() / nm;
+      // D: the driving-point responses of every input at every step, one GEMM.
+      std::vector<double> p2(phi_in.size()), drive(nin * T);
+      for (size_t x = 0; x < phi_in.size(); ++x)
+        p2[x] = phi_in[x] * phi_in[x];
+      gemm_abt(static_cast<int>(nin), static_cast<int>(T), static_cast<int>(nm), p2.data(),
+               static_cast<int>(nm), h.data(), static_cast<int>(nm), drive.data(),
+               static_cast<int>(T));
+      double D = 0;
+      for (const double d : drive)
+        D = std::max(D, std::abs(d));
+      std::vector<double> reach(nm, 0.0); // max_k |phi_in[k][i]| max_j |phi_out[j][i]|
+      {
+        std::vector<double> in_max(nm, 0.0), out_max(nm, 0.0);
+        for (size_t k = 0; k < nin; ++k)
+          for (unsigned i = 0; i < nm; ++i)
+            in_max[i] = std::max(in_max[i], std::abs(phi_in[k * nm + i]));
+        for (size_t j = 0; j < nout; ++j)
+          for (unsigned i = 0; i < nm; ++i)
+            out_max[i] = std::max(out_max[i], std::abs(phi_out[j * nm + i]));
+        for (unsigned i = 0; i < nm; ++i)
+          reach[i] = in_max[i] * out_max[i];
+      }
+      const double threshold = eps * D / nm;
+      std::vector<long> last(nm, -1);
+      LiveModes lm;
+      lm.tolerance = eps * D;
+      for (unsigned i = 0; i < nm; ++i)
+        for (long s = static_cast<long>(T) - 1; s >= 0; --s)
+          if (std::abs(h[static_cast<size_t>(s) * nm + i]) * reach[i] > threshold)
+            {
+              last[i] = s;
+              break;
+            }
+      lm.order.resize(nm);
+      std::iota(lm.order.begin(), lm.order.end(), 0u);
+      std::stable_sort(lm.order.begin(), lm.order.end(),
+                       [&](unsigned a, unsigned b) { return last[a] > last[b]; });
+      lm.alive.assign(T, 0);
+      for (unsigned i = 0; i < nm; ++i)
+        for (long s = 0; s <= last[i]; ++s)
+          ++lm.alive[static_cast<size_t>(s)];
+      // Blocks: a GEMM per block and input, so not too short (8 steps at least) and not much
+      // wider than the steps in it need (a new block once alive falls below 90 % of its width).
+      double work = 0;
+      for (unsigned s0 = 0; s0 < T;)
+        {
+          unsigned s1 = s0 + 1;
+          while (s1 < T && (s1 - s0 < 8 || lm.alive[s1] >= 0.9 * lm.alive[s0]))
+            ++s1;
+          lm.block.push_back(s0);
+          lm.width.push_back(lm.alive[s0]);
+          work += static_cast<double>(s1 - s0) * lm.alive[s0];
+          s0 = s1;
+        }
+      lm.block.push_back(T);
+      lm.work = work / (static_cast<double>(T) * nm);
+      return lm;
     }
 
     // The free surface vertices in a region, in boundary order.
@@ -560,6 +646,16 @@ namespace irdm::fem
           std::to_string(nm - n_lowest) + " residual modes: error " +
           std::to_string(rep.static_basis_error_max) + " (exact: round-off)");
 
+    const LiveModes live = live_modes(h, phi_in, phi_out, T, nm,
+                                      options.every_mode_every_step
+                                        ? 0.0
+                                        : 0.1 * (rep.double_storage ? 0x1p-53 : 0x1p-24));
+    rep.gemm_work = live.work;
+    log("modes alive: all " + std::to_string(nm) + " at step 0, " +
+        std::to_string(live.alive[T / 2]) + " at step " + std::to_string(T / 2) + ", " +
+        std::to_string(live.alive[T - 1]) + " at the last; the responses' GEMM is " +
+        std::to_string(100 * live.work) + " % of all modes at every step");
+
     // 4. The file: metadata first, then H in chunks of inputs, each marked done when written.
     const size_t   per_input = static_cast<size_t>(T) * nout;
     const size_t   scalar    = rep.double_storage ? 8 : 4;
@@ -603,6 +699,7 @@ namespace irdm::fem
       spec << " modes " << n_lowest;
     if (rigid_fit)
       spec << " rigid_fit " << static_cast<int>(options.fit_weights);
+    spec << " live " << live.tolerance;
     spec << " in";
     for (const unsigned v : in_v)
       spec << ' ' << b.node_tags[v];
@@ -768,6 +865,13 @@ namespace irdm::fem
               f.create_dataset("/impulse_response/H", {nin, T, nout}, rep.double_storage, 1);
               f.attribute("/impulse_response/H", "layout",
                           std::string("[input DoF][step s][output DoF]; DoF = 3 * vertex + axis"));
+              f.attribute("/impulse_response/H", "modes_left_out_below_m_per_N", live.tolerance);
+              f.attribute("/impulse_response/H", "modes_left_out",
+                          std::string("each mode is summed up to its last step whose term can "
+                                      "exceed modes_left_out_below_m_per_N / modes_kept in any "
+                                      "entry; what is left out of an entry is at most "
+                                      "modes_left_out_below_m_per_N (a tenth of the storage's "
+                                      "unit round-off times the largest driving-point response)"));
               f.create_group("/progress");
               f.write("/progress/chunk_done", {n_chunks}, done.data());
               f.flush();
@@ -777,26 +881,58 @@ namespace irdm::fem
     MPI_Bcast(done.data(), n_chunks, MPI_LONG_LONG, 0, MPI_COMM_WORLD);
     write_seconds += since(t0);
 
-    // 5. Chunks: A[(k, s), i] = h[s][i] phi_in[k][i], then H_chunk = A Phi_out^T (one GEMM).
+    // 5. Chunks: A[(k, s), i] = h[s][i] phi_in[k][i] over the modes alive at step s
+    //    (live_modes), then H_chunk = A Phi_out^T, one GEMM per input and block of steps.
     //    Chunk c belongs to rank c % size; rank 0 receives and writes in order.
-    //    phi_out_s: Phi_out in the storage precision, converted once per run.
+    //    phi_out_s: Phi_out in the storage precision, its modes in live order, converted once.
+    // h and Phi_in with their modes in live order, so that a row of A is a contiguous product.
+    std::vector<double> h_live(h.size()), phi_in_live(phi_in.size());
+    for (size_t r = 0; r < h.size() / nm; ++r)
+      for (unsigned i = 0; i < nm; ++i)
+        h_live[r * nm + i] = h[r * nm + live.order[i]];
+    for (size_t r = 0; r < phi_in.size() / nm; ++r)
+      for (unsigned i = 0; i < nm; ++i)
+        phi_in_live[r * nm + i] = phi_in[r * nm + live.order[i]];
     const auto compute_chunk = [&](const unsigned c, const auto &phi_out_s, auto *result) {
       using Scalar     = std::remove_pointer_t<decltype(result)>;
       const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
-      std::vector<Scalar> A(static_cast<size_t>(nk) * T * nm);
-      for (unsigned k = 0; k < nk; ++k)
-        for (unsigned s = 0; s < T; ++s)
-          {
-            Scalar       *row = &A[(static_cast<size_t>(k) * T + s) * nm];
-            const double *hs  = &h[static_cast<size_t>(s) * nm];
-            const double *pk  = &phi_in[static_cast<size_t>(k0 + k) * nm];
-            for (unsigned i = 0; i < nm; ++i)
-              row[i] = static_cast<Scalar>(hs[i] * pk[i]);
-          }
       const unsigned j0 = symmetric ? k0 : 0; // the outputs before j0 come by reciprocity
-      gemm_abt(static_cast<int>(nk * T), static_cast<int>(nout - j0), static_cast<int>(nm),
-               A.data(), phi_out_s.data() + static_cast<size_t>(j0) * nm, result + j0,
-               static_cast<int>(nout));
+      const size_t   nj = nout - j0;
+      // Per block of steps, one GEMM over every input of the chunk (rows (k, s), k-major), so
+      // that each call is large; its rows then go to their places in the chunk.
+      std::vector<Scalar> A, C;
+      for (size_t b = 0; b + 1 < live.block.size(); ++b)
+        {
+          const unsigned s0 = live.block[b], len = live.block[b + 1] - s0, m = live.width[b];
+          const auto     row_of = [&](const unsigned k, const unsigned s) {
+            return result + (static_cast<size_t>(k) * T + s0 + s) * nout + j0;
+          };
+          if (m == 0) // every mode has died out: nothing left above the round-off
+            {
+              for (unsigned k = 0; k < nk; ++k)
+                for (unsigned s = 0; s < len; ++s)
+                  std::fill(row_of(k, s), row_of(k, s) + nj, Scalar(0));
+              continue;
+            }
+          const size_t rows = static_cast<size_t>(nk) * len;
+          A.resize(rows * m);
+          C.resize(rows * nj);
+          for (unsigned k = 0; k < nk; ++k)
+            for (unsigned s = 0; s < len; ++s)
+              {
+                Scalar       *row = &A[(static_cast<size_t>(k) * len + s) * m];
+                const double *hs  = &h_live[static_cast<size_t>(s0 + s) * nm];
+                const double *pk  = &phi_in_live[static_cast<size_t>(k0 + k) * nm];
+                for (unsigned i = 0; i < m; ++i)
+                  row[i] = static_cast<Scalar>(hs[i] * pk[i]);
+              }
+          gemm_abt(static_cast<int>(rows), static_cast<int>(nj), static_cast<int>(m), A.data(),
+                   static_cast<int>(m), phi_out_s.data() + static_cast<size_t>(j0) * nm,
+                   static_cast<int>(nm), C.data(), static_cast<int>(nj));
+          for (unsigned k = 0; k < nk; ++k)
+            for (unsigned s = 0; s < len; ++s)
+              std::copy_n(&C[(static_cast<size_t>(k) * len + s) * nj], nj, row_of(k, s));
+        }
     };
     // Each GEMM runs on one BLAS thread so that a chunk's bits do not depend on how the work
     // is split; a serial run computes several chunks at once on threads of its own instead.
@@ -808,7 +944,10 @@ namespace irdm::fem
     const auto run_chunks = [&](auto zero) {
       using Scalar = decltype(zero);
       const MPI_Datatype        type = sizeof(Scalar) == 8 ? MPI_DOUBLE : MPI_FLOAT;
-      const std::vector<Scalar> phi_out_s(phi_out.begin(), phi_out.end());
+      std::vector<Scalar> phi_out_s(phi_out.size());
+      for (size_t j = 0; j < nout; ++j)
+        for (unsigned i = 0; i < nm; ++i)
+          phi_out_s[j * nm + i] = static_cast<Scalar>(phi_out[j * nm + live.order[i]]);
       // Two sets of buffers on one rank: the GEMMs of one batch fill one set while the other
       // set, the batch before, is being written.
       const unsigned n_sets = size == 1 ? 2 : 1;
@@ -846,12 +985,13 @@ namespace irdm::fem
           {
             const unsigned j0 = c1 * chunk, nj = std::min(chunk, nin - j0);
             const Scalar  *from = block[c][c1].data(); // [j][s][k]: H[j][s][k] = H[k][s][j]
-            for (unsigned k = 0; k < nk; ++k)
-              for (unsigned s = 0; s < T; ++s)
+            // k innermost: the reads run along `from`, the writes go to nk rows side by side.
+            for (unsigned s = 0; s < T; ++s)
+              for (unsigned j = 0; j < nj; ++j)
                 {
-                  Scalar *row = data + (static_cast<size_t>(k) * T + s) * nout + j0;
-                  for (unsigned j = 0; j < nj; ++j)
-                    row[j] = from[(static_cast<size_t>(j) * T + s) * nk + k];
+                  const Scalar *in = from + (static_cast<size_t>(j) * T + s) * nk;
+                  for (unsigned k = 0; k < nk; ++k)
+                    data[(static_cast<size_t>(k) * T + s) * nout + j0 + j] = in[k];
                 }
             std::vector<Scalar>().swap(block[c][c1]);
           }

@@ -75,6 +75,11 @@ namespace irdm::fem
     unsigned                    input_stride = 1;
     std::optional<VertexRegion> inputs_always;
     bool allow_large = false; // run even if the memory or disk estimate exceeds what is free
+    // Sum every mode at every step. Default (false): a mode is left out after its last step
+    // whose terms could reach a tenth of the storage's unit round-off times the largest
+    // driving-point response over the number of modes (damping and the integrator's
+    // dissipation end most modes' responses within tens of steps); the file states the bound.
+    bool every_mode_every_step = false;
     FreeBodyRoute   free_route  = FreeBodyRoute::modal;    // free bodies only
     RigidFitWeights fit_weights = RigidFitWeights::uniform; // rigid_fit only
     std::function<void(const std::string &)> log;      // progress lines (rank 0 only)
@@ -106,6 +111,7 @@ namespace irdm::fem
     int      ranks          = 1;
     bool     double_storage = false;
     double   bytes          = 0; // of H
+    double   gemm_work = 1; // the responses' GEMM over that of all modes at every step (live_modes)
     double   seconds_fem = 0, seconds_eigen = 0, seconds_responses = 0, seconds_write = 0,
            seconds_total = 0;
     // Energy (kinetic + strain) left at step T after a unit impulse, relative to the energy
