@@ -51,6 +51,45 @@ namespace irdm::fem
     const double h = edge_sum / std::max(1u, n_edges);
     for (const auto &p : scene.planes)
       penalty.push_back(p.penalty > 0 ? p.penalty : 100 * E / h);
+
+    FEValues<3> fv(linear.mapping, linear.fe, stiffness_quadrature,
+                   update_gradients | update_JxW_values);
+    auto &r  = reference;
+    r.n_dofs = linear.fe.n_dofs_per_cell();
+    r.n_q    = stiffness_quadrature.size();
+    for (unsigned i = 0; i < r.n_dofs; ++i)
+      r.component.push_back(linear.fe.system_to_component_index(i).first);
+    const size_t n_cells = linear.triangulation.n_active_cells();
+    r.dofs.resize(n_cells * r.n_dofs);
+    r.JxW.resize(n_cells * r.n_q);
+    r.grad.resize(n_cells * r.n_q * r.n_dofs);
+    std::vector<types::global_dof_index> dofs(r.n_dofs);
+    size_t                               c = 0;
+    for (const auto &cell : linear.dof_handler.active_cell_iterators())
+      {
+        fv.reinit(cell);
+        cell->get_dof_indices(dofs);
+        std::copy(dofs.begin(), dofs.end(), r.dofs.begin() + c * r.n_dofs);
+        for (unsigned q = 0; q < r.n_q; ++q)
+          {
+            r.JxW[c * r.n_q + q] = fv.JxW(q);
+            for (unsigned i = 0; i < r.n_dofs; ++i)
+              r.grad[(c * r.n_q + q) * r.n_dofs + i] = fv.shape_grad_component(i, q, r.component[i]);
+          }
+        ++c;
+      }
+  }
+
+  Tensor<2, 3>
+  NonlinearElasticity::Impl::ReferenceCells::gradient(const Vector<double> &u, const size_t c,
+                                                     const unsigned q) const
+  {
+    Tensor<2, 3>                   G;
+    const types::global_dof_index *d = &dofs[c * n_dofs];
+    const Tensor<1, 3>            *g = &grad[(c * n_q + q) * n_dofs];
+    for (unsigned i = 0; i < n_dofs; ++i)
+      G[component[i]] += u(d[i]) * g[i];
+    return G;
   }
 
   bool
@@ -59,39 +98,34 @@ namespace irdm::fem
                                        double *energy) const
   {
     const auto &L = linear;
-    const FEValuesExtractors::Vector displacement(0);
-    FEValues<3> fv(L.mapping, L.fe, stiffness_quadrature, update_gradients | update_JxW_values);
-    const unsigned n_dofs = L.fe.n_dofs_per_cell(), n_q = stiffness_quadrature.size();
+    const auto    &R      = reference;
+    const unsigned n_dofs = R.n_dofs, n_q = R.n_q;
     FullMatrix<double>                   cell_K(n_dofs, n_dofs);
     Vector<double>                       cell_f(n_dofs);
     std::vector<types::global_dof_index> dofs(n_dofs);
-    std::vector<Tensor<2, 3>>            grad_u(n_q);
     // Shape function i of the vector element is e_{c_i} N_i: its gradient is e_{c_i} (x) g_i,
     // so the tangent needs only the scalar gradients g_i and A g_i with A = F^{-T}.
-    std::vector<unsigned>     component(n_dofs);
-    std::vector<Tensor<1, 3>> g(n_dofs), Ag(n_dofs);
-    for (unsigned i = 0; i < n_dofs; ++i)
-      component[i] = L.fe.system_to_component_index(i).first;
+    const std::vector<unsigned> &component = R.component;
+    std::vector<Tensor<1, 3>>    g(n_dofs), Ag(n_dofs);
     f_int.reinit(L.dof_handler.n_dofs());
     if (K)
       *K = 0;
     if (energy)
       *energy = 0;
-    bool ok = true;
-    for (const auto &cell : L.dof_handler.active_cell_iterators())
+    bool         ok      = true;
+    const size_t n_cells = R.dofs.size() / n_dofs;
+    for (size_t c = 0; c < n_cells; ++c)
       {
-        fv.reinit(cell);
-        fv[displacement].get_function_gradients(u, grad_u);
-        cell->get_dof_indices(dofs);
+        std::copy_n(&R.dofs[c * n_dofs], n_dofs, dofs.begin());
         cell_K = 0;
         cell_f = 0;
         for (unsigned q = 0; q < n_q; ++q)
           {
             // Written in H = grad u so that small strains lose no digits to cancellation:
             // J - 1 = tr H + (tr(H)^2 - tr(H^2)) / 2 + det H, F - F^{-T} = H + H^T F^{-T}.
-            const Tensor<2, 3> &H  = grad_u[q];
+            const Tensor<2, 3>  H  = R.gradient(u, c, q);
             const double        tH = trace(H);
-            const double        dx = fv.JxW(q);
+            const double        dx = R.JxW[c * n_q + q];
             // The small-strain law is the same formulas with A = F^{-T} -> I and ln J -> tr H.
             double       lnJ   = tH;
             Tensor<2, 3> FinvT = unit_symmetric_tensor<3>();
@@ -122,7 +156,7 @@ namespace irdm::fem
               }
             for (unsigned i = 0; i < n_dofs; ++i)
               {
-                g[i]  = fv.shape_grad_component(i, q, component[i]);
+                g[i]  = R.grad[(c * n_q + q) * n_dofs + i];
                 Ag[i] = FinvT * g[i];
                 cell_f(i) += (P * g[i])[component[i]] * dx;
               }
@@ -169,30 +203,30 @@ namespace irdm::fem
         *D_u = 0; // F = I: f_d = K0 v does not depend on u
         D_u  = nullptr;
       }
-    const auto &L = linear;
-    const FEValuesExtractors::Vector displacement(0);
-    FEValues<3> fv(L.mapping, L.fe, stiffness_quadrature, update_gradients | update_JxW_values);
-    const unsigned n_dofs = L.fe.n_dofs_per_cell(), n_q = stiffness_quadrature.size();
+    const auto    &L      = linear;
+    const auto    &R      = reference;
+    const unsigned n_dofs = R.n_dofs, n_q = R.n_q;
     FullMatrix<double>                   cell_D(n_dofs, n_dofs), cell_Du(n_dofs, n_dofs);
     Vector<double>                       cell_f(n_dofs);
     std::vector<types::global_dof_index> dofs(n_dofs);
     std::vector<Tensor<2, 3>>            grad_u(n_q), grad_v(n_q);
-    std::vector<unsigned>                component(n_dofs);
+    const std::vector<unsigned>         &component = R.component;
     std::vector<Tensor<1, 3>>            g(n_dofs), f(n_dofs); // f_i: row c_i of F
     std::vector<Tensor<1, 3>>            h(n_dofs), Sg(n_dofs); // row c_i of grad v; S g_i
-    for (unsigned i = 0; i < n_dofs; ++i)
-      component[i] = L.fe.system_to_component_index(i).first;
     f_d.reinit(L.dof_handler.n_dofs());
     if (D)
       *D = 0;
     if (D_u)
       *D_u = 0;
-    for (const auto &cell : L.dof_handler.active_cell_iterators())
+    const size_t n_cells = R.dofs.size() / n_dofs;
+    for (size_t c = 0; c < n_cells; ++c)
       {
-        fv.reinit(cell);
-        fv[displacement].get_function_gradients(u, grad_u);
-        fv[displacement].get_function_gradients(v, grad_v);
-        cell->get_dof_indices(dofs);
+        std::copy_n(&R.dofs[c * n_dofs], n_dofs, dofs.begin());
+        for (unsigned q = 0; q < n_q; ++q)
+          {
+            grad_u[q] = R.gradient(u, c, q);
+            grad_v[q] = R.gradient(v, c, q);
+          }
         cell_D  = 0;
         cell_Du = 0;
         cell_f = 0;
@@ -206,10 +240,10 @@ namespace irdm::fem
             const Tensor<2, 3> S = lambda * trace(E_dot) * Tensor<2, 3>(unit_symmetric_tensor<3>()) +
                                    2 * mu * E_dot;
             const Tensor<2, 3> P  = F * S;
-            const double       dx = fv.JxW(q);
+            const double       dx = R.JxW[c * n_q + q];
             for (unsigned i = 0; i < n_dofs; ++i)
               {
-                g[i] = fv.shape_grad_component(i, q, component[i]);
+                g[i] = R.grad[(c * n_q + q) * n_dofs + i];
                 for (int d = 0; d < 3; ++d)
                   f[i][d] = F[component[i]][d];
                 cell_f(i) += (P * g[i])[component[i]] * dx;

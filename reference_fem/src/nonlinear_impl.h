@@ -65,5 +65,22 @@ namespace irdm::fem
     // three directions, for contact.
     std::vector<std::pair<DoFHandler<3>::active_cell_iterator, unsigned>> boundary_faces;
     std::vector<unsigned> free_boundary_vertices;
+
+    /// The reference configuration's geometry per cell and quadrature point, computed once:
+    /// a Total Lagrangian formulation integrates over the undeformed body, so JxW and the
+    /// shape gradients never change, and recomputing them (FEValues::reinit through the
+    /// simplex mapping) was most of each Newton iteration's cell loops.
+    struct ReferenceCells
+    {
+      unsigned n_dofs = 0, n_q = 0;
+      std::vector<unsigned>                component; // per cell DoF: its vector component
+      std::vector<types::global_dof_index> dofs;      // [cell][i]
+      std::vector<double>                  JxW;       // [cell][q]
+      std::vector<Tensor<1, 3>>            grad;      // [cell][q][i]: g_i, dof i's scalar gradient
+      /// grad u at point q of cell c: sum_i u_i e_{c_i} (x) g_i.
+      Tensor<2, 3>
+      gradient(const Vector<double> &u, size_t c, unsigned q) const;
+    };
+    ReferenceCells reference;
   };
 } // namespace irdm::fem
