@@ -5,7 +5,11 @@
 #                            and a 3.2 GB peak on 2 cores once built (one run, 2026-11-23:
 #                            validate 243 s, benchmarks 34, verify-fem 79, virtual-DOF
 #                            precompute 73 (110 in an earlier run), validate-planes 131);
-#                            reports in reports/quick/
+#                            11.7 min on 2026-11-24 (validate 259 s, benchmarks 41, verify-fem
+#                            72, virtual-DOF precompute 132, validate-planes 198: the objective
+#                            damping had doubled the nonlinear FEM's cost per Newton iteration;
+#                            the cached reference geometry since then makes an orientation
+#                            2.4x faster, the whole job not re-measured); reports in reports/quick/
 #   scripts/main.sh --full   the full study (the full cat model with the seed's Table 1 on all
 #                            1554 surface DoFs as inputs, the finest verification meshes, the
 #                            162-orientation virtual-DOF model): about 27 min and 8.9 GB
