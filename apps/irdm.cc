@@ -11,6 +11,7 @@
 #include <reference_fem/nonlinear_elasticity.h>
 #include <reference_fem/virtual_dof.h>
 #include <reference_fem/scene.h>
+#include <validation/converged_validation.h>
 #include <validation/fem_verification.h>
 #include <validation/free_body_validation.h>
 #include <validation/plane_validation.h>
@@ -522,9 +523,9 @@ namespace
       ->check(CLI::Range(1u, 1000000u));
     precompute->add_option("--modes", pre.modes,
                            "keep the lowest MODES modes (sparse route: SLEPc shift-invert, plus "
-                           "one residual mode per input DoF that keeps the static compliance "
-                           "exact; default: all modes by the dense route up to 12000 free DoFs, "
-                           "else 200)")
+                           "up to two residual modes per input DoF that keep the static "
+                           "compliance and the feed-through H[0] at the inputs exact; default: "
+                           "all modes by the dense route up to 12000 free DoFs, else 200)")
       ->check(CLI::Range(1u, 1000000u));
     precompute->add_option("--free-route", pre.free_route,
                            "free body (no fixed surface): how the rigid motion leaves the "
@@ -787,6 +788,56 @@ namespace
                             "take a virtual-DOF model already in --model-dir instead of "
                             "precomputing it (it must be of the same scene and material)");
 
+    // validate-converged
+    irdm::validation::ConvergedValidationOptions vc;
+    auto *validate_converged = app.add_subcommand(
+      "validate-converged", "the probe scenes on the coarse cat and on a converged discretization: "
+                            "method error and discretization error; reports/converged");
+    validate_converged->footer(
+      "Gives each probe of the named scenes a contact radius (--radius), then runs every scene "
+      "on its own discretization (coarse) and on --converged-mesh at --converged-degree, each "
+      "through the linear FEM and through IRDM from a model of that discretization (coarse: "
+      "every mode, exact; converged: the lowest --modes modes plus residual modes, sparse "
+      "route). Reports the method error (IRDM against the same FEM) and the discretization "
+      "error (each FEM and model against the converged FEM) apart, with each discretization's "
+      "driving-point stiffness against --extrapolated-stiffness. Writes DIR/converged/ "
+      "(converged.csv, series.csv, report.md). scripts/converged.sh makes the converged mesh "
+      "and reads the extrapolated stiffness from reports/convergence/. Units SI.");
+    validate_converged->add_option("--scenes", vc.scenes_dir, "scene folder")
+      ->capture_default_str()
+      ->check(CLI::ExistingDirectory);
+    validate_converged->add_option("--scene", vc.scenes, "scene names (repeatable or comma-separated)")
+      ->delimiter(',')
+      ->capture_default_str();
+    validate_converged->add_option("--converged-mesh", vc.converged_mesh,
+                                   "gmsh mesh of the converged discretization (for example "
+                                   "cat_lc3.4mm.msh from meshes/generate.sh --study)")
+      ->required()
+      ->check(CLI::ExistingFile);
+    validate_converged->add_option("--converged-degree", vc.converged_degree, "FE degree on it")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 2u));
+    validate_converged->add_option("--radius", vc.probe_radius, "probes' contact radius (m)")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-4, 1.0));
+    validate_converged->add_option("--extrapolated-stiffness", vc.extrapolated_stiffness,
+                                   "mesh-converged driving-point stiffness of the first probe "
+                                   "of --extrapolated-scene (N/m; 0: not stated)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e12));
+    validate_converged->add_option("--extrapolated-scene", vc.extrapolated_scene,
+                                   "the scene whose first probe --extrapolated-stiffness belongs "
+                                   "to (compared with the scenes whose first probe starts at "
+                                   "the same point along the same direction)")
+      ->capture_default_str();
+    validate_converged->add_option("--modes", vc.modes, "lowest modes of the converged model")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 100000u));
+    validate_converged->add_option("--out", vc.report_dir, "report folder")->capture_default_str();
+    validate_converged->add_option("--models", vc.model_dir,
+                                   "folder for the working models (removed after use)")
+      ->capture_default_str();
+
     // play
     irdm::play::PlayOptions po;
     auto *play = app.add_subcommand("play", "the two asynchronous loops in real time from a recorded device trajectory");
@@ -908,6 +959,13 @@ namespace
         irdm::check_output_folder("--out", vp.report_dir);
         vp.plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_planes.py";
         irdm::validation::run_plane_validation(vp, std::cout);
+        return 0;
+      }
+    if (validate_converged->parsed())
+      {
+        irdm::check_output_folder("--out", vc.report_dir);
+        irdm::check_output_folder("--models", vc.model_dir);
+        irdm::validation::run_converged_validation(vc, std::cout);
         return 0;
       }
     if (validate_free->parsed())

@@ -3,11 +3,13 @@
 # linear tetrahedra). Usage: meshes/generate.sh   (from anywhere)
 #        meshes/generate.sh --study DIR: only the two cats finer than cat_xfine that
 #        scripts/convergence.sh uses (lc 3.4 and 2.4 mm; 8 and 22 MB, so not kept here), into DIR
+#        meshes/generate.sh --converged DIR: only the lc 3.4 mm cat (scripts/converged.sh)
 set -euo pipefail
-study_dir=
-if [ "${1:-}" = "--study" ]; then
-  [ -d "${2:-}" ] || { echo "usage: $0 --study EXISTING_DIR" >&2; exit 2; }
+study_dir= only_converged=0
+if [ "${1:-}" = "--study" ] || [ "${1:-}" = "--converged" ]; then
+  [ -d "${2:-}" ] || { echo "usage: $0 $1 EXISTING_DIR" >&2; exit 2; }
   study_dir=$(cd "$2" && pwd)
+  [ "$1" = "--converged" ] && only_converged=1
 fi
 cd "$(dirname "$0")"
 command -v gmsh >/dev/null || { echo "gmsh not found: apt-get install gmsh" >&2; exit 1; }
@@ -20,6 +22,7 @@ mesh() { # geo output [name value]...
 }
 if [ -n "$study_dir" ]; then
   mesh cat.geo "$study_dir/cat_lc3.4mm.msh" lc 0.0034
+  [ "$only_converged" -eq 1 ] && exit 0
   mesh cat.geo "$study_dir/cat_lc2.4mm.msh" lc 0.0024
   exit 0
 fi

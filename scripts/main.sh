@@ -1,19 +1,18 @@
 #!/usr/bin/env bash
 # The main job: install, build, run the validation suites, write the reports.
 #
-#   scripts/main.sh          every report section, on restricted models (below): 9.4 min
-#                            and a 3.2 GB peak on 2 cores once built (one run, 2026-11-23:
-#                            validate 243 s, benchmarks 34, verify-fem 79, virtual-DOF
-#                            precompute 73 (110 in an earlier run), validate-planes 131);
-#                            11.7 min on 2026-11-24 (validate 259 s, benchmarks 41, verify-fem
-#                            72, virtual-DOF precompute 132, validate-planes 198: the objective
-#                            damping had doubled the nonlinear FEM's cost per Newton iteration;
-#                            the cached reference geometry since then makes an orientation
-#                            2.4x faster, the whole job not re-measured); reports in reports/quick/
+#   scripts/main.sh          every report section, on restricted models (below): 9.9 min
+#                            (9:57 wall by /usr/bin/time, install and build checks included)
+#                            and a 3.3 GB peak on 2 cores once built (one run, 2026-11-24,
+#                            after the nonlinear FEM's cached geometry: validate 299 s, benchmarks 45,
+#                            verify-fem 68, virtual-DOF precompute 55, validate-planes 129);
+#                            reports in reports/quick/
 #   scripts/main.sh --full   the full study (the full cat model with the seed's Table 1 on all
 #                            1554 surface DoFs as inputs, the finest verification meshes, the
-#                            162-orientation virtual-DOF model): about 27 min and 8.9 GB
-#                            (measured before as_float stopped copying H twice);
+#                            162-orientation virtual-DOF model, and the probe scenes on
+#                            the converged cat, scripts/converged.sh): about 27 min and
+#                            8.9 GB without the converged scenes (measured before as_float
+#                            stopped copying H twice), which took 26.5 min alone (scripts/converged.sh, 2026-11-24);
 #                            reports in reports/
 #
 # What the default job restricts, and what that changes:
@@ -39,7 +38,7 @@ full=0
 case "${1:-}" in
   --full) full=1 ;;
   "") ;;
-  -h|--help) sed -n '2,31p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+  -h|--help) awk 'NR > 1 && /^set -e/ {exit} NR > 1' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
   *) echo "main.sh: unknown option '$1' (use --full or nothing; --help)" >&2; exit 2 ;;
 esac
 if [ "$full" -eq 1 ]; then
@@ -84,5 +83,10 @@ stage_done "validate-planes"
 if [ "$full" -eq 1 ]; then
   build/benchmarks/irdm_plane_kernels "$models/cat_vertex.h5" "$out/planes/kernels.md" \
     --benchmark_min_time=0.2 --benchmark_color=false
+  stage_done "plane kernels"
+  # The probe scenes on the converged cat (81351 free DoFs; reports/converged/, full study
+  # only: its models take minutes each).
+  scripts/converged.sh build
+  stage_done "converged"
 fi
 echo "reports ($(( (SECONDS - start) / 60 )) min): $out/validation.md, $out/<scene>/report.md, $out/benchmarks.md, $out/fem-verification/report.md, $out/planes/planes.md"

@@ -455,7 +455,14 @@ namespace irdm::fem
       {
         if (sparse)
           {
-            LowestModes lm = fem.lowest_modes(n_lowest, out_free, in_free);
+            // The shift of one step of the integrator: k_eff = a (w^2 + sigma) for every mode
+            // (ModalStep), so residual modes from (K + sigma M)^-1 at the inputs make the
+            // feed-through H[0] exact there, along with the static compliance.
+            const IntegratorCoefficients ic = IntegratorCoefficients::from_scene(scene);
+            const StepCoefficients       sc(ic, scene.time_step);
+            const double step_shift = (sc.c_m + scene.rayleigh_alpha * sc.c_c) /
+                                      (1 - ic.alpha_f + scene.rayleigh_beta * sc.c_c);
+            LowestModes lm = fem.lowest_modes(n_lowest, out_free, in_free, step_shift);
             nm             = static_cast<unsigned>(lm.w2.size());
             w2             = std::move(lm.w2);
             phi_out        = std::move(lm.shapes);

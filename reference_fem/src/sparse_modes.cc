@@ -112,6 +112,32 @@ namespace irdm::fem
       operator=(const SeqVec &) = delete;
     };
 
+    struct OwnedMat
+    {
+      Mat mat = nullptr;
+      OwnedMat() = default;
+      ~OwnedMat()
+      {
+        MatDestroy(&mat);
+      }
+      OwnedMat(const OwnedMat &) = delete;
+      OwnedMat &
+      operator=(const OwnedMat &) = delete;
+    };
+
+    struct OwnedKsp
+    {
+      KSP ksp = nullptr;
+      OwnedKsp() = default;
+      ~OwnedKsp()
+      {
+        KSPDestroy(&ksp);
+      }
+      OwnedKsp(const OwnedKsp &) = delete;
+      OwnedKsp &
+      operator=(const OwnedKsp &) = delete;
+    };
+
     struct DenseMat
     {
       Mat mat = nullptr;
@@ -131,7 +157,8 @@ namespace irdm::fem
 
   LowestModes
   ElasticDynamics::lowest_modes(const unsigned count, const std::vector<int> &rows,
-                                const std::vector<int> &columns, const double tolerance) const
+                                const std::vector<int> &columns, const double step_shift,
+                                const double tolerance) const
   {
     using Clock = std::chrono::steady_clock;
     const Impl &m = *impl_;
@@ -186,8 +213,9 @@ namespace irdm::fem
     out.iterations = static_cast<unsigned>(iterations);
     const size_t nn = static_cast<size_t>(n), nc = columns.size();
     // Full-length vectors: the lowest modes (n x count) and the static responses (n x nc).
-    check_memory_estimate("the sparse modal route's vectors", 8.0 * nn * (2.0 * count + 3.0 * nc),
-                          false);
+    const size_t n_aug = step_shift > 0 ? 2 * nc : nc; // residual vectors
+    check_memory_estimate("the sparse modal route's vectors",
+                          8.0 * nn * (2.0 * count + 3.0 * n_aug), false);
     Eigen::MatrixXd phi(n, count);
     std::vector<double> w2(count);
     SeqVec x(n), kx(n), mx(n);
@@ -219,39 +247,41 @@ namespace irdm::fem
       }
     out.seconds_eigen = std::chrono::duration<double>(Clock::now() - t0).count();
 
+    // Responses to unit loads at the columns, F^-1 E_columns for a Cholesky factor F, solved in
+    // blocks of columns (dense right-hand sides, MUMPS's multiple-RHS solve).
+    const auto solve_columns = [&](const Mat factor) {
+      Eigen::MatrixXd X(n, nc);
+      const size_t    block = 64;
+      for (size_t c0 = 0; c0 < nc; c0 += block)
+        {
+          const PetscInt nb = static_cast<PetscInt>(std::min(block, nc - c0));
+          DenseMat       B(n, nb), Y(n, nb);
+          for (PetscInt j = 0; j < nb; ++j)
+            check(MatSetValue(B.mat, columns[c0 + j], j, 1.0, INSERT_VALUES), "MatSetValue");
+          check(MatAssemblyBegin(B.mat, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+          check(MatAssemblyEnd(B.mat, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+          check(MatMatSolve(factor, B.mat, Y.mat), "MatMatSolve");
+          const PetscScalar *p;
+          PetscInt           lda = n;
+          check(MatDenseGetLDA(Y.mat, &lda), "MatDenseGetLDA");
+          check(MatDenseGetArrayRead(Y.mat, &p), "MatDenseGetArrayRead");
+          for (PetscInt j = 0; j < nb; ++j)
+            std::copy(p + j * lda, p + j * lda + n, X.col(c0 + j).data());
+          check(MatDenseRestoreArrayRead(Y.mat, &p), "MatDenseRestoreArrayRead");
+        }
+      return X;
+    };
     // Static responses X = K^-1 E_columns: the shift is 0, so the ST's factors are those of K.
-    // Solved in blocks of columns (dense right-hand sides, MUMPS's multiple-RHS solve).
     t0 = Clock::now();
     Mat factor;
     check(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
-    Eigen::MatrixXd X(n, nc);
-    const size_t    block = 64;
-    for (size_t c0 = 0; c0 < nc; c0 += block)
-      {
-        const PetscInt nb = static_cast<PetscInt>(std::min(block, nc - c0));
-        DenseMat       B(n, nb), Y(n, nb);
-        for (PetscInt j = 0; j < nb; ++j)
-          check(MatSetValue(B.mat, columns[c0 + j], j, 1.0, INSERT_VALUES), "MatSetValue");
-        check(MatAssemblyBegin(B.mat, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-        check(MatAssemblyEnd(B.mat, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-        check(MatMatSolve(factor, B.mat, Y.mat), "MatMatSolve");
-        const PetscScalar *p;
-        PetscInt           lda = n;
-        check(MatDenseGetLDA(Y.mat, &lda), "MatDenseGetLDA");
-        check(MatDenseGetArrayRead(Y.mat, &p), "MatDenseGetArrayRead");
-        for (PetscInt j = 0; j < nb; ++j)
-          std::copy(p + j * lda, p + j * lda + n, X.col(c0 + j).data());
-        check(MatDenseRestoreArrayRead(Y.mat, &p), "MatDenseRestoreArrayRead");
-      }
+    const Eigen::MatrixXd X = solve_columns(factor);
     out.compliance.assign(rows.size() * nc, 0.0);
     for (size_t r = 0; r < rows.size(); ++r)
       for (size_t j = 0; j < nc; ++j)
         out.compliance[r * nc + j] = X(rows[r], j);
 
-    // Residual vectors (modal truncation augmentation): psi_c = X_c - Phi Phi^T M X_c is
-    // M- and K-orthogonal to the lowest modes. Rayleigh-Ritz on span(Psi): with Kr = Psi^T K
-    // Psi and Mr = Psi^T M Psi, Kr y = w2 Mr y gives the residual modes Psi y. Directions
-    // that Mr cannot tell apart (relative eigenvalue below 1e-12) are dropped first.
+    // A times each column of V (sparse products through PETSc).
     const auto apply = [&](const Mat A, const Eigen::MatrixXd &V) {
       Eigen::MatrixXd AV(n, V.cols());
       for (Eigen::Index j = 0; j < V.cols(); ++j)
@@ -268,30 +298,78 @@ namespace irdm::fem
         }
       return AV;
     };
-    Eigen::MatrixXd psi = X;
-    psi -= phi * (phi.transpose() * apply(M.mat, X));
-    psi -= phi * (phi.transpose() * apply(M.mat, psi)); // twice is enough (Kahan)
-    Eigen::MatrixXd Mr = psi.transpose() * apply(M.mat, psi);
-    Eigen::MatrixXd Kr = psi.transpose() * apply(K.mat, psi);
-    Mr = 0.5 * (Mr + Mr.transpose()).eval();
-    Kr = 0.5 * (Kr + Kr.transpose()).eval();
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> mass_eigen(Mr);
-    const double    d_max = mass_eigen.eigenvalues().maxCoeff();
-    Eigen::MatrixXd B(nc, 0);
-    for (Eigen::Index j = 0; j < static_cast<Eigen::Index>(nc); ++j)
-      if (mass_eigen.eigenvalues()(j) > 1e-12 * d_max)
+    // An M-orthonormal basis of what the columns of V add to span(phi, prior): each column
+    // M-normalized, phi and prior projected out (twice is enough, Kahan), then the Gram
+    // matrix's eigenvectors scaled, dropping directions below 1e-12 of the largest (the basis
+    // already spans them). Twice through, so that nearly dependent columns still give a basis
+    // orthonormal to round-off (the Rayleigh-Ritz below relies on it).
+    const auto m_orthonormal = [&](Eigen::MatrixXd V, const Eigen::MatrixXd &prior) {
+      for (Eigen::Index j = 0; j < V.cols(); ++j)
+        V.col(j) /= std::sqrt(V.col(j).dot(apply(M.mat, V.col(j)).col(0)));
+      for (int pass = 0; pass < 2; ++pass)
         {
-          B.conservativeResize(Eigen::NoChange, B.cols() + 1);
-          B.col(B.cols() - 1) = mass_eigen.eigenvectors().col(j) / std::sqrt(mass_eigen.eigenvalues()(j));
+          for (int twice = 0; twice < 2; ++twice)
+            {
+              V -= phi * (phi.transpose() * apply(M.mat, V));
+              if (prior.cols() > 0)
+                V -= prior * (prior.transpose() * apply(M.mat, V));
+            }
+          Eigen::MatrixXd Mr = V.transpose() * apply(M.mat, V);
+          Mr = 0.5 * (Mr + Mr.transpose()).eval();
+          Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> mass_eigen(Mr);
+          const double    d_max = mass_eigen.eigenvalues().maxCoeff();
+          Eigen::MatrixXd B(V.cols(), 0);
+          for (Eigen::Index j = 0; j < V.cols(); ++j)
+            if (mass_eigen.eigenvalues()(j) > (pass == 0 ? 1e-12 * d_max : 0.5))
+              {
+                B.conservativeResize(Eigen::NoChange, B.cols() + 1);
+                B.col(B.cols() - 1) =
+                  mass_eigen.eigenvectors().col(j) / std::sqrt(mass_eigen.eigenvalues()(j));
+              }
+          V = (V * B).eval();
         }
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ritz(B.transpose() * Kr * B);
-    const Eigen::MatrixXd Y = B * ritz.eigenvectors(); // M-orthonormal: Y^T Mr Y = I
+      return V;
+    };
+    // Residual vectors (modal truncation augmentation): first what the static responses add
+    // to the lowest modes, then what the one-step responses add to both.
+    Eigen::MatrixXd psi = m_orthonormal(X, Eigen::MatrixXd(n, 0));
+    if (step_shift > 0)
+      {
+        // One-step responses (K + sigma M)^-1 E_columns: a step of the FEM's integrator solves
+        // with K_eff = a (K + sigma M) (Rayleigh damping), so with these in the basis the
+        // feed-through H[0] at the inputs is exact too, not only the static compliance. The
+        // force of a probe that prescribes a displacement is H[0]^-1 times it: it needs H[0].
+        OwnedMat shifted;
+        check(MatDuplicate(K.mat, MAT_COPY_VALUES, &shifted.mat), "MatDuplicate");
+        check(MatAXPY(shifted.mat, step_shift, M.mat, DIFFERENT_NONZERO_PATTERN), "MatAXPY");
+        check(MatSetOption(shifted.mat, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+        OwnedKsp step;
+        check(KSPCreate(PETSC_COMM_SELF, &step.ksp), "KSPCreate");
+        check(KSPSetOperators(step.ksp, shifted.mat, shifted.mat), "KSPSetOperators");
+        check(KSPSetType(step.ksp, KSPPREONLY), "KSPSetType");
+        PC step_pc;
+        check(KSPGetPC(step.ksp, &step_pc), "KSPGetPC");
+        check(PCSetType(step_pc, PCCHOLESKY), "PCSetType");
+        check(PCFactorSetMatSolverType(step_pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+        check(KSPSetUp(step.ksp), "KSPSetUp");
+        Mat step_factor;
+        check(PCFactorGetMatrix(step_pc, &step_factor), "PCFactorGetMatrix");
+        const Eigen::MatrixXd step_basis = m_orthonormal(solve_columns(step_factor), psi);
+        psi.conservativeResize(Eigen::NoChange, psi.cols() + step_basis.cols());
+        psi.rightCols(step_basis.cols()) = step_basis;
+      }
+    // Rayleigh-Ritz on span(psi) (M-orthonormal): Kr y = w2 y gives the residual modes psi y,
+    // K- and M-orthogonal to each other and to the lowest modes.
+    Eigen::MatrixXd Kr = psi.transpose() * apply(K.mat, psi);
+    Kr = 0.5 * (Kr + Kr.transpose()).eval();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ritz(Kr);
+    const Eigen::MatrixXd Y = ritz.eigenvectors();
     const unsigned        nr = static_cast<unsigned>(Y.cols());
     const unsigned        total = count + nr;
     out.w2 = w2;
     out.w2.resize(total);
     out.shapes.assign(rows.size() * total, 0.0);
-    Eigen::MatrixXd psi_rows(rows.size(), nc);
+    Eigen::MatrixXd psi_rows(rows.size(), psi.cols());
     for (size_t r = 0; r < rows.size(); ++r)
       {
         for (unsigned i = 0; i < count; ++i)

@@ -16,8 +16,9 @@ namespace irdm::contact
 {
   constexpr int max_probes = 4;
   // Vertices one probe's force may spread over (a probe with a contact radius; a point probe
-  // spreads over the 3 vertices of its triangle).
-  constexpr int max_patch = 128;
+  // spreads over the 3 vertices of its triangle). 256 holds a 2 cm radius on the converged
+  // P1 cat (lc 3.4 mm: 139 vertices, reports/converged/).
+  constexpr int max_patch = 256;
   constexpr int max_rows   = 3 * max_probes;
   using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, max_rows, max_rows>;
   using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, max_rows, 1>;

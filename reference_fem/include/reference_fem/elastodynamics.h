@@ -184,11 +184,14 @@ namespace irdm::fem
     /// Cholesky of K; sparse, for models beyond the dense route), augmented by the residual
     /// modes of unit loads at the free DoFs `columns` (the static responses K^-1 e_c with the
     /// lowest modes removed, made K- and M-orthogonal by a small eigenproblem: the basis then
-    /// holds K^-1 e_c exactly). Shapes at the free DoFs `rows`, and K^-1 at (rows, columns).
+    /// holds K^-1 e_c exactly). With step_shift sigma > 0, also the one-step responses
+    /// (K + sigma M)^-1 e_c (then up to two residual modes per column): a time step's
+    /// K_eff = a (K + sigma M), so the basis holds the feed-through at the columns exactly
+    /// too. Shapes at the free DoFs `rows`, and K^-1 at (rows, columns).
     /// Serial (MPI_COMM_SELF).
     LowestModes
     lowest_modes(unsigned count, const std::vector<int> &rows, const std::vector<int> &columns,
-                 double tolerance = 1e-10) const;
+                 double step_shift = 0, double tolerance = 1e-10) const;
 
     /// All boundary triangles with their surface names; vertices in mesh order.
     SurfaceMesh

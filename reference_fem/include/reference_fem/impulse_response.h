@@ -65,8 +65,9 @@ namespace irdm::fem
     unsigned                inputs_per_chunk = 0; // 0: about 64 MB of responses per chunk
     // Lowest modes kept. Unset: all modes by the dense route (exact), or, beyond its 12000
     // free DoFs, the lowest 200 by the sparse route. Set: the lowest `modes` by the sparse
-    // route (SLEPc), plus one residual mode per input DoF (the static response the lowest
-    // modes miss), so that the static compliance at the inputs stays exact.
+    // route (SLEPc), plus up to two residual modes per input DoF (the static and the
+    // one-step responses the lowest modes miss), so that the static compliance and the
+    // feed-through H[0] at the inputs stay exact.
     std::optional<unsigned> modes;
     bool                    restart          = false; // ignore a resumable "<output>.part"
     // A sample of the input region, for studies whose figures are per input (compression is

@@ -1,0 +1,387 @@
+// The validation scenes on a converged discretization (converged_validation.h): scene ->
+// (coarse, converged) discretization -> FEM run and model precompute -> IRDM run ->
+// method error and discretization error -> reports/converged/.
+#include <irdm/modal_model.h>
+#include <irdm/model.h>
+#include <irdm_common/error.h>
+#include <irdm_common/files.h>
+#include <irdm_common/format.h>
+#include <reference_fem/elastodynamics.h>
+#include <reference_fem/impulse_response.h>
+#include <reference_fem/mesh.h>
+#include <reference_fem/scene.h>
+#include <validation/converged_validation.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <sstream>
+
+#include "scene_runs.h"
+
+namespace fs = std::filesystem;
+
+namespace irdm::validation
+{
+  namespace
+  {
+    // The longest edge of the mesh's tagged boundary triangles (m): a model region that
+    // reaches this far beyond a probe's patch holds every triangle touching the patch, so
+    // the runtime's patch weights (lumped areas) are the FEM's.
+    double
+    longest_boundary_edge(const std::string &mesh_file)
+    {
+      const fem::TetMesh mesh = fem::read_gmsh(mesh_file);
+      double             longest = 0;
+      for (const auto &t : mesh.triangles)
+        for (int k = 0; k < 3; ++k)
+          {
+            const auto &a = mesh.vertices[t[k]], &b = mesh.vertices[t[(k + 1) % 3]];
+            longest = std::max(longest, norm({a[0] - b[0], a[1] - b[1], a[2] - b[2]}));
+          }
+      return longest;
+    }
+
+    struct Discretization
+    {
+      std::string label; // "coarse" (the scene's own) or "converged"
+      std::string mesh_file;
+      unsigned    degree = 1;
+    };
+
+    // One scene on one discretization: its runs and what they cost.
+    struct Outcome
+    {
+      Discretization d;
+      unsigned       free_dofs = 0, patch_vertices = 0, model_inputs = 0, modes = 0, lowest = 0;
+      bool           sparse = false;
+      double         stiffness = 0; // N/m, first probe's driving point
+      double         precompute_seconds = 0, stiffness_seconds = 0;
+      Series         fem, irdm;
+    };
+
+    // Force-only copy: compare() then measures the probe forces alone (different meshes have
+    // different surface vertices).
+    Series
+    forces_of(const Series &s)
+    {
+      Series f;
+      f.force = s.force;
+      return f;
+    }
+
+    struct ForceErrors
+    {
+      double rel_l2 = 0, peak = 0, impulse = 0;
+    };
+
+    // Relative L2 over the run, relative error of the peak force magnitude, and relative error
+    // of the impulse (the sum of force x step over the run, as a vector), all probes together.
+    ForceErrors
+    force_errors(const Series &test, const Series &truth)
+    {
+      ForceErrors e;
+      e.rel_l2 = compare(forces_of(test), forces_of(truth)).force_rel_l2;
+      const double pt = peak_force(test), pr = peak_force(truth);
+      e.peak          = std::abs(pt - pr) / pr;
+      double dj = 0, j = 0;
+      for (size_t p = 0; p < truth.force.size(); ++p)
+        {
+          Vec3 a{0, 0, 0}, b{0, 0, 0};
+          const size_t N = std::min(test.force[p].size(), truth.force[p].size());
+          for (size_t k = 0; k < N; ++k)
+            for (int c = 0; c < 3; ++c)
+              a[c] += test.force[p][k][c], b[c] += truth.force[p][k][c];
+          dj += std::pow(norm({a[0] - b[0], a[1] - b[1], a[2] - b[2]}), 2);
+          j += std::pow(norm(b), 2);
+        }
+      e.impulse = std::sqrt(dj / j);
+      return e;
+    }
+
+    // A model made once and shared by every scene on the same body, discretization and model
+    // region (press, tap and tap_coupled touch the same place): its file and what made it.
+    struct CachedModel
+    {
+      std::string path;
+      unsigned    modes = 0, lowest = 0;
+      bool        sparse = false;
+      double      seconds = 0;
+    };
+
+    std::string
+    pct(const double x)
+    {
+      return fmt(100 * x, "%.3g") + " %";
+    }
+
+    Outcome
+    run_one(const fem::Scene &base, const Discretization &d, const ConvergedValidationOptions &o,
+            const unsigned length, std::map<std::string, CachedModel> &models, std::ostream &log)
+    {
+      Outcome r;
+      r.d = d;
+      fem::Scene scene = base;
+      scene.mesh_file  = d.mesh_file;
+      scene.fe_degree  = d.degree;
+      // The model's region: the scene's balls widened so that every probe's patch and the
+      // triangles around it are inside; inputs = outputs (H symmetric, small).
+      if (!scene.model.inputs || scene.model.inputs->balls.empty())
+        throw InputError("scene '" + base.name + "': validate-converged needs model.inputs.within "
+                         "(balls around the probes): a model of every surface vertex of a "
+                         "converged mesh does not fit in memory");
+      const double margin = longest_boundary_edge(d.mesh_file);
+      for (auto &b : scene.model.inputs->balls)
+        b.second = std::max(b.second, o.probe_radius) + margin;
+      scene.model.outputs = scene.model.inputs;
+
+      const unsigned N = scene.n_steps();
+      {
+        fem::ElasticDynamics fem(scene);
+        const auto           c = fem.probe_compliance(0);
+        r.free_dofs          = fem.n_free_dofs();
+        r.stiffness          = c.stiffness.at(0);
+        r.patch_vertices     = c.n_vertices.at(0);
+        r.stiffness_seconds  = c.seconds;
+      }
+      log << "  " << d.label << " (" << fs::path(d.mesh_file).filename().string() << " P"
+          << d.degree << ", " << r.free_dofs << " free DoFs): probe stiffness "
+          << fmt(r.stiffness, "%.4g") << " N/m over " << r.patch_vertices << " vertices" << std::endl;
+
+      std::string key = d.label;
+      for (const auto &b : scene.model.inputs->balls)
+        key += "," + fmt(b.first[0], "%.9g") + "," + fmt(b.first[1], "%.9g") + "," +
+               fmt(b.first[2], "%.9g") + "," + fmt(b.second, "%.9g");
+      if (models.count(key) == 0)
+        {
+          fem::PrecomputeOptions po;
+          po.output = (fs::path(o.model_dir) /
+                       (base.name + "_" + d.label + ".h5")).string();
+          if (fs::exists(po.output))
+            throw InputError("'" + po.output + "' exists; validate-converged writes its working "
+                             "models to --models and removes them after use, so it never "
+                             "touches a file already there: move it or choose another --models "
+                             "folder");
+          po.length  = length;
+          po.restart = true;
+          // The coarse model has every mode and double storage (exact: its method error is
+          // round-off); the converged one the lowest modes plus residual modes, in float (its
+          // H is GBs), whose round-off (1e-7) is far below its modal truncation.
+          const bool coarse = d.label == "coarse";
+          po.double_storage = coarse;
+          if (!coarse)
+            po.modes = o.modes;
+          po.log = [&log](const std::string &line) { log << "    " << line << std::endl; };
+          const auto pre = fem::precompute_impulse_responses(scene, po);
+          models[key]    = {po.output, pre.n_modes, pre.n_lowest, pre.sparse, pre.seconds_total};
+        }
+      else
+        log << "    the model of scene '" << fs::path(models[key].path).stem().string()
+            << "' (same body and region)" << std::endl;
+      const CachedModel &cm = models[key];
+      r.precompute_seconds  = cm.seconds;
+      r.modes               = cm.modes;
+      r.lowest              = cm.lowest;
+      r.sparse              = cm.sparse;
+      {
+        const ImpulseResponseModel model = load_model(cm.path, scene.time_step);
+        r.model_inputs                   = model.n_inputs;
+        log << "    FEM run (" << N << " steps)" << std::endl;
+        r.fem = run_fem(scene, model, 1, N);
+        log << "    IRDM run" << std::endl;
+        // The modal realization with every mode in the force loop and in the surface update:
+        // H itself (to the precompute's stated bound), at O(modes) per step instead of the
+        // direct convolution's O(inputs x outputs x T).
+        const ModalModel mm = make_modal_model(model, {model.modes.n_modes, 0});
+        ModalInteraction irdm(mm);
+        r.irdm = run_irdm(scene, mm, irdm, true);
+      }
+      log << "    model " << r.model_inputs << " inputs = outputs, " << r.modes << " modes ("
+          << r.lowest << " lowest) in " << fmt(r.precompute_seconds) << " s; FEM "
+          << fmt(1e3 * r.fem.step_seconds) << " ms/step; method error (force rel. L2) "
+          << fmt(compare(r.irdm, r.fem).force_rel_l2) << std::endl;
+      return r;
+    }
+  } // namespace
+
+  void
+  run_converged_validation(const ConvergedValidationOptions &o, std::ostream &log)
+  {
+    if (o.converged_mesh.empty())
+      throw InputError("validate-converged: --converged-mesh is required");
+    if (!(o.probe_radius > 0))
+      throw InputError("validate-converged: --radius must be > 0 m");
+    const std::string dir = (fs::path(o.report_dir) / "converged").string();
+    fs::create_directories(dir);
+    fs::create_directories(o.model_dir);
+    const OutputLock report_lock((fs::path(dir) / "converged.csv").string());
+    const OutputLock models_lock((fs::path(o.model_dir) / "converged").string());
+    const Discretization converged{"converged", fs::absolute(o.converged_mesh).string(),
+                                   o.converged_degree};
+
+    std::ostringstream csv, series, md;
+    csv << "scene,discretization,mesh,fe_degree,free_dofs,patch_vertices,stiffness_N_m,"
+           "stiffness_vs_extrapolated,model_inputs,model_modes,model_lowest_modes,"
+           "method_force_error,method_peak_error,method_impulse_error,method_disp_rms,"
+           "fem_vs_converged_force_error,fem_vs_converged_peak_error,"
+           "fem_vs_converged_impulse_error,model_vs_converged_force_error,"
+           "model_vs_converged_peak_error,model_vs_converged_impulse_error,precompute_s,"
+           "fem_ms_per_step,irdm_us_per_step\n";
+    series << "scene,t_s,probe,fem_coarse_N,irdm_coarse_N,fem_converged_N,irdm_converged_N\n";
+    std::ostringstream table_method, table_disc;
+    // Every scene first: read and checked before any work, and the models' length T is the
+    // longest scene's (so that a model serves every scene on its region, untruncated).
+    std::vector<fem::Scene> scenes;
+    unsigned                length = 1;
+    for (const auto &name : o.scenes)
+      {
+        const std::string file = (fs::path(o.scenes_dir) / (name + ".json")).string();
+        if (!fs::exists(file))
+          throw InputError("validate-converged: no scene '" + file + "'");
+        scenes.push_back(fem::read_scene(file));
+        length = std::max(length, scenes.back().n_steps());
+      }
+    // The probe the extrapolated stiffness belongs to: the first of extrapolated_scene.
+    std::optional<std::pair<Vec3, Vec3>> extrapolated_probe; // start point, direction
+    if (o.extrapolated_stiffness > 0)
+      {
+        const fem::Scene e = fem::read_scene(
+          (fs::path(o.scenes_dir) / (o.extrapolated_scene + ".json")).string());
+        if (e.probes.empty())
+          throw InputError("validate-converged: scene '" + o.extrapolated_scene +
+                           "' (--extrapolated-scene) has no probe");
+        extrapolated_probe = {e.probes[0].path.at(0), e.probes[0].direction};
+      }
+    const auto same_probe = [&](const fem::Scene &sc) {
+      if (!extrapolated_probe || sc.probes.empty())
+        return false;
+      const Vec3 x = sc.probes[0].path.at(0), d = sc.probes[0].direction;
+      const auto &[ex, ed] = *extrapolated_probe;
+      return norm({x[0] - ex[0], x[1] - ex[1], x[2] - ex[2]}) < 1e-9 &&
+             norm({d[0] - ed[0], d[1] - ed[1], d[2] - ed[2]}) < 1e-9;
+    };
+    std::map<std::string, CachedModel> models;
+    for (size_t si = 0; si < scenes.size(); ++si)
+      {
+        const std::string &file = o.scenes[si];
+        fem::Scene         base = scenes[si];
+        if (base.probes.empty())
+          throw InputError("scene '" + file + "' has no probes: nothing to validate");
+        for (auto &p : base.probes)
+          if (p.radius == 0)
+            p.radius = o.probe_radius;
+        log << "== " << base.name << ": " << base.n_steps() << " steps of " << base.time_step
+            << " s, probes of radius " << o.probe_radius << " m" << std::endl;
+        const Discretization coarse{"coarse", base.mesh_file, base.fe_degree};
+        std::vector<Outcome> runs;
+        runs.push_back(run_one(base, coarse, o, length, models, log));
+        runs.push_back(run_one(base, converged, o, length, models, log));
+        const Series &truth = runs.back().fem;
+        for (const auto &r : runs)
+          {
+            const Errors      method = compare(r.irdm, r.fem);
+            const ForceErrors mf = force_errors(r.irdm, r.fem);
+            const ForceErrors df = force_errors(r.fem, truth);
+            const ForceErrors tf = force_errors(r.irdm, truth);
+            const double      vs_ext = same_probe(base)
+                                         ? r.stiffness / o.extrapolated_stiffness - 1
+                                         : NAN;
+            const double irdm_us = 1e6 * r.irdm.force_loop_seconds;
+            csv << base.name << "," << r.d.label << "," << fs::path(r.d.mesh_file).stem().string()
+                << "," << r.d.degree << "," << r.free_dofs << "," << r.patch_vertices << ","
+                << fmt(r.stiffness, "%.6g") << "," << fmt(vs_ext, "%.4g") << "," << r.model_inputs
+                << "," << r.modes << "," << r.lowest << "," << fmt(mf.rel_l2, "%.4g") << ","
+                << fmt(mf.peak, "%.4g") << "," << fmt(mf.impulse, "%.4g") << ","
+                << fmt(method.disp_rms, "%.4g") << "," << fmt(df.rel_l2, "%.4g") << ","
+                << fmt(df.peak, "%.4g") << "," << fmt(df.impulse, "%.4g") << ","
+                << fmt(tf.rel_l2, "%.4g") << "," << fmt(tf.peak, "%.4g") << ","
+                << fmt(tf.impulse, "%.4g") << "," << fmt(r.precompute_seconds, "%.4g") << ","
+                << fmt(1e3 * r.fem.step_seconds, "%.4g") << "," << fmt(irdm_us, "%.4g") << "\n";
+            const std::string disc = fs::path(r.d.mesh_file).stem().string() + " P" +
+                                     std::to_string(r.d.degree);
+            table_method << "| " << base.name << " | " << disc << " | " << r.free_dofs << " | "
+                         << r.modes << (r.sparse ? " (" + std::to_string(r.lowest) + " lowest)" : " (all)")
+                         << " | " << fmt(mf.rel_l2) << " | " << fmt(mf.peak) << " | "
+                         << fmt(mf.impulse) << " | " << fmt(method.disp_rms) << " | "
+                         << fmt(r.precompute_seconds) << " | " << fmt(1e3 * r.fem.step_seconds)
+                         << " | " << fmt(irdm_us) << " |\n";
+            table_disc << "| " << base.name << " | " << disc << " | " << fmt(r.stiffness, "%.4g")
+                       << " | " << (std::isnan(vs_ext) ? "" : pct(vs_ext)) << " | "
+                       << (&r == &runs.back() ? "(the truth)" : pct(df.rel_l2)) << " | "
+                       << (&r == &runs.back() ? "" : pct(df.peak)) << " | "
+                       << (&r == &runs.back() ? "" : pct(df.impulse)) << " | " << pct(tf.rel_l2)
+                       << " | " << pct(tf.peak) << " | " << pct(tf.impulse) << " |\n";
+          }
+        for (size_t p = 0; p < base.probes.size(); ++p)
+          {
+            const Vec3  &dir_p = base.probes[p].direction;
+            const auto along = [&](const Series &s, size_t k) {
+              const Vec3 &f = s.force[p][k];
+              return f[0] * dir_p[0] + f[1] * dir_p[1] + f[2] * dir_p[2];
+            };
+            const size_t N = truth.force[p].size();
+            for (size_t k = 0; k < N; ++k)
+              series << base.name << "," << fmt((k + 1) * base.time_step, "%.6g") << ","
+                     << base.probes[p].name << "," << fmt(along(runs[0].fem, k), "%.8g") << ","
+                     << fmt(along(runs[0].irdm, k), "%.8g") << ","
+                     << fmt(along(runs[1].fem, k), "%.8g") << ","
+                     << fmt(along(runs[1].irdm, k), "%.8g") << "\n";
+          }
+      }
+
+    md << "# The validation scenes on a converged discretization\n\n"
+       << "Made by `scripts/converged.sh` (`irdm validate-converged`). Each scene of "
+          "`validation/scenes/` named below, its probes given a contact radius of "
+       << o.probe_radius * 1e3
+       << " mm (a force that converges with the mesh; docs/scene-format.md), runs on two "
+          "discretizations of the same body: the scene's own (**coarse**: the P1 `cat` every "
+          "other report uses) and a **converged** one, `"
+       << fs::path(converged.mesh_file).filename().string() << "` P" << converged.degree
+       << ". Each runs through the linear FEM (ground truth of that discretization) and through "
+          "IRDM from a model of that discretization "
+          "(inputs = outputs = the surface vertices around the probes; one model per body and "
+          "region, T = the longest scene's steps; run by its modal realization with every mode, "
+          "irdm/modal_model.h). The coarse model keeps "
+          "every mode (dense route, double: exact); the converged model keeps the lowest "
+       << o.modes
+       << " modes plus up to two residual modes per input DoF, which keep the static "
+          "compliance and the feed-through H[0] at the inputs exact (sparse route, SLEPc "
+          "shift-invert; float storage; docs/model-format.md). Time step and "
+          "material are the scene's; forces in N, SI throughout.\n\n";
+    if (o.extrapolated_stiffness > 0)
+      md << "Extrapolated driving-point stiffness of the first probe of scene `"
+         << o.extrapolated_scene
+         << "` with this radius (the mesh-converged value, `reports/convergence/`): "
+         << fmt(o.extrapolated_stiffness, "%.5g")
+         << " N/m; compared with every scene whose first probe starts at the same point along "
+            "the same direction (the others have another probe and no extrapolated value).\n\n";
+    md << "![probe force](converged.png)\n\n"
+          "The probe force along its direction against time (`converged.png`, drawn by "
+          "`validation/plot_converged.py` from `series.csv`).\n\n"
+          "## Method error: IRDM against the FEM of the same discretization\n\n"
+          "Force: relative L2 over the run, relative error of the peak, relative error of the "
+          "impulse; displacement: RMS over the model's outputs and the run, relative to the "
+          "largest displacement.\n\n"
+          "| scene | discretization | free DoFs | modes | force rel. L2 | peak | impulse | disp. RMS | precompute s | FEM ms/step | IRDM us/step |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|\n"
+       << table_method.str()
+       << "\n## Discretization error: against the converged FEM\n\n"
+          "Probe force of each discretization's FEM (discretization error) and of its IRDM "
+          "model (what a user of that model gets: discretization plus method error) against "
+          "the converged FEM. The stiffness column is the first probe's static driving-point "
+          "stiffness on that discretization.\n\n"
+          "| scene | discretization | stiffness N/m | vs extrapolated | FEM force rel. L2 | FEM peak | FEM impulse | model force rel. L2 | model peak | model impulse |\n"
+          "|---|---|---|---|---|---|---|---|---|---|\n"
+       << table_disc.str()
+       << "\nSeries of the force along each probe's direction: `series.csv`; every figure: "
+          "`converged.csv`.\n";
+    for (const auto &m : models)
+      fs::remove(m.second.path);
+    write_text_file((fs::path(dir) / "converged.csv").string(), csv.str());
+    write_text_file((fs::path(dir) / "series.csv").string(), series.str());
+    write_text_file((fs::path(dir) / "report.md").string(), md.str());
+    log << "report: " << dir << "/report.md\n";
+  }
+} // namespace irdm::validation
