@@ -531,7 +531,7 @@ namespace
                            "free body (no fixed surface): how the rigid motion leaves the "
                            "response; modal: the 6 rigid-body modes dropped (mass-orthogonal, "
                            "route 2); rigid_fit: the whole response minus its best rigid fit at "
-                           "every sample (the seed's, route 1)")
+                           "every sample (the seed's, route 1; dense route only, without --modes)")
       ->check(CLI::IsMember({"modal", "rigid_fit"}))
       ->capture_default_str();
     precompute->add_option("--fit-weights", pre.fit_weights,

@@ -14,7 +14,10 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
 #include <cmath>
+#include <cstdio>
 #include <map>
 
 using namespace irdm_test;
@@ -235,15 +238,88 @@ TEST(FreeBody, RigidFitRouteIsTheRecordedResponseMinusItsBestFit)
     }
   ASSERT_GT(fmax, 0);
   EXPECT_LT(ferr / fmax, 1e-9) << "the modal realization of route 1 is not its H";
-
 }
 
-TEST(FreeBody, SparseRouteRefusesAFreeBody)
+// Route 2 on the sparse route (issue 16): the lowest elastic modes by shift-invert at a small
+// negative shift, the six rigid modes found and removed, plus residual modes of the inputs in
+// the inertia-relief form. Against the dense route's all-elastic-modes model of the same free
+// beam: the lowest frequencies agree, the inertia-relief static compliance and the feed-through
+// H[0] at the inputs are exact whatever the number of modes, and H converges as modes are
+// added. The rigid-fit route (route 1) stays dense: it is refused with --modes.
+TEST(FreeBody, SparseRouteKeepsTheInertiaReliefComplianceAndConverges)
 {
+  const FreeBeamModel dense = precompute_free_beam("free_dense.h5", fem::FreeBodyRoute::modal);
+  const ImpulseResponseModel &all = dense.model;
+  // The inertia-relief compliance at (input, input) from every elastic mode:
+  // sum_i phi_i(a) phi_i(b) / w_i^2.
+  const auto input_compliance = [](const ImpulseResponseModel &m) {
+    const unsigned nin = m.n_inputs, nm = m.modes.n_modes;
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(nin, nin);
+    for (unsigned a = 0; a < nin; ++a)
+      for (unsigned b = 0; b < nin; ++b)
+        {
+          const unsigned ra = 3 * m.input_output_index[a / 3] + a % 3;
+          const unsigned rb = 3 * m.input_output_index[b / 3] + b % 3;
+          for (unsigned i = 0; i < nm; ++i)
+            {
+              const double w = 2 * M_PI * m.modes.frequency_hz[i];
+              G(a, b) += m.modes.shapes[static_cast<size_t>(ra) * nm + i] *
+                         m.modes.shapes[static_cast<size_t>(rb) * nm + i] / (w * w);
+            }
+        }
+    return G;
+  };
+  const Eigen::MatrixXd G_all = input_compliance(all);
+  double previous = 1e300;
+  for (const unsigned modes : {20u, 60u, 160u})
+    {
+      fem::PrecomputeOptions o;
+      o.output     = tmp("free_sparse_" + std::to_string(modes) + ".h5");
+      o.restart    = true;
+      o.length     = all.length;
+      o.modes      = modes;
+      o.free_route = fem::FreeBodyRoute::modal;
+      const fem::PrecomputeReport rep = fem::precompute_impulse_responses(free_beam(), o);
+      EXPECT_TRUE(rep.sparse);
+      EXPECT_TRUE(rep.free_body);
+      EXPECT_EQ(rep.n_lowest, modes);
+      EXPECT_LT(rep.rigid_w2_max, 1e-6 * std::pow(2 * M_PI * all.modes.frequency_hz[0], 2));
+      const ImpulseResponseModel model = load_model(o.output, free_beam().time_step);
+      EXPECT_TRUE(model.free_body);
+      EXPECT_EQ(model.mass, all.mass);
+      ASSERT_EQ(model.h_double.size(), all.h_double.size());
+      // The lowest elastic modes are the dense ones (the first is a bending mode, not rigid).
+      for (unsigned i = 0; i < modes; ++i)
+        EXPECT_NEAR(model.modes.frequency_hz[i] / all.modes.frequency_hz[i], 1.0, 1e-7) << i;
+      const Eigen::MatrixXd G = input_compliance(model);
+      const double static_error = (G - G_all).cwiseAbs().maxCoeff() / G_all.cwiseAbs().maxCoeff();
+      double feed = 0, feed_scale = 0, d = 0, norm = 0;
+      for (unsigned k = 0; k < model.n_inputs; ++k)
+        for (unsigned j = 0; j < model.n_outputs; ++j)
+          {
+            feed       = std::max(feed, std::abs(model.h(k, 0, j) - all.h(k, 0, j)));
+            feed_scale = std::max(feed_scale, std::abs(all.h(k, 0, j)));
+          }
+      for (size_t i = 0; i < model.h_double.size(); ++i)
+        {
+          d += std::pow(model.h_double[i] - all.h_double[i], 2);
+          norm += std::pow(all.h_double[i], 2);
+        }
+      const double error = std::sqrt(d / norm);
+      std::printf("free beam, %u of %u elastic modes + %u residual: H relative error %.2e, "
+                  "inertia-relief compliance at the inputs %.1e, feed-through %.1e\n",
+                  modes, rep.n_free - 6, rep.n_modes - modes, error, static_error,
+                  feed / feed_scale);
+      EXPECT_LT(static_error, 1e-9);
+      EXPECT_LT(feed, 1e-9 * feed_scale);
+      EXPECT_LT(error, previous);
+      previous = error;
+    }
   fem::PrecomputeOptions o;
-  o.output  = tmp("free_sparse.h5");
-  o.restart = true;
-  o.modes   = 20;
+  o.output     = tmp("free_sparse_fit.h5");
+  o.restart    = true;
+  o.modes      = 20;
+  o.free_route = fem::FreeBodyRoute::rigid_fit;
   EXPECT_THROW(fem::precompute_impulse_responses(free_beam(), o), irdm::InputError);
 }
 

@@ -86,8 +86,11 @@ namespace irdm::fem
     setup();
     void
     assemble();
-    void
-    factorize();
+    // The factors of the time step's K_eff, made on the first call (a precompute never steps
+    // the FEM, and on a large mesh they cost as much as the eigensolver's own); later calls
+    // return them.
+    const ConstrainedSolver &
+    stepper() const;
     RunResult
     run(const std::function<void(double)> &progress, const SampleSink &sink, unsigned batch);
     RunResult
@@ -181,8 +184,11 @@ namespace irdm::fem
     double total_volume = 0;
 
     IntegratorCoefficients coeffs;
-    SparseMatrix<double>   effective;
-    ConstrainedSolver      step_solver;
-    double                 setup_seconds = 0, factorization_seconds = 0;
+    double                 setup_seconds = 0;
+    // Made by stepper() on first use.
+    mutable SparseMatrix<double> effective;
+    mutable ConstrainedSolver    step_solver;
+    mutable bool                 factorized            = false;
+    mutable double               factorization_seconds = 0;
   };
 } // namespace irdm::fem

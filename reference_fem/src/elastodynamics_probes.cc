@@ -28,7 +28,7 @@ namespace irdm::fem
         Vector<double> x(dof_handler.n_dofs());
         x[dof] = 1.0;
         constraints.set_zero(x);
-        step_solver.inverse.solve(x);
+        stepper().inverse.solve(x);
         it = probe_columns.emplace(dof, std::move(x)).first;
       }
     return it->second;

@@ -131,7 +131,6 @@ namespace irdm::fem
     assemble();
     setup_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    factorize();
   }
 
   void
@@ -443,9 +442,11 @@ namespace irdm::fem
     return C;
   }
 
-  void
-  ElasticDynamics::Impl::factorize()
+  const ConstrainedSolver &
+  ElasticDynamics::Impl::stepper() const
   {
+    if (factorized)
+      return step_solver;
     const auto   t0 = std::chrono::steady_clock::now();
     const double dt = scene.time_step;
     const StepCoefficients k(coeffs, dt);
@@ -460,6 +461,8 @@ namespace irdm::fem
     step_solver.initialize(effective, constraints, probe_dofs);
     factorization_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    factorized = true;
+    return step_solver;
   }
 
   void

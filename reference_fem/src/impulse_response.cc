@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <future>
 #include <set>
 #include <memory>
@@ -376,15 +377,14 @@ namespace irdm::fem
     const bool sparse = options.modes.has_value() || n > dense_route_limit;
     const unsigned n_lowest =
       sparse ? options.modes.value_or(default_sparse_modes) : n - n_rigid;
-    if (free_body && sparse)
-      throw InputError("precompute: a free body (no fixed surface) is supported on the dense "
-                       "route only (up to " + std::to_string(dense_route_limit) +
-                       " free DoFs, without --modes); this one has " + std::to_string(n) +
-                       " (the sparse route needs a shifted eigensolve and inertia-relief "
-                       "residual modes, not built yet)");
-    if (sparse && (n_lowest < 1 || n_lowest >= n))
+    if (rigid_fit && sparse)
+      throw InputError("precompute: the rigid-fit route (route 1) needs every elastic mode, on "
+                       "the dense route (up to " + std::to_string(dense_route_limit) +
+                       " free DoFs, without --modes); this body has " + std::to_string(n) +
+                       ": use the modal route (route 2), which the sparse route supports");
+    if (sparse && (n_lowest < 1 || n_lowest + n_rigid >= n))
       throw InputError("precompute: --modes " + std::to_string(n_lowest) + " must be between 1 and " +
-                       std::to_string(n - 1) + " (the body has " + std::to_string(n) +
+                       std::to_string(n - 1 - n_rigid) + " (the body has " + std::to_string(n) +
                        " free DoFs; leave --modes out to keep all of them" +
                        (n > dense_route_limit ? ", which the dense route cannot here)" : ")"));
     if (!sparse)
@@ -467,6 +467,18 @@ namespace irdm::fem
             w2             = std::move(lm.w2);
             phi_out        = std::move(lm.shapes);
             compliance     = std::move(lm.compliance);
+            rigid_w2_max   = lm.rigid_w2_max;
+            if (free_body)
+              {
+                char line[256];
+                std::snprintf(line, sizeof line,
+                              "free body: the 6 rigid modes (|w^2| <= %.2e (rad/s)^2) by "
+                              "shift-invert at -%.3g; inertia-relief static responses in %u "
+                              "refinement passes (last relative correction %.1e)",
+                              lm.rigid_w2_max, lm.rigid_shift, lm.refinement_passes,
+                              lm.refinement_change);
+                log(line);
+              }
             rep.eigen_residual   = lm.largest_residual;
             rep.eigen_iterations = lm.iterations;
             rep.seconds_static   = lm.seconds_static;
@@ -590,7 +602,9 @@ namespace irdm::fem
         std::to_string(rep.lowest_frequency_hz) + " .. " +
         std::to_string(rep.highest_frequency_hz) + " Hz" +
         (sparse ? "; largest relative residual " + std::to_string(rep.eigen_residual) + ", " +
-                    std::to_string(rep.eigen_iterations) + " restarts"
+                    std::to_string(rep.eigen_iterations) + " restarts; of the time, the " +
+                    "residual modes (factorizations, solves, orthonormalization) " +
+                    std::to_string(rep.seconds_static) + " s"
                 : std::string()));
 
     // 3. Modal responses h[s][i] and the energy left at T.
@@ -765,7 +779,12 @@ namespace irdm::fem
                           sparse ? "modal (the lowest " + std::to_string(n_lowest) + " of " +
                                      std::to_string(n) + " modes by SLEPc shift-invert, plus " +
                                      std::to_string(nm - n_lowest) + " residual modes of "
-                                     "the inputs' static responses)"
+                                     "the inputs' static and one-step responses" +
+                                     (free_body ? std::string("; free body: the 6 rigid-body "
+                                                              "modes removed, mass-orthogonal, "
+                                                              "static responses in the inertia-"
+                                                              "relief form") : std::string()) +
+                                     ")"
                                  : rigid_fit
                                      ? std::string("rigid fit, free body (the whole response "
                                                    "minus its best rigid fit at every sample: "

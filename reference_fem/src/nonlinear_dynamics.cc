@@ -136,6 +136,7 @@ namespace irdm::fem
     RunResult out;
     L.init_result(out);
     out.setup_seconds         = L.setup_seconds;
+    L.stepper();
     out.factorization_seconds = L.factorization_seconds;
     for (unsigned p = 0; p < sc.planes.size(); ++p)
       out.plane_penalty[sc.planes[p].name] = I.penalty[p];
@@ -304,7 +305,7 @@ namespace irdm::fem
             if (tangent_solver)
               tangent_solver->solve(du);
             else
-              L.step_solver.inverse.solve(du);
+              L.stepper().inverse.solve(du);
             trial = u_new;
             trial += du;
             if (residual(t1, trial, r_trial, nullptr, cs_trial) &&

@@ -6,6 +6,16 @@
 // Krylov-Schur with shift-invert at 0 finds the lowest modes of K phi = w^2 M phi in a few
 // restarts. The static compliance then costs only triangular solves with the factors of K
 // that the shift-invert already made (the shift is 0).
+//
+// A free body (no fixed surface): K is singular (six rigid-body modes), so the shift-invert
+// targets a small negative shift -eps (K + eps M is positive definite) and the six lowest
+// eigenpairs, zero to round-off, are the rigid modes Phi_r, which every other vector is made
+// M-orthogonal to. The static responses take the inertia-relief form: a unit load less its
+// rigid share, f = (I - M Phi_r Phi_r^T) e (self-equilibrated), and y = K^+ f the solution of
+// K y = f that is M-orthogonal to Phi_r (Craig and Kurdila, Fundamentals of Structural
+// Dynamics, on inertia relief). It is reached from the factors of K + eps M by iterative
+// refinement, y <- P (y + (K + eps M)^-1 (f - K y)) with P the M-orthogonal projector off
+// Phi_r, which contracts each elastic mode's error by eps / (w2 + eps) per pass.
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
 
@@ -162,12 +172,13 @@ namespace irdm::fem
   {
     using Clock = std::chrono::steady_clock;
     const Impl &m = *impl_;
-    if (m.constraints.n_constraints() == 0)
-      throw InputError("modes need a fixed surface: a free body has rigid modes");
+    // Nothing fixed: a free body, whose six rigid-body modes come first and are left out.
+    const bool             free_body   = m.constraints.n_constraints() == 0;
+    const unsigned         n_rigid     = free_body ? 6 : 0;
     const std::vector<int> free_of_dof = m.free_of_dof();
     const PetscInt         n           = static_cast<PetscInt>(n_free_dofs());
-    if (count < 1 || static_cast<PetscInt>(count) >= n)
-      throw InputError("the sparse modal route keeps 1 to " + std::to_string(n - 1) +
+    if (count < 1 || static_cast<PetscInt>(count + n_rigid) >= n)
+      throw InputError("the sparse modal route keeps 1 to " + std::to_string(n - 1 - n_rigid) +
                        " modes of the " + std::to_string(n) + " free DoFs; " +
                        std::to_string(count) + " were asked");
     for (const int r : rows)
@@ -179,13 +190,34 @@ namespace irdm::fem
 
     auto             t0 = Clock::now();
     const FreeMatrix K(m.stiffness, free_of_dof, n), M(m.mass, free_of_dof, n);
+    // The free body's shift eps: 1e-9 of the largest diagonal ratio K_ii / M_ii (about the
+    // highest w2), so that K + eps M is factored with a condition number near 1e9 while eps is
+    // far below the first elastic w2 (the refinement below then converges in a few passes).
+    double rigid_shift = 0;
+    if (free_body)
+      {
+        SeqVec kd(n), md(n);
+        check(MatGetDiagonal(K.mat, kd.v), "MatGetDiagonal");
+        check(MatGetDiagonal(M.mat, md.v), "MatGetDiagonal");
+        const PetscScalar *pk, *pm;
+        check(VecGetArrayRead(kd.v, &pk), "VecGetArrayRead");
+        check(VecGetArrayRead(md.v, &pm), "VecGetArrayRead");
+        for (PetscInt i = 0; i < n; ++i)
+          rigid_shift = std::max(rigid_shift, pk[i] / pm[i]);
+        check(VecRestoreArrayRead(kd.v, &pk), "VecRestoreArrayRead");
+        check(VecRestoreArrayRead(md.v, &pm), "VecRestoreArrayRead");
+        rigid_shift *= 1e-9;
+        if (!(rigid_shift > 0))
+          throw InputError("modes: the free body's stiffness has no positive diagonal");
+      }
+    const unsigned n_eigen = count + n_rigid;
     Eps              e;
     check(EPSSetOperators(e.eps, K.mat, M.mat), "EPSSetOperators");
     check(EPSSetProblemType(e.eps, EPS_GHEP), "EPSSetProblemType");
     check(EPSSetType(e.eps, EPSKRYLOVSCHUR), "EPSSetType");
-    check(EPSSetDimensions(e.eps, count, PETSC_DEFAULT, PETSC_DEFAULT), "EPSSetDimensions");
+    check(EPSSetDimensions(e.eps, n_eigen, PETSC_DEFAULT, PETSC_DEFAULT), "EPSSetDimensions");
     check(EPSSetWhichEigenpairs(e.eps, EPS_TARGET_MAGNITUDE), "EPSSetWhichEigenpairs");
-    check(EPSSetTarget(e.eps, 0.0), "EPSSetTarget");
+    check(EPSSetTarget(e.eps, -rigid_shift), "EPSSetTarget");
     check(EPSSetTolerances(e.eps, tolerance, 1000), "EPSSetTolerances");
     ST  st;
     KSP ksp;
@@ -203,31 +235,34 @@ namespace irdm::fem
     PetscInt converged = 0, iterations = 0;
     check(EPSGetConverged(e.eps, &converged), "EPSGetConverged");
     check(EPSGetIterationNumber(e.eps, &iterations), "EPSGetIterationNumber");
-    if (converged < static_cast<PetscInt>(count))
+    if (converged < static_cast<PetscInt>(n_eigen))
       throw std::runtime_error("SLEPc converged " + std::to_string(converged) + " of " +
-                               std::to_string(count) + " modes in " +
+                               std::to_string(n_eigen) + " modes in " +
                                std::to_string(iterations) + " restarts");
 
     LowestModes out;
-    out.n_lowest   = count;
-    out.iterations = static_cast<unsigned>(iterations);
+    out.n_lowest    = count;
+    out.n_rigid     = n_rigid;
+    out.rigid_shift = rigid_shift;
+    out.iterations  = static_cast<unsigned>(iterations);
     const size_t nn = static_cast<size_t>(n), nc = columns.size();
     // Full-length vectors: the lowest modes (n x count) and the static responses (n x nc).
     const size_t n_aug = step_shift > 0 ? 2 * nc : nc; // residual vectors
     check_memory_estimate("the sparse modal route's vectors",
-                          8.0 * nn * (2.0 * count + 3.0 * n_aug), false);
-    Eigen::MatrixXd phi(n, count);
-    std::vector<double> w2(count);
+                          8.0 * nn * (2.0 * n_eigen + 3.0 * n_aug), false);
+    // All eigenvectors found (the rigid ones first), then split below.
+    Eigen::MatrixXd eigenvectors(n, n_eigen);
+    std::vector<double> lambdas(n_eigen);
     SeqVec x(n), kx(n), mx(n);
-    for (unsigned i = 0; i < count; ++i)
+    for (unsigned i = 0; i < n_eigen; ++i)
       {
         PetscScalar lambda = 0;
         check(EPSGetEigenpair(e.eps, i, &lambda, nullptr, x.v, nullptr), "EPSGetEigenpair");
-        if (!(lambda > 0))
+        if (i >= n_rigid && !(lambda > 0))
           throw std::runtime_error("the fixed system has a non-positive eigenvalue");
-        if (i > 0 && lambda < w2[i - 1])
+        if (i > n_rigid && lambda < lambdas[i - 1])
           throw std::runtime_error("SLEPc returned the modes out of order");
-        w2[i] = lambda;
+        lambdas[i] = lambda;
         // M-normalize explicitly (the sign is free: H uses phi phi^T) and measure the residual.
         check(MatMult(M.mat, x.v, mx.v), "MatMult");
         PetscScalar xmx = 0;
@@ -239,47 +274,56 @@ namespace irdm::fem
         check(VecNorm(kx.v, NORM_2, &kx_norm), "VecNorm");
         check(VecAXPY(kx.v, -lambda, mx.v), "VecAXPY");
         check(VecNorm(kx.v, NORM_2, &r_norm), "VecNorm");
-        out.largest_residual = std::max(out.largest_residual, r_norm / kx_norm);
+        if (i >= n_rigid) // a rigid mode's K x is round-off: its relative residual means nothing
+          out.largest_residual = std::max(out.largest_residual, r_norm / kx_norm);
         const PetscScalar *p;
         check(VecGetArrayRead(x.v, &p), "VecGetArrayRead");
-        std::copy(p, p + n, phi.col(i).data());
+        std::copy(p, p + n, eigenvectors.col(i).data());
         check(VecRestoreArrayRead(x.v, &p), "VecRestoreArrayRead");
       }
+    // A free body: the six lowest must be rigid modes, |w2| at round-off against the first
+    // elastic one (else the mesh is not one connected body, or something holds it).
+    for (unsigned i = 0; i < n_rigid; ++i)
+      out.rigid_w2_max = std::max(out.rigid_w2_max, std::abs(lambdas[i]));
+    if (free_body && !(out.rigid_w2_max < 1e-6 * lambdas[n_rigid]))
+      throw InputError("modes: the free body's six lowest eigenvalues are not rigid modes "
+                       "(largest |w^2| " + std::to_string(out.rigid_w2_max) +
+                       " against the next, " + std::to_string(lambdas[n_rigid]) +
+                       "): is the mesh one connected body?");
+    const Eigen::MatrixXd phi = eigenvectors.rightCols(count);
+    const std::vector<double> w2(lambdas.begin() + n_rigid, lambdas.end());
     out.seconds_eigen = std::chrono::duration<double>(Clock::now() - t0).count();
 
-    // Responses to unit loads at the columns, F^-1 E_columns for a Cholesky factor F, solved in
-    // blocks of columns (dense right-hand sides, MUMPS's multiple-RHS solve).
-    const auto solve_columns = [&](const Mat factor) {
-      Eigen::MatrixXd X(n, nc);
-      const size_t    block = 64;
-      for (size_t c0 = 0; c0 < nc; c0 += block)
-        {
-          const PetscInt nb = static_cast<PetscInt>(std::min(block, nc - c0));
-          DenseMat       B(n, nb), Y(n, nb);
-          for (PetscInt j = 0; j < nb; ++j)
-            check(MatSetValue(B.mat, columns[c0 + j], j, 1.0, INSERT_VALUES), "MatSetValue");
-          check(MatAssemblyBegin(B.mat, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-          check(MatAssemblyEnd(B.mat, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-          check(MatMatSolve(factor, B.mat, Y.mat), "MatMatSolve");
-          const PetscScalar *p;
-          PetscInt           lda = n;
-          check(MatDenseGetLDA(Y.mat, &lda), "MatDenseGetLDA");
-          check(MatDenseGetArrayRead(Y.mat, &p), "MatDenseGetArrayRead");
-          for (PetscInt j = 0; j < nb; ++j)
-            std::copy(p + j * lda, p + j * lda + n, X.col(c0 + j).data());
-          check(MatDenseRestoreArrayRead(Y.mat, &p), "MatDenseRestoreArrayRead");
-        }
+    // F^-1 B for a Cholesky factor F and dense right-hand sides B (MUMPS's multiple-RHS solve).
+    const auto solve = [&](const Mat factor, const Eigen::MatrixXd &rhs) {
+      const PetscInt  nb = static_cast<PetscInt>(rhs.cols());
+      Eigen::MatrixXd X(n, nb);
+      DenseMat        B(n, nb), Y(n, nb);
+      PetscScalar    *b;
+      PetscInt        ldb = n;
+      check(MatDenseGetLDA(B.mat, &ldb), "MatDenseGetLDA");
+      check(MatDenseGetArrayWrite(B.mat, &b), "MatDenseGetArrayWrite");
+      for (PetscInt j = 0; j < nb; ++j)
+        std::copy(rhs.col(j).data(), rhs.col(j).data() + n, b + j * ldb);
+      check(MatDenseRestoreArrayWrite(B.mat, &b), "MatDenseRestoreArrayWrite");
+      check(MatMatSolve(factor, B.mat, Y.mat), "MatMatSolve");
+      const PetscScalar *p;
+      PetscInt           lda = n;
+      check(MatDenseGetLDA(Y.mat, &lda), "MatDenseGetLDA");
+      check(MatDenseGetArrayRead(Y.mat, &p), "MatDenseGetArrayRead");
+      for (PetscInt j = 0; j < nb; ++j)
+        std::copy(p + j * lda, p + j * lda + n, X.col(j).data());
+      check(MatDenseRestoreArrayRead(Y.mat, &p), "MatDenseRestoreArrayRead");
       return X;
     };
-    // Static responses X = K^-1 E_columns: the shift is 0, so the ST's factors are those of K.
-    t0 = Clock::now();
-    Mat factor;
-    check(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
-    const Eigen::MatrixXd X = solve_columns(factor);
-    out.compliance.assign(rows.size() * nc, 0.0);
-    for (size_t r = 0; r < rows.size(); ++r)
-      for (size_t j = 0; j < nc; ++j)
-        out.compliance[r * nc + j] = X(rows[r], j);
+    // Unit loads at columns [c0, c0 + nb).
+    const auto unit_loads = [&](const size_t c0, const size_t nb) {
+      Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(nb));
+      for (size_t j = 0; j < nb; ++j)
+        E(columns[c0 + j], static_cast<Eigen::Index>(j)) = 1.0;
+      return E;
+    };
+    const size_t block = 64; // columns per solve
 
     // A times each column of V (sparse products through PETSc).
     const auto apply = [&](const Mat A, const Eigen::MatrixXd &V) {
@@ -298,6 +342,62 @@ namespace irdm::fem
         }
       return AV;
     };
+    // The free body's rigid modes, M-orthonormal (SLEPc's are, to its tolerance; made so to
+    // round-off here), and P V = V - Phi_r Phi_r^T M V, the M-orthogonal projection off them.
+    Eigen::MatrixXd rigid = eigenvectors.leftCols(n_rigid);
+    if (free_body)
+      {
+        Eigen::MatrixXd G = rigid.transpose() * apply(M.mat, rigid);
+        G                 = 0.5 * (G + G.transpose()).eval();
+        const Eigen::LLT<Eigen::MatrixXd> llt(G);
+        if (llt.info() != Eigen::Success)
+          throw std::runtime_error("the free body's rigid modes are not independent");
+        rigid = llt.matrixU().solve<Eigen::OnTheRight>(rigid); // rigid U^-1: M-orthonormal
+      }
+    const Eigen::MatrixXd m_rigid = apply(M.mat, rigid);
+    const auto            off_rigid = [&](Eigen::MatrixXd V) {
+      for (int twice = 0; twice < (free_body ? 2 : 0); ++twice)
+        V -= rigid * (m_rigid.transpose() * V);
+      return V;
+    };
+
+    // Static responses at the columns: K^-1 E (the ST's factors are those of K, shift 0), or
+    // for a free body the inertia-relief K^+ (I - M Phi_r Phi_r^T) E by refinement on the
+    // factors of K + eps M (see the top of this file).
+    t0 = Clock::now();
+    Mat factor;
+    check(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
+    Eigen::MatrixXd X(n, static_cast<Eigen::Index>(nc));
+    for (size_t c0 = 0; c0 < nc; c0 += block)
+      {
+        const size_t    nb = std::min(block, nc - c0);
+        Eigen::MatrixXd f  = unit_loads(c0, nb);
+        if (free_body)
+          f -= m_rigid * (rigid.transpose() * f); // the load less its rigid share
+        Eigen::MatrixXd y = off_rigid(solve(factor, f));
+        // Refine until the correction reaches round-off: it stops shrinking (by half a pass)
+        // or falls below 1e-15 of the solution.
+        double previous = 1e300;
+        for (unsigned pass = 1; free_body; ++pass)
+          {
+            const Eigen::MatrixXd dy = off_rigid(solve(factor, f - apply(K.mat, y)));
+            y += dy;
+            const double change = dy.cwiseAbs().maxCoeff() / y.cwiseAbs().maxCoeff();
+            if (change <= 1e-15 || change > 0.5 * previous || pass == 30)
+              {
+                out.refinement_passes = std::max(out.refinement_passes, pass);
+                out.refinement_change = std::max(out.refinement_change, change);
+                break;
+              }
+            previous = change;
+          }
+        X.middleCols(static_cast<Eigen::Index>(c0), static_cast<Eigen::Index>(nb)) = y;
+      }
+    out.compliance.assign(rows.size() * nc, 0.0);
+    for (size_t r = 0; r < rows.size(); ++r)
+      for (size_t j = 0; j < nc; ++j)
+        out.compliance[r * nc + j] = X(rows[r], j);
+
     // An M-orthonormal basis of what the columns of V add to span(phi, prior): each column
     // M-normalized, phi and prior projected out (twice is enough, Kahan), then the Gram
     // matrix's eigenvectors scaled, dropping directions below 1e-12 of the largest (the basis
@@ -311,6 +411,7 @@ namespace irdm::fem
           for (int twice = 0; twice < 2; ++twice)
             {
               V -= phi * (phi.transpose() * apply(M.mat, V));
+              V = off_rigid(V);
               if (prior.cols() > 0)
                 V -= prior * (prior.transpose() * apply(M.mat, V));
             }
@@ -354,7 +455,14 @@ namespace irdm::fem
         check(KSPSetUp(step.ksp), "KSPSetUp");
         Mat step_factor;
         check(PCFactorGetMatrix(step_pc, &step_factor), "PCFactorGetMatrix");
-        const Eigen::MatrixXd step_basis = m_orthonormal(solve_columns(step_factor), psi);
+        Eigen::MatrixXd step_responses(n, static_cast<Eigen::Index>(nc));
+        for (size_t c0 = 0; c0 < nc; c0 += block)
+          {
+            const size_t nb = std::min(block, nc - c0);
+            step_responses.middleCols(static_cast<Eigen::Index>(c0), static_cast<Eigen::Index>(nb)) =
+              solve(step_factor, unit_loads(c0, nb));
+          }
+        const Eigen::MatrixXd step_basis = m_orthonormal(step_responses, psi);
         psi.conservativeResize(Eigen::NoChange, psi.cols() + step_basis.cols());
         psi.rightCols(step_basis.cols()) = step_basis;
       }

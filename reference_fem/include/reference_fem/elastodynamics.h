@@ -50,6 +50,13 @@ namespace irdm::fem
     std::vector<double> compliance;     // rows x columns, row-major: (K^-1)(row, column), m/N
     double   largest_residual = 0;      // max over the lowest modes of |K x - w2 M x| / |K x|
     unsigned iterations       = 0;      // Krylov-Schur restarts
+    // A free body (no fixed surface): its 6 rigid-body modes found and left out of w2/shapes;
+    // compliance is then the inertia-relief K^+ (I - M Phi_r Phi_r^T).
+    unsigned n_rigid           = 0;
+    double   rigid_w2_max      = 0; // largest |w2| of the rigid modes, (rad/s)^2 (round-off)
+    double   rigid_shift       = 0; // eps of the factored K + eps M, (rad/s)^2
+    unsigned refinement_passes = 0; // inertia-relief refinement passes (most over the blocks)
+    double   refinement_change = 0; // the last pass's relative correction (largest)
     double   seconds_eigen = 0, seconds_static = 0;
   };
 
@@ -188,6 +195,9 @@ namespace irdm::fem
     /// (K + sigma M)^-1 e_c (then up to two residual modes per column): a time step's
     /// K_eff = a (K + sigma M), so the basis holds the feed-through at the columns exactly
     /// too. Shapes at the free DoFs `rows`, and K^-1 at (rows, columns).
+    /// A free body (nothing fixed): the shift-invert targets -eps, the six rigid-body modes
+    /// (w2 = 0) are found and left out, every other vector is M-orthogonal to them, and K^-1
+    /// becomes the inertia-relief K^+ (I - M Phi_r Phi_r^T) (sparse_modes.cc).
     /// Serial (MPI_COMM_SELF).
     LowestModes
     lowest_modes(unsigned count, const std::vector<int> &rows, const std::vector<int> &columns,

@@ -20,7 +20,7 @@
 // (reciprocity): only the half from each input on is computed, the rest is filled by symmetry,
 // and the stored H[s] is exactly symmetric. One rank writes a batch while the next computes.
 //
-// Free body (a scene that fixes no surface; dense route): K is singular, its six rigid-body
+// Free body (a scene that fixes no surface): K is singular, its six rigid-body
 // modes have w = 0. They are dropped and H is made of the elastic modes only, which are
 // M-orthogonal to every rigid motion: H is the response with its rigid part removed by the
 // mass-weighted projection (the best rigid fit with mass weights, to first order), and the
@@ -28,7 +28,9 @@
 // inertia-relief pseudo-inverse of K. The file stores the body's mass, centre of mass and
 // inertia for the runtime's rigid-body dynamics (docs/model-format.md, version 2). That is
 // route 2; route 1 (FreeBodyRoute::rigid_fit, the seed's) removes the best rigid fit over the
-// outputs instead, which is not mass-orthogonal.
+// outputs instead, which is not mass-orthogonal, and needs the dense route. Route 2 also runs on
+// the sparse route: rigid modes from a shifted eigensolve, inertia-relief residual modes
+// (ElasticDynamics::lowest_modes).
 #include <reference_fem/scene.h>
 
 #include <functional>
@@ -102,7 +104,7 @@ namespace irdm::fem
     double   rigid_fit_share_max = 0, rigid_fit_share_mean = 0;
     double   eigen_residual = 0; // sparse: largest |K x - w2 M x| / |K x| of the modes kept
     unsigned eigen_iterations = 0; // sparse: Krylov-Schur restarts
-    double   seconds_static = 0;   // sparse: K^-1 at (outputs, inputs), within seconds_eigen
+    double   seconds_static = 0;   // sparse: the residual modes (static and one-step), within seconds_eigen
     // Sparse: the share of the driving-point static compliance (K^-1)_kk the kept modes carry,
     // sum_i phi_ki^2 / w_i^2 over (K^-1)_kk: mean and least over the inputs.
     double static_in_modes_mean = 1, static_in_modes_min = 1;
