@@ -163,6 +163,21 @@ namespace irdm::fem
       DenseMat &
       operator=(const DenseMat &) = delete;
     };
+
+    // The first `cols` columns of a sequential dense PETSc matrix with n rows.
+    Eigen::MatrixXd
+    columns_of(const Mat dense, const PetscInt n, const PetscInt cols)
+    {
+      Eigen::MatrixXd    X(n, cols);
+      const PetscScalar *p;
+      PetscInt           lda = n;
+      check(MatDenseGetLDA(dense, &lda), "MatDenseGetLDA");
+      check(MatDenseGetArrayRead(dense, &p), "MatDenseGetArrayRead");
+      for (PetscInt j = 0; j < cols; ++j)
+        std::copy(p + j * lda, p + j * lda + n, X.col(j).data());
+      check(MatDenseRestoreArrayRead(dense, &p), "MatDenseRestoreArrayRead");
+      return X;
+    }
   } // namespace
 
   LowestModes
@@ -257,12 +272,11 @@ namespace irdm::fem
     // All eigenvectors found (the rigid ones first), then split below.
     Eigen::MatrixXd eigenvectors(n, n_eigen);
     std::vector<double> lambdas(n_eigen);
-    SeqVec x(n), kx(n); // apply()'s work vectors
+    SeqVec x(n); // an eigenvector as SLEPc gives it
     // F^-1 B for a Cholesky factor F and dense right-hand sides B (MUMPS's multiple-RHS solve).
     const auto solve = [&](const Mat factor, const Eigen::MatrixXd &rhs) {
-      const PetscInt  nb = static_cast<PetscInt>(rhs.cols());
-      Eigen::MatrixXd X(n, nb);
-      DenseMat        B(n, nb), Y(n, nb);
+      const PetscInt nb = static_cast<PetscInt>(rhs.cols());
+      DenseMat       B(n, nb), Y(n, nb);
       PetscScalar    *b;
       PetscInt        ldb = n;
       check(MatDenseGetLDA(B.mat, &ldb), "MatDenseGetLDA");
@@ -271,14 +285,7 @@ namespace irdm::fem
         std::copy(rhs.col(j).data(), rhs.col(j).data() + n, b + j * ldb);
       check(MatDenseRestoreArrayWrite(B.mat, &b), "MatDenseRestoreArrayWrite");
       check(MatMatSolve(factor, B.mat, Y.mat), "MatMatSolve");
-      const PetscScalar *p;
-      PetscInt           lda = n;
-      check(MatDenseGetLDA(Y.mat, &lda), "MatDenseGetLDA");
-      check(MatDenseGetArrayRead(Y.mat, &p), "MatDenseGetArrayRead");
-      for (PetscInt j = 0; j < nb; ++j)
-        std::copy(p + j * lda, p + j * lda + n, X.col(j).data());
-      check(MatDenseRestoreArrayRead(Y.mat, &p), "MatDenseRestoreArrayRead");
-      return X;
+      return columns_of(Y.mat, n, nb);
     };
     // Unit loads at columns [c0, c0 + nb).
     const auto unit_loads = [&](const size_t c0, const size_t nb) {
@@ -289,22 +296,17 @@ namespace irdm::fem
     };
     const size_t block = 64; // columns per solve
 
-    // A times each column of V (sparse products through PETSc).
+    // A V for all columns of V at once: PETSc's sparse x dense product reads A once per few
+    // columns, where one MatMult per column reads it once per column (both bound by memory).
     const auto apply = [&](const Mat A, const Eigen::MatrixXd &V) {
-      Eigen::MatrixXd AV(n, V.cols());
-      for (Eigen::Index j = 0; j < V.cols(); ++j)
-        {
-          PetscScalar *p;
-          check(VecGetArray(x.v, &p), "VecGetArray");
-          std::copy(V.col(j).data(), V.col(j).data() + n, p);
-          check(VecRestoreArray(x.v, &p), "VecRestoreArray");
-          check(MatMult(A, x.v, kx.v), "MatMult");
-          const PetscScalar *q;
-          check(VecGetArrayRead(kx.v, &q), "VecGetArrayRead");
-          std::copy(q, q + n, AV.col(j).data());
-          check(VecRestoreArrayRead(kx.v, &q), "VecRestoreArrayRead");
-        }
-      return AV;
+      const PetscInt nb = static_cast<PetscInt>(V.cols());
+      if (nb == 0)
+        return Eigen::MatrixXd(n, 0);
+      OwnedMat v, av; // v wraps V's storage (column-major, leading dimension n): A V reads it
+      check(MatCreateSeqDense(PETSC_COMM_SELF, n, nb, const_cast<PetscScalar *>(V.data()), &v.mat),
+            "MatCreateSeqDense");
+      check(MatMatMult(A, v.mat, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &av.mat), "MatMatMult");
+      return columns_of(av.mat, n, nb);
     };
     for (unsigned i = 0; i < n_eigen; ++i)
       {
@@ -322,7 +324,8 @@ namespace irdm::fem
       }
     // Purification: x <- (K - s M)^-1 M x on the shift-invert's own factors, a block at a
     // time (one more step of inverse iteration: it takes out what the Krylov basis left of
-    // the modes far from the shift).
+    // the modes far from the shift). Then each is M-normalized (the sign is free: H uses
+    // phi phi^T) and its relative residual |K x - w2 M x| / |K x| measured.
     Mat factor;
     check(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
     for (size_t c0 = 0; c0 < n_eigen; c0 += block)
@@ -330,18 +333,22 @@ namespace irdm::fem
         const auto nb   = static_cast<Eigen::Index>(std::min<size_t>(block, n_eigen - c0));
         auto       cols = eigenvectors.middleCols(static_cast<Eigen::Index>(c0), nb);
         cols            = solve(factor, apply(M.mat, cols));
-      }
-    // M-normalize (the sign is free: H uses phi phi^T) and measure the relative residual.
-    for (unsigned i = 0; i < n_eigen; ++i)
-      {
-        const Eigen::VectorXd mv  = apply(M.mat, eigenvectors.col(i));
-        const double          xmx = eigenvectors.col(i).dot(mv);
-        eigenvectors.col(i) /= std::sqrt(xmx);
-        if (i < n_rigid) // a rigid mode's K x is round-off: its relative residual means nothing
-          continue;
-        const Eigen::VectorXd kv = apply(K.mat, eigenvectors.col(i));
-        out.largest_residual     = std::max(out.largest_residual,
-                                        (kv - lambdas[i] / std::sqrt(xmx) * mv).norm() / kv.norm());
+        Eigen::MatrixXd mv = apply(M.mat, cols);
+        for (Eigen::Index j = 0; j < nb; ++j)
+          {
+            const double scale = 1 / std::sqrt(cols.col(j).dot(mv.col(j)));
+            cols.col(j) *= scale;
+            mv.col(j) *= scale;
+          }
+        const Eigen::MatrixXd kv = apply(K.mat, cols);
+        for (Eigen::Index j = 0; j < nb; ++j)
+          {
+            const size_t i = c0 + static_cast<size_t>(j);
+            if (i >= n_rigid) // a rigid mode's K x is round-off: its residual means nothing
+              out.largest_residual =
+                std::max(out.largest_residual,
+                         (kv.col(j) - lambdas[i] * mv.col(j)).norm() / kv.col(j).norm());
+          }
       }
     // A free body: the six lowest must be rigid modes, |w2| at round-off against the first
     // elastic one (else the mesh is not one connected body, or something holds it).
