@@ -41,9 +41,12 @@ md = [
     "generalized-alpha, dt = 2 ms) on `cat`, `cat_fine` and `cat_xfine` (meshes/generate.sh), "
     "P1 and P2; inputs are the skin vertices within 1 cm of the press point, outputs every "
     "surface vertex, T = 200 samples in float. Dense route: all modes by LAPACK (exact). Sparse "
-    "route: the lowest 200 modes by SLEPc plus one residual mode per input DoF "
-    "(docs/model-format.md). Time is the wall time `irdm precompute` reports; memory is the "
-    "peak resident set of the largest process (GNU time). Machine: 2 cores, 24 GiB.",
+    "route: the lowest 200 modes by SLEPc plus two residual modes per input DoF, from the "
+    "static and the one-step responses (docs/model-format.md). Time is the wall time "
+    "`irdm precompute` reports; memory is the peak resident set of the largest process (GNU "
+    "time). Machine: 2 cores, 24 GiB. Measured by hand beside this run, with their commands: "
+    "where the sparse route's time goes, stage by stage (`sparse_route.md`), and the full-cat "
+    "direct set (`direct_set.md`).",
     "",
     "![time and memory](scaling.png)",
     "",
@@ -58,11 +61,11 @@ for r in rows:
                                                   "peak_rss_MB")) + " |")
 md += [
     "",
-    "Where the time goes: on the sparse route almost all of it is the eigensolver (`modes`), "
-    "and within it the MUMPS triangular solves of the shift-invert (about 3.7 per mode kept, "
-    "measured with PETSc's -log_view on cat P2). That stage runs on rank 0 alone, so a second "
-    "rank helps only the responses and the write, which are small here; its busy-waiting in "
-    "MPI costs the first rank some speed on a 2-core machine.",
+    "Where the time goes: on the sparse route almost all of it is the eigensolver (`modes`): "
+    "the MUMPS triangular solves of the shift-invert, each bound by memory bandwidth, and the "
+    "orthogonalization of the Krylov basis (`sparse_route.md`). That stage runs on rank 0 "
+    "alone, so a second rank helps only the responses and the write, which are small here; "
+    "its busy-waiting in MPI costs the first rank some speed on a 2-core machine.",
 ]
 report = os.path.join(os.path.dirname(sys.argv[2]), "scaling.md")
 with open(report + ".part", "w") as f:
