@@ -449,13 +449,12 @@ namespace irdm::fem
       return step_solver;
     const auto   t0 = std::chrono::steady_clock::now();
     const double dt = scene.time_step;
-    const StepCoefficients k(coeffs, dt);
-    const double c_m = k.c_m, c_c = k.c_c, c_k = 1 - coeffs.alpha_f;
-    // K_eff = c_m M + c_c C + c_k K with C = alpha M + beta K (Rayleigh).
+    const EffectiveStiffness e(coeffs, StepCoefficients(coeffs, dt), scene.rayleigh_alpha,
+                               scene.rayleigh_beta);
     SparseMatrix<double> k_eff(sparsity);
     k_eff.copy_from(stiffness);
-    k_eff *= c_k + scene.rayleigh_beta * c_c;
-    k_eff.add(c_m + scene.rayleigh_alpha * c_c, mass);
+    k_eff *= e.stiffness;
+    k_eff.add(e.mass, mass);
     effective.reinit(sparsity);
     effective.copy_from(condensed(k_eff));
     step_solver.initialize(effective, constraints, probe_dofs);

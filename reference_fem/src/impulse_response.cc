@@ -228,7 +228,8 @@ namespace irdm::fem
       {
         const StepCoefficients k(c, dt);
         c_m = k.c_m, c_c = k.c_c, m_v = k.m_v, m_a = k.m_a, c_v = k.c_v, c_a = k.c_a;
-        k_eff = (1 - c.alpha_f + beta_r * c_c) * w2 + (c_m + alpha * c_c);
+        const EffectiveStiffness e(c, k, alpha, beta_r);
+        k_eff = e.stiffness * w2 + e.mass;
       }
       void
       operator()(double &u, double &v, double &a, const double f_old, const double f_new) const
@@ -459,10 +460,9 @@ namespace irdm::fem
             // (ModalStep), so residual modes from (K + sigma M)^-1 at the inputs make the
             // feed-through H[0] exact there, along with the static compliance.
             const IntegratorCoefficients ic = IntegratorCoefficients::from_scene(scene);
-            const StepCoefficients       sc(ic, scene.time_step);
-            const double step_shift = (sc.c_m + scene.rayleigh_alpha * sc.c_c) /
-                                      (1 - ic.alpha_f + scene.rayleigh_beta * sc.c_c);
-            LowestModes lm = fem.lowest_modes(n_lowest, out_free, in_free, step_shift);
+            const EffectiveStiffness     step(ic, StepCoefficients(ic, scene.time_step),
+                                          scene.rayleigh_alpha, scene.rayleigh_beta);
+            LowestModes lm = fem.lowest_modes(n_lowest, out_free, in_free, step.shift());
             nm             = static_cast<unsigned>(lm.w2.size());
             w2             = std::move(lm.w2);
             phi_out        = std::move(lm.shapes);

@@ -30,4 +30,23 @@ namespace irdm::fem
       , c_a((1 - c.alpha_f) * dt * (c.gamma / (2 * c.beta) - 1))
     {}
   };
+
+  // A step's effective stiffness K_eff = c_m M + c_c C + (1 - alpha_f) K with Rayleigh
+  // damping C = alpha M + beta K, gathered as K_eff = stiffness K + mass M: the FEM factors
+  // it, a mode's step divides by it, and the sparse route's one-step residual modes solve
+  // with K + shift() M (the same matrix over `stiffness`).
+  struct EffectiveStiffness
+  {
+    double stiffness, mass;
+    EffectiveStiffness(const IntegratorCoefficients &c, const StepCoefficients &k,
+                       const double rayleigh_alpha, const double rayleigh_beta)
+      : stiffness(1 - c.alpha_f + rayleigh_beta * k.c_c)
+      , mass(k.c_m + rayleigh_alpha * k.c_c)
+    {}
+    double
+    shift() const
+    {
+      return mass / stiffness;
+    }
+  };
 } // namespace irdm::fem

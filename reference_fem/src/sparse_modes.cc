@@ -423,8 +423,9 @@ namespace irdm::fem
     // already spans them). Twice through, so that nearly dependent columns still give a basis
     // orthonormal to round-off (the Rayleigh-Ritz below relies on it).
     const auto m_orthonormal = [&](Eigen::MatrixXd V, const Eigen::MatrixXd &prior) {
+      const Eigen::MatrixXd mv = apply(M.mat, V);
       for (Eigen::Index j = 0; j < V.cols(); ++j)
-        V.col(j) /= std::sqrt(V.col(j).dot(apply(M.mat, V.col(j)).col(0)));
+        V.col(j) /= std::sqrt(V.col(j).dot(mv.col(j)));
       for (int pass = 0; pass < 2; ++pass)
         {
           for (int twice = 0; twice < 2; ++twice)
