@@ -270,7 +270,7 @@ namespace
     const auto r = irdm::fem::precompute_impulse_responses(scene, o);
     if (mpi_rank() == 0 && r.sparse)
       std::printf("sparse route: the lowest %u of %u modes (largest relative residual %.2g, %u "
-                  "restarts) + %u residual modes; static compliance at the inputs in the "
+                  "block solves) + %u residual modes; static compliance at the inputs in the "
                   "lowest: mean %.4f, least %.4f; with the residual modes: error %.2g\n",
                   r.n_lowest, r.n_free, r.eigen_residual, r.eigen_iterations,
                   r.n_modes - r.n_lowest, r.static_in_modes_mean, r.static_in_modes_min,
@@ -522,7 +522,7 @@ namespace
                            "number of inputs)")
       ->check(CLI::Range(1u, 1000000u));
     precompute->add_option("--modes", pre.modes,
-                           "keep the lowest MODES modes (sparse route: SLEPc shift-invert, plus "
+                           "keep the lowest MODES modes (sparse route: shift-invert block Lanczos, plus "
                            "up to two residual modes per input DoF that keep the static "
                            "compliance and the feed-through H[0] at the inputs exact; default: "
                            "all modes by the dense route up to 12000 free DoFs, else 200)")

@@ -1,4 +1,4 @@
-// The sparse modal route of the precompute (the lowest modes by SLEPc plus residual modes of
+// The sparse modal route of the precompute (the lowest modes by block Lanczos plus residual modes of
 // the inputs), against the dense route's all-modes model on the small beam, where both exist.
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>

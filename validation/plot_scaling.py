@@ -41,7 +41,7 @@ md = [
     "generalized-alpha, dt = 2 ms) on `cat`, `cat_fine` and `cat_xfine` (meshes/generate.sh), "
     "P1 and P2; inputs are the skin vertices within 1 cm of the press point, outputs every "
     "surface vertex, T = 200 samples in float. Dense route: all modes by LAPACK (exact). Sparse "
-    "route: the lowest 200 modes by SLEPc plus two residual modes per input DoF, from the "
+    "route: the lowest 200 modes by shift-invert block Lanczos plus two residual modes per input DoF, from the "
     "static and the one-step responses (docs/model-format.md). Time is the wall time "
     "`irdm precompute` reports; memory is the peak resident set of the largest process (GNU "
     "time). Machine: 2 cores, 24 GiB. Measured by hand beside this run, with their commands: "

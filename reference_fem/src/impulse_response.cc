@@ -4,9 +4,11 @@
 #include <irdm_common/files.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
+#include <irdm_common/format.h>
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/mesh.h>
 
+#include "blas.h"
 #include "integrator.h"
 #include "mpi_rank.h"
 #include "provenance.h"
@@ -25,27 +27,6 @@
 #include <sstream>
 #include <thread>
 #include <type_traits>
-
-extern "C"
-{
-  // OpenBLAS's thread control, if the BLAS in use is OpenBLAS (weak: absent elsewhere).
-  void
-  openblas_set_num_threads(int) __attribute__((weak));
-  int
-  openblas_get_num_threads() __attribute__((weak));
-  void
-  dsygvd_(const int *itype, const char *jobz, const char *uplo, const int *n, double *a,
-          const int *lda, double *b, const int *ldb, double *w, double *work, const int *lwork,
-          int *iwork, const int *liwork, int *info);
-  void
-  sgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k,
-         const float *alpha, const float *a, const int *lda, const float *b, const int *ldb,
-         const float *beta, float *c, const int *ldc);
-  void
-  dgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k,
-         const double *alpha, const double *a, const int *lda, const double *b, const int *ldb,
-         const double *beta, double *c, const int *ldc);
-}
 
 namespace irdm::fem
 {
@@ -445,7 +426,7 @@ namespace irdm::fem
 
     // 2. Modes, M-orthonormal, at the output and input DoFs (row-major, rows x nm), on rank 0
     //    and broadcast so that every rank uses the same bits. Dense route: all modes by LAPACK
-    //    dsygvd. Sparse route: the lowest n_lowest by SLEPc plus the residual modes of unit
+    //    dsygvd. Sparse route: the lowest n_lowest by block Lanczos plus the residual modes of unit
     //    loads at the inputs, so that the basis holds K^-1 at the inputs exactly.
     t0 = Clock::now();
     unsigned            nm = sparse ? 0 : n - n_rigid; // modes kept
@@ -481,6 +462,9 @@ namespace irdm::fem
               }
             rep.eigen_residual   = lm.largest_residual;
             rep.eigen_iterations = lm.iterations;
+            rep.seconds_factor   = lm.seconds_factor;
+            rep.seconds_lanczos  = lm.seconds_lanczos;
+            rep.seconds_solves   = lm.seconds_solves;
             rep.seconds_static   = lm.seconds_static;
             phi_in.resize(static_cast<size_t>(nin) * nm);
             for (unsigned k = 0; k < nin; ++k)
@@ -598,13 +582,16 @@ namespace irdm::fem
         rep.lowest_damping_ratio =
           std::min(rep.lowest_damping_ratio, (scene.rayleigh_alpha + scene.rayleigh_beta * w2[i]) / (2 * w));
       }
-    log("modes: " + std::to_string(rep.seconds_eigen) + " s; f = " +
-        std::to_string(rep.lowest_frequency_hz) + " .. " +
-        std::to_string(rep.highest_frequency_hz) + " Hz" +
-        (sparse ? "; largest relative residual " + std::to_string(rep.eigen_residual) + ", " +
-                    std::to_string(rep.eigen_iterations) + " restarts; of the time, the " +
-                    "residual modes (factorizations, solves, orthonormalization) " +
-                    std::to_string(rep.seconds_static) + " s"
+    log("modes: " + fmt(rep.seconds_eigen, "%.1f") + " s; f = " +
+        fmt(rep.lowest_frequency_hz, "%.4g") + " .. " + fmt(rep.highest_frequency_hz, "%.4g") +
+        " Hz" +
+        (sparse ? "; largest relative residual " + fmt(rep.eigen_residual, "%.2g") + ", " +
+                    std::to_string(rep.eigen_iterations) + " block solves; of the time: " +
+                    "factorization " + fmt(rep.seconds_factor, "%.1f") + " s, block " +
+                    "Lanczos " + fmt(rep.seconds_lanczos, "%.1f") + " s (its solves " +
+                    fmt(rep.seconds_solves, "%.1f") + " s), residual modes " +
+                    "(factorization, solves, orthonormalization) " +
+                    fmt(rep.seconds_static, "%.1f") + " s"
                 : std::string()));
 
     // 3. Modal responses h[s][i] and the energy left at T.
@@ -665,7 +652,7 @@ namespace irdm::fem
           " modes: mean " + std::to_string(rep.static_in_modes_mean) + ", least " +
           std::to_string(rep.static_in_modes_min) + "; with the " +
           std::to_string(nm - n_lowest) + " residual modes: error " +
-          std::to_string(rep.static_basis_error_max) + " (exact: round-off)");
+          fmt(rep.static_basis_error_max, "%.2g") + " (exact: round-off)");
 
     const LiveModes live = live_modes(h, phi_in, phi_out, T, nm,
                                       options.every_mode_every_step
@@ -777,7 +764,7 @@ namespace irdm::fem
               f.attribute("/", "storage", std::string(rep.double_storage ? "double" : "float"));
               f.attribute("/", "route",
                           sparse ? "modal (the lowest " + std::to_string(n_lowest) + " of " +
-                                     std::to_string(n) + " modes by SLEPc shift-invert, plus " +
+                                     std::to_string(n) + " modes by shift-invert block Lanczos, plus " +
                                      std::to_string(nm - n_lowest) + " residual modes of "
                                      "the inputs' static and one-step responses" +
                                      (free_body ? std::string("; free body: the 6 rigid-body "

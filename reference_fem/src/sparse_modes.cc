@@ -1,11 +1,12 @@
 // ElasticDynamics::lowest_modes: the lowest modes of the fixed system for models beyond the
 // dense route, and the static compliance at the model's DoFs from the same factorization.
 //
-// Why SLEPc: it is the eigensolver deal.II is built with here, it shares PETSc's MUMPS
-// (a Cholesky about 9x faster per solve than UMFPACK on this machine class, shared/notes), and
-// Krylov-Schur with shift-invert at 0 finds the lowest modes of K phi = w^2 M phi in a few
-// restarts. The static compliance then costs only triangular solves with the factors of K
-// that the shift-invert already made (the shift is 0).
+// The eigensolver: shift-invert block Lanczos (block_lanczos.h) on MUMPS Cholesky factors
+// through PETSc (about 9x faster per solve than UMFPACK on this machine class, shared/notes).
+// The solves are bound by memory bandwidth, and a block of 16 right-hand sides reads the
+// factor as often as one, so the block method beat SLEPc's single-vector Krylov-Schur, used
+// here before (reports/scaling/sparse_route.md). The shift is 0 for a grounded body, so the
+// static compliance then costs only triangular solves with the same factors.
 //
 // A free body (no fixed surface): K is singular (six rigid-body modes), so the shift-invert
 // targets a small negative shift -eps (K + eps M is positive definite) and the six lowest
@@ -19,11 +20,16 @@
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
 
+#include "dense_products.h"
 #include "elastodynamics_impl.h"
 
-#include <slepceps.h>
+#include <reference_fem/block_lanczos.h>
+
+#include <petscksp.h>
 
 #include <Eigen/Dense>
+
+#include <utility>
 
 #include <algorithm>
 #include <chrono>
@@ -39,129 +45,122 @@ namespace irdm::fem
     check(const PetscErrorCode error, const char *what)
     {
       if (error != 0)
-        throw std::runtime_error(std::string("SLEPc/PETSc: ") + what + " failed (error " +
+        throw std::runtime_error(std::string("PETSc: ") + what + " failed (error " +
                                  std::to_string(error) + ")");
     }
 
-    // A sequential PETSc AIJ matrix of A restricted to the free DoFs (owned; destroyed with
-    // the object).
-    struct FreeMatrix
+    // Owns one PETSc object (created into &h) and destroys it with `destroy`; converts to
+    // the handle, so that it passes where PETSc takes one.
+    template <typename Handle, PetscErrorCode (*destroy)(Handle *)>
+    struct Owned
     {
-      Mat mat = nullptr;
-      FreeMatrix(const SparseMatrix<double> &A, const std::vector<int> &free_of_dof,
-                 const PetscInt n_free)
+      Handle h = nullptr;
+      Owned()  = default;
+      Owned(Owned &&o) noexcept
+        : h(o.h)
       {
-        std::vector<PetscInt> nnz(n_free, 0);
-        for (unsigned row = 0; row < A.m(); ++row)
-          if (free_of_dof[row] >= 0)
-            for (auto it = A.begin(row); it != A.end(row); ++it)
-              nnz[free_of_dof[row]] += free_of_dof[it->column()] >= 0;
-        check(MatCreateSeqAIJ(PETSC_COMM_SELF, n_free, n_free, 0, nnz.data(), &mat),
-              "MatCreateSeqAIJ");
-        std::vector<PetscInt>    cols;
-        std::vector<PetscScalar> vals;
-        for (unsigned row = 0; row < A.m(); ++row)
-          {
-            const PetscInt r = free_of_dof[row];
-            if (r < 0)
-              continue;
-            cols.clear();
-            vals.clear();
-            for (auto it = A.begin(row); it != A.end(row); ++it)
-              if (free_of_dof[it->column()] >= 0)
-                {
-                  cols.push_back(free_of_dof[it->column()]);
-                  vals.push_back(it->value());
-                }
-            check(MatSetValues(mat, 1, &r, static_cast<PetscInt>(cols.size()), cols.data(),
-                               vals.data(), INSERT_VALUES),
-                  "MatSetValues");
-          }
-        check(MatAssemblyBegin(mat, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-        check(MatAssemblyEnd(mat, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-        check(MatSetOption(mat, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+        o.h = nullptr;
       }
-      ~FreeMatrix()
+      ~Owned()
       {
-        MatDestroy(&mat);
+        destroy(&h);
       }
-      FreeMatrix(const FreeMatrix &) = delete;
-      FreeMatrix &
-      operator=(const FreeMatrix &) = delete;
+      Owned(const Owned &) = delete;
+      Owned &
+      operator=(const Owned &) = delete;
+      Owned &
+      operator=(Owned &&) = delete;
+      operator Handle() const
+      {
+        return h;
+      }
     };
+    using OwnedMat = Owned<Mat, MatDestroy>;
+    using OwnedVec = Owned<Vec, VecDestroy>;
+    using OwnedKsp = Owned<KSP, KSPDestroy>;
 
-    struct Eps
+    // A sequential PETSc AIJ matrix of A restricted to the free DoFs. With drop_zeros,
+    // entries that are exactly zero are left out: the vector mass matrix couples no two
+    // components, so two thirds of its pattern are such zeros, and every product with it
+    // would read them.
+    OwnedMat
+    free_matrix(const SparseMatrix<double> &A, const std::vector<int> &free_of_dof,
+                const PetscInt n_free, const bool drop_zeros)
     {
-      EPS eps = nullptr;
-      Eps()
-      {
-        check(EPSCreate(PETSC_COMM_SELF, &eps), "EPSCreate");
-      }
-      ~Eps()
-      {
-        EPSDestroy(&eps);
-      }
-      Eps(const Eps &) = delete;
-      Eps &
-      operator=(const Eps &) = delete;
-    };
+      OwnedMat              out;
+      std::vector<PetscInt> nnz(n_free, 0);
+      for (unsigned row = 0; row < A.m(); ++row)
+        if (free_of_dof[row] >= 0)
+          for (auto it = A.begin(row); it != A.end(row); ++it)
+            nnz[free_of_dof[row]] +=
+              free_of_dof[it->column()] >= 0 && (!drop_zeros || it->value() != 0);
+      check(MatCreateSeqAIJ(PETSC_COMM_SELF, n_free, n_free, 0, nnz.data(), &out.h),
+            "MatCreateSeqAIJ");
+      std::vector<PetscInt>    cols;
+      std::vector<PetscScalar> vals;
+      for (unsigned row = 0; row < A.m(); ++row)
+        {
+          const PetscInt r = free_of_dof[row];
+          if (r < 0)
+            continue;
+          cols.clear();
+          vals.clear();
+          for (auto it = A.begin(row); it != A.end(row); ++it)
+            if (free_of_dof[it->column()] >= 0 && (!drop_zeros || it->value() != 0))
+              {
+                cols.push_back(free_of_dof[it->column()]);
+                vals.push_back(it->value());
+              }
+          check(MatSetValues(out, 1, &r, static_cast<PetscInt>(cols.size()), cols.data(),
+                             vals.data(), INSERT_VALUES),
+                "MatSetValues");
+        }
+      check(MatAssemblyBegin(out, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+      check(MatAssemblyEnd(out, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+      check(MatSetOption(out, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+      return out;
+    }
 
-    struct SeqVec
+    // A sequential dense rows x cols matrix (PETSc's storage, zero).
+    OwnedMat
+    dense_matrix(const PetscInt rows, const PetscInt cols)
     {
-      Vec v = nullptr;
-      explicit SeqVec(const PetscInt n)
-      {
-        check(VecCreateSeq(PETSC_COMM_SELF, n, &v), "VecCreateSeq");
-      }
-      ~SeqVec()
-      {
-        VecDestroy(&v);
-      }
-      SeqVec(const SeqVec &) = delete;
-      SeqVec &
-      operator=(const SeqVec &) = delete;
-    };
+      OwnedMat out;
+      check(MatCreateSeqDense(PETSC_COMM_SELF, rows, cols, nullptr, &out.h), "MatCreateSeqDense");
+      return out;
+    }
 
-    struct OwnedMat
+    // A sequential MUMPS Cholesky factorization of the symmetric A, kept with its solver.
+    struct Cholesky
     {
-      Mat mat = nullptr;
-      OwnedMat() = default;
-      ~OwnedMat()
+      OwnedKsp ksp;
+      Mat      factor = nullptr; // owned by ksp
+      explicit Cholesky(const Mat A)
       {
-        MatDestroy(&mat);
+        check(KSPCreate(PETSC_COMM_SELF, &ksp.h), "KSPCreate");
+        check(KSPSetOperators(ksp, A, A), "KSPSetOperators");
+        check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
+        PC pc;
+        check(KSPGetPC(ksp, &pc), "KSPGetPC");
+        check(PCSetType(pc, PCCHOLESKY), "PCSetType");
+        check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+        check(KSPSetUp(ksp), "KSPSetUp");
+        check(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
       }
-      OwnedMat(const OwnedMat &) = delete;
-      OwnedMat &
-      operator=(const OwnedMat &) = delete;
-    };
-
-    struct OwnedKsp
-    {
-      KSP ksp = nullptr;
-      OwnedKsp() = default;
-      ~OwnedKsp()
+      // The factors again after A's values changed in place (its pattern unchanged: PETSc
+      // then repeats only MUMPS's numerical factorization).
+      Mat
+      refactor()
       {
-        KSPDestroy(&ksp);
+        Mat A = nullptr;
+        check(KSPGetOperators(ksp, &A, nullptr), "KSPGetOperators");
+        check(KSPSetOperators(ksp, A, A), "KSPSetOperators");
+        check(KSPSetUp(ksp), "KSPSetUp");
+        PC pc;
+        check(KSPGetPC(ksp, &pc), "KSPGetPC");
+        check(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
+        return factor;
       }
-      OwnedKsp(const OwnedKsp &) = delete;
-      OwnedKsp &
-      operator=(const OwnedKsp &) = delete;
-    };
-
-    struct DenseMat
-    {
-      Mat mat = nullptr;
-      DenseMat(const PetscInt rows, const PetscInt cols)
-      {
-        check(MatCreateSeqDense(PETSC_COMM_SELF, rows, cols, nullptr, &mat), "MatCreateSeqDense");
-      }
-      ~DenseMat()
-      {
-        MatDestroy(&mat);
-      }
-      DenseMat(const DenseMat &) = delete;
-      DenseMat &
-      operator=(const DenseMat &) = delete;
     };
 
     // The first `cols` columns of a sequential dense PETSc matrix with n rows.
@@ -204,88 +203,63 @@ namespace irdm::fem
         throw std::logic_error("lowest_modes: a column is not a free DoF");
 
     auto             t0 = Clock::now();
-    const FreeMatrix K(m.stiffness, free_of_dof, n), M(m.mass, free_of_dof, n);
+    // K keeps its whole pattern, which holds M's: K + s M then has K's pattern for every s.
+    const OwnedMat K = free_matrix(m.stiffness, free_of_dof, n, false),
+                   M = free_matrix(m.mass, free_of_dof, n, true);
     // The free body's shift eps: 1e-9 of the largest diagonal ratio K_ii / M_ii (about the
     // highest w2), so that K + eps M is factored with a condition number near 1e9 while eps is
     // far below the first elastic w2 (the refinement below then converges in a few passes).
     double rigid_shift = 0;
     if (free_body)
       {
-        SeqVec kd(n), md(n);
-        check(MatGetDiagonal(K.mat, kd.v), "MatGetDiagonal");
-        check(MatGetDiagonal(M.mat, md.v), "MatGetDiagonal");
+        OwnedVec kd, md;
+        check(VecCreateSeq(PETSC_COMM_SELF, n, &kd.h), "VecCreateSeq");
+        check(VecCreateSeq(PETSC_COMM_SELF, n, &md.h), "VecCreateSeq");
+        check(MatGetDiagonal(K, kd), "MatGetDiagonal");
+        check(MatGetDiagonal(M, md), "MatGetDiagonal");
         const PetscScalar *pk, *pm;
-        check(VecGetArrayRead(kd.v, &pk), "VecGetArrayRead");
-        check(VecGetArrayRead(md.v, &pm), "VecGetArrayRead");
+        check(VecGetArrayRead(kd, &pk), "VecGetArrayRead");
+        check(VecGetArrayRead(md, &pm), "VecGetArrayRead");
         for (PetscInt i = 0; i < n; ++i)
           rigid_shift = std::max(rigid_shift, pk[i] / pm[i]);
-        check(VecRestoreArrayRead(kd.v, &pk), "VecRestoreArrayRead");
-        check(VecRestoreArrayRead(md.v, &pm), "VecRestoreArrayRead");
+        check(VecRestoreArrayRead(kd, &pk), "VecRestoreArrayRead");
+        check(VecRestoreArrayRead(md, &pm), "VecRestoreArrayRead");
         rigid_shift *= 1e-9;
         if (!(rigid_shift > 0))
           throw InputError("modes: the free body's stiffness has no positive diagonal");
       }
     const unsigned n_eigen = count + n_rigid;
-    Eps              e;
-    check(EPSSetOperators(e.eps, K.mat, M.mat), "EPSSetOperators");
-    check(EPSSetProblemType(e.eps, EPS_GHEP), "EPSSetProblemType");
-    check(EPSSetType(e.eps, EPSKRYLOVSCHUR), "EPSSetType");
-    check(EPSSetDimensions(e.eps, n_eigen, PETSC_DEFAULT, PETSC_DEFAULT), "EPSSetDimensions");
-    check(EPSSetWhichEigenpairs(e.eps, EPS_TARGET_MAGNITUDE), "EPSSetWhichEigenpairs");
-    check(EPSSetTarget(e.eps, -rigid_shift), "EPSSetTarget");
-    check(EPSSetTolerances(e.eps, tolerance, 1000), "EPSSetTolerances");
-    ST  st;
-    KSP ksp;
-    PC  pc;
-    check(EPSGetST(e.eps, &st), "EPSGetST");
-    check(STSetType(st, STSINVERT), "STSetType");
-    check(STGetKSP(st, &ksp), "STGetKSP");
-    check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
-    check(KSPGetPC(ksp, &pc), "KSPGetPC");
-    check(PCSetType(pc, PCCHOLESKY), "PCSetType");
-    check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
-    // SLEPc's purification (one more inverse iteration on each eigenvector) is done below as
-    // one block solve, not one single-vector solve per mode (memory-bound: 30 of 140 s on
-    // cat_fine P2).
-    check(EPSSetPurify(e.eps, PETSC_FALSE), "EPSSetPurify");
-    // PETSc options (PETSC_OPTIONS="-eps_ncv 300 ...") may tune the solver further.
-    check(EPSSetFromOptions(e.eps), "EPSSetFromOptions");
-    check(EPSSolve(e.eps), "EPSSolve");
-    PetscInt converged = 0, iterations = 0;
-    check(EPSGetConverged(e.eps, &converged), "EPSGetConverged");
-    check(EPSGetIterationNumber(e.eps, &iterations), "EPSGetIterationNumber");
-    if (converged < static_cast<PetscInt>(n_eigen))
-      throw std::runtime_error("SLEPc converged " + std::to_string(converged) + " of " +
-                               std::to_string(n_eigen) + " modes in " +
-                               std::to_string(iterations) + " restarts");
-
     LowestModes out;
     out.n_lowest    = count;
     out.n_rigid     = n_rigid;
     out.rigid_shift = rigid_shift;
-    out.iterations  = static_cast<unsigned>(iterations);
     const size_t nn = static_cast<size_t>(n), nc = columns.size();
-    // Full-length vectors: the lowest modes (n x count) and the static responses (n x nc).
+    // Full-length vectors: the block Lanczos basis (and M times it), the lowest modes
+    // (n x count) and the static responses (n x nc).
+    const size_t block = 64; // columns per solve of the vectors below
+    // The block Lanczos's block: 16 and 32 took the same time on cat_fine and cat_xfine P2
+    // (fewer solves against a larger basis to orthogonalize); 16 needs the smaller basis
+    // (800 against 1056 vectors on cat_xfine P2). At least 6: a free body's six rigid modes
+    // share one eigenvalue, and a block Krylov space finds at most a block's worth of copies.
+    const size_t lanczos_block = 16;
     const size_t n_aug = step_shift > 0 ? 2 * nc : nc; // residual vectors
+    // The basis limit: 4 vectors per mode sufficed on cat_fine and cat_xfine P2 (800 for 200).
+    const size_t lanczos_basis = std::min<size_t>(nn, 6 * n_eigen + 4 * lanczos_block);
     check_memory_estimate("the sparse modal route's vectors",
-                          8.0 * nn * (2.0 * n_eigen + 3.0 * n_aug), false);
-    // All eigenvectors found (the rigid ones first), then split below.
-    Eigen::MatrixXd eigenvectors(n, n_eigen);
-    std::vector<double> lambdas(n_eigen);
-    SeqVec x(n); // an eigenvector as SLEPc gives it
+                          8.0 * nn * (2.0 * lanczos_basis + 2.0 * n_eigen + 3.0 * n_aug), false);
     // F^-1 B for a Cholesky factor F and dense right-hand sides B (MUMPS's multiple-RHS solve).
     const auto solve = [&](const Mat factor, const Eigen::MatrixXd &rhs) {
       const PetscInt nb = static_cast<PetscInt>(rhs.cols());
-      DenseMat       B(n, nb), Y(n, nb);
+      const OwnedMat B = dense_matrix(n, nb), Y = dense_matrix(n, nb);
       PetscScalar    *b;
       PetscInt        ldb = n;
-      check(MatDenseGetLDA(B.mat, &ldb), "MatDenseGetLDA");
-      check(MatDenseGetArrayWrite(B.mat, &b), "MatDenseGetArrayWrite");
+      check(MatDenseGetLDA(B, &ldb), "MatDenseGetLDA");
+      check(MatDenseGetArrayWrite(B, &b), "MatDenseGetArrayWrite");
       for (PetscInt j = 0; j < nb; ++j)
         std::copy(rhs.col(j).data(), rhs.col(j).data() + n, b + j * ldb);
-      check(MatDenseRestoreArrayWrite(B.mat, &b), "MatDenseRestoreArrayWrite");
-      check(MatMatSolve(factor, B.mat, Y.mat), "MatMatSolve");
-      return columns_of(Y.mat, n, nb);
+      check(MatDenseRestoreArrayWrite(B, &b), "MatDenseRestoreArrayWrite");
+      check(MatMatSolve(factor, B, Y), "MatMatSolve");
+      return columns_of(Y, n, nb);
     };
     // Unit loads at columns [c0, c0 + nb).
     const auto unit_loads = [&](const size_t c0, const size_t nb) {
@@ -294,7 +268,6 @@ namespace irdm::fem
         E(columns[c0 + j], static_cast<Eigen::Index>(j)) = 1.0;
       return E;
     };
-    const size_t block = 64; // columns per solve
 
     // A V for all columns of V at once: PETSc's sparse x dense product reads A once per few
     // columns, where one MatMult per column reads it once per column (both bound by memory).
@@ -303,44 +276,62 @@ namespace irdm::fem
       if (nb == 0)
         return Eigen::MatrixXd(n, 0);
       OwnedMat v, av; // v wraps V's storage (column-major, leading dimension n): A V reads it
-      check(MatCreateSeqDense(PETSC_COMM_SELF, n, nb, const_cast<PetscScalar *>(V.data()), &v.mat),
+      check(MatCreateSeqDense(PETSC_COMM_SELF, n, nb, const_cast<PetscScalar *>(V.data()), &v.h),
             "MatCreateSeqDense");
-      check(MatMatMult(A, v.mat, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &av.mat), "MatMatMult");
-      return columns_of(av.mat, n, nb);
+      check(MatMatMult(A, v, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &av.h), "MatMatMult");
+      return columns_of(av, n, nb);
     };
+
+    // The lowest modes: block Lanczos on S = (K + eps M)^-1 M (K^-1 M for a grounded body),
+    // whose largest eigenvalues theta = 1 / (w2 + eps) are the lowest w2. K + eps M is
+    // factored here, and later, in place, K + sigma M at the step's shift: the same pattern,
+    // so MUMPS's analysis (ordering and symbolic factorization) is done once.
+    OwnedMat shifted_stiffness;
+    check(MatDuplicate(K, MAT_COPY_VALUES, &shifted_stiffness.h), "MatDuplicate");
+    if (free_body)
+      check(MatAXPY(shifted_stiffness, rigid_shift, M, SUBSET_NONZERO_PATTERN),
+            "MatAXPY");
+    check(MatSetOption(shifted_stiffness, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+    const auto factor_started = Clock::now();
+    Cholesky   shift_invert(shifted_stiffness);
+    out.seconds_factor = std::chrono::duration<double>(Clock::now() - factor_started).count();
+    const Mat factor = shift_invert.factor;
+    LanczosPairs pairs = block_lanczos(
+      n, n_eigen, [&](const Eigen::MatrixXd &B) { return solve(factor, B); },
+      [&](const Eigen::MatrixXd &V) { return apply(M, V); }, tolerance,
+      static_cast<Eigen::Index>(lanczos_block), static_cast<Eigen::Index>(lanczos_basis));
+    out.iterations      = pairs.block_solves;
+    out.seconds_lanczos = pairs.seconds;
+    out.seconds_solves  = pairs.seconds_solves;
+    // All eigenvectors found (the rigid ones first), then split below; purified (one more
+    // step of inverse iteration, x <- (K - s M)^-1 M x, from the Lanczos relation without a
+    // solve: block_lanczos.h), which takes out what the random start block left of the modes
+    // far from the shift.
+    Eigen::MatrixXd eigenvectors = std::move(pairs.purified);
+    pairs.vectors.resize(0, 0); // not needed: 8 n bytes per mode
+    Eigen::MatrixXd     m_eigenvectors(n, n_eigen); // M times them
+    std::vector<double> lambdas(n_eigen);
     for (unsigned i = 0; i < n_eigen; ++i)
       {
-        PetscScalar lambda = 0;
-        check(EPSGetEigenpair(e.eps, i, &lambda, nullptr, x.v, nullptr), "EPSGetEigenpair");
-        if (i >= n_rigid && !(lambda > 0))
+        lambdas[i] = 1 / pairs.theta(i) - rigid_shift;
+        if (i >= n_rigid && !(lambdas[i] > 0))
           throw std::runtime_error("the fixed system has a non-positive eigenvalue");
-        if (i > n_rigid && lambda < lambdas[i - 1])
-          throw std::runtime_error("SLEPc returned the modes out of order");
-        lambdas[i] = lambda;
-        const PetscScalar *p;
-        check(VecGetArrayRead(x.v, &p), "VecGetArrayRead");
-        std::copy(p, p + n, eigenvectors.col(i).data());
-        check(VecRestoreArrayRead(x.v, &p), "VecRestoreArrayRead");
       }
-    // Purification: x <- (K - s M)^-1 M x on the shift-invert's own factors, a block at a
-    // time (one more step of inverse iteration: it takes out what the Krylov basis left of
-    // the modes far from the shift). Then each is M-normalized (the sign is free: H uses
-    // phi phi^T) and its relative residual |K x - w2 M x| / |K x| measured.
-    Mat factor;
-    check(PCFactorGetMatrix(pc, &factor), "PCFactorGetMatrix");
+    // Each eigenvector M-normalized (the sign is free: H uses phi phi^T) and its relative
+    // residual |K x - w2 M x| / |K x| measured, a block at a time.
     for (size_t c0 = 0; c0 < n_eigen; c0 += block)
       {
         const auto nb   = static_cast<Eigen::Index>(std::min<size_t>(block, n_eigen - c0));
         auto       cols = eigenvectors.middleCols(static_cast<Eigen::Index>(c0), nb);
-        cols            = solve(factor, apply(M.mat, cols));
-        Eigen::MatrixXd mv = apply(M.mat, cols);
+        auto       mv   = m_eigenvectors.middleCols(static_cast<Eigen::Index>(c0), nb);
+        mv      = apply(M, cols);
         for (Eigen::Index j = 0; j < nb; ++j)
           {
             const double scale = 1 / std::sqrt(cols.col(j).dot(mv.col(j)));
             cols.col(j) *= scale;
             mv.col(j) *= scale;
           }
-        const Eigen::MatrixXd kv = apply(K.mat, cols);
+        const Eigen::MatrixXd kv = apply(K, cols);
         for (Eigen::Index j = 0; j < nb; ++j)
           {
             const size_t i = c0 + static_cast<size_t>(j);
@@ -359,23 +350,24 @@ namespace irdm::fem
                        "(largest |w^2| " + std::to_string(out.rigid_w2_max) +
                        " against the next, " + std::to_string(lambdas[n_rigid]) +
                        "): is the mesh one connected body?");
-    const Eigen::MatrixXd phi = eigenvectors.rightCols(count);
+    const Eigen::MatrixXd phi   = eigenvectors.rightCols(count);
+    const Eigen::MatrixXd m_phi = m_eigenvectors.rightCols(count);
     const std::vector<double> w2(lambdas.begin() + n_rigid, lambdas.end());
     out.seconds_eigen = std::chrono::duration<double>(Clock::now() - t0).count();
 
-    // The free body's rigid modes, M-orthonormal (SLEPc's are, to its tolerance; made so to
-    // round-off here), and P V = V - Phi_r Phi_r^T M V, the M-orthogonal projection off them.
+    // The free body's rigid modes, M-orthonormal (the Ritz vectors are, to the Lanczos
+    // tolerance; made so to round-off here), and P V = V - Phi_r Phi_r^T M V, the M-orthogonal projection off them.
     Eigen::MatrixXd rigid = eigenvectors.leftCols(n_rigid);
     if (free_body)
       {
-        Eigen::MatrixXd G = rigid.transpose() * apply(M.mat, rigid);
+        Eigen::MatrixXd G = rigid.transpose() * apply(M, rigid);
         G                 = 0.5 * (G + G.transpose()).eval();
         const Eigen::LLT<Eigen::MatrixXd> llt(G);
         if (llt.info() != Eigen::Success)
           throw std::runtime_error("the free body's rigid modes are not independent");
         rigid = llt.matrixU().solve<Eigen::OnTheRight>(rigid); // rigid U^-1: M-orthonormal
       }
-    const Eigen::MatrixXd m_rigid = apply(M.mat, rigid);
+    const Eigen::MatrixXd m_rigid = apply(M, rigid);
     const auto            off_rigid = [&](Eigen::MatrixXd V) {
       for (int twice = 0; twice < (free_body ? 2 : 0); ++twice)
         V -= rigid * (m_rigid.transpose() * V);
@@ -399,7 +391,7 @@ namespace irdm::fem
         double previous = 1e300;
         for (unsigned pass = 1; free_body; ++pass)
           {
-            const Eigen::MatrixXd dy = off_rigid(solve(factor, f - apply(K.mat, y)));
+            const Eigen::MatrixXd dy = off_rigid(solve(factor, f - apply(K, y)));
             y += dy;
             const double change = dy.cwiseAbs().maxCoeff() / y.cwiseAbs().maxCoeff();
             if (change <= 1e-15 || change > 0.5 * previous || pass == 30)
@@ -422,20 +414,27 @@ namespace irdm::fem
     // matrix's eigenvectors scaled, dropping directions below 1e-12 of the largest (the basis
     // already spans them). Twice through, so that nearly dependent columns still give a basis
     // orthonormal to round-off (the Rayleigh-Ritz below relies on it).
-    const auto m_orthonormal = [&](Eigen::MatrixXd V, const Eigen::MatrixXd &prior) {
-      const Eigen::MatrixXd mv = apply(M.mat, V);
+    struct MassBasis
+    {
+      Eigen::MatrixXd V, MV; // M-orthonormal columns and M times them
+    };
+    const auto m_orthonormal = [&](Eigen::MatrixXd V, const MassBasis &prior) {
+      // Projections through the stored M phi and M prior: one product with M per pass.
+      const auto project_off = [&](Eigen::MatrixXd &W) {
+        subtract_product(phi, product(m_phi, true, W), W);
+        W = off_rigid(W);
+        subtract_product(prior.V, product(prior.MV, true, W), W);
+      };
+      const Eigen::MatrixXd mv = apply(M, V);
       for (Eigen::Index j = 0; j < V.cols(); ++j)
         V.col(j) /= std::sqrt(V.col(j).dot(mv.col(j)));
+      MassBasis out;
       for (int pass = 0; pass < 2; ++pass)
         {
           for (int twice = 0; twice < 2; ++twice)
-            {
-              V -= phi * (phi.transpose() * apply(M.mat, V));
-              V = off_rigid(V);
-              if (prior.cols() > 0)
-                V -= prior * (prior.transpose() * apply(M.mat, V));
-            }
-          Eigen::MatrixXd Mr = V.transpose() * apply(M.mat, V);
+            project_off(V);
+          const Eigen::MatrixXd MV = apply(M, V);
+          Eigen::MatrixXd       Mr = product(V, true, MV);
           Mr = 0.5 * (Mr + Mr.transpose()).eval();
           Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> mass_eigen(Mr);
           const double    d_max = mass_eigen.eigenvalues().maxCoeff();
@@ -447,34 +446,25 @@ namespace irdm::fem
                 B.col(B.cols() - 1) =
                   mass_eigen.eigenvectors().col(j) / std::sqrt(mass_eigen.eigenvalues()(j));
               }
-          V = (V * B).eval();
+          V      = product(V, false, B);
+          out.MV = product(MV, false, B);
         }
-      return V;
+      out.V = std::move(V);
+      return out;
     };
     // Residual vectors (modal truncation augmentation): first what the static responses add
     // to the lowest modes, then what the one-step responses add to both.
-    Eigen::MatrixXd psi = m_orthonormal(X, Eigen::MatrixXd(n, 0));
+    MassBasis psi = m_orthonormal(X, MassBasis{Eigen::MatrixXd(n, 0), Eigen::MatrixXd(n, 0)});
     if (step_shift > 0)
       {
         // One-step responses (K + sigma M)^-1 E_columns: a step of the FEM's integrator solves
         // with K_eff = a (K + sigma M) (Rayleigh damping), so with these in the basis the
         // feed-through H[0] at the inputs is exact too, not only the static compliance. The
         // force of a probe that prescribes a displacement is H[0]^-1 times it: it needs H[0].
-        OwnedMat shifted;
-        check(MatDuplicate(K.mat, MAT_COPY_VALUES, &shifted.mat), "MatDuplicate");
-        check(MatAXPY(shifted.mat, step_shift, M.mat, DIFFERENT_NONZERO_PATTERN), "MatAXPY");
-        check(MatSetOption(shifted.mat, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
-        OwnedKsp step;
-        check(KSPCreate(PETSC_COMM_SELF, &step.ksp), "KSPCreate");
-        check(KSPSetOperators(step.ksp, shifted.mat, shifted.mat), "KSPSetOperators");
-        check(KSPSetType(step.ksp, KSPPREONLY), "KSPSetType");
-        PC step_pc;
-        check(KSPGetPC(step.ksp, &step_pc), "KSPGetPC");
-        check(PCSetType(step_pc, PCCHOLESKY), "PCSetType");
-        check(PCFactorSetMatSolverType(step_pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
-        check(KSPSetUp(step.ksp), "KSPSetUp");
-        Mat step_factor;
-        check(PCFactorGetMatrix(step_pc, &step_factor), "PCFactorGetMatrix");
+        check(MatAXPY(shifted_stiffness, step_shift - rigid_shift, M,
+                      SUBSET_NONZERO_PATTERN),
+              "MatAXPY");
+        const Mat step_factor = shift_invert.refactor();
         Eigen::MatrixXd step_responses(n, static_cast<Eigen::Index>(nc));
         for (size_t c0 = 0; c0 < nc; c0 += block)
           {
@@ -482,13 +472,17 @@ namespace irdm::fem
             step_responses.middleCols(static_cast<Eigen::Index>(c0), static_cast<Eigen::Index>(nb)) =
               solve(step_factor, unit_loads(c0, nb));
           }
-        const Eigen::MatrixXd step_basis = m_orthonormal(step_responses, psi);
-        psi.conservativeResize(Eigen::NoChange, psi.cols() + step_basis.cols());
-        psi.rightCols(step_basis.cols()) = step_basis;
+        const MassBasis step_basis = m_orthonormal(step_responses, psi);
+        const auto      extend     = [](Eigen::MatrixXd &A, const Eigen::MatrixXd &B) {
+          A.conservativeResize(Eigen::NoChange, A.cols() + B.cols());
+          A.rightCols(B.cols()) = B;
+        };
+        extend(psi.V, step_basis.V);
+        extend(psi.MV, step_basis.MV);
       }
     // Rayleigh-Ritz on span(psi) (M-orthonormal): Kr y = w2 y gives the residual modes psi y,
     // K- and M-orthogonal to each other and to the lowest modes.
-    Eigen::MatrixXd Kr = psi.transpose() * apply(K.mat, psi);
+    Eigen::MatrixXd Kr = product(psi.V, true, apply(K, psi.V));
     Kr = 0.5 * (Kr + Kr.transpose()).eval();
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ritz(Kr);
     const Eigen::MatrixXd Y = ritz.eigenvectors();
@@ -497,12 +491,12 @@ namespace irdm::fem
     out.w2 = w2;
     out.w2.resize(total);
     out.shapes.assign(rows.size() * total, 0.0);
-    Eigen::MatrixXd psi_rows(rows.size(), psi.cols());
+    Eigen::MatrixXd psi_rows(rows.size(), psi.V.cols());
     for (size_t r = 0; r < rows.size(); ++r)
       {
         for (unsigned i = 0; i < count; ++i)
           out.shapes[r * total + i] = phi(rows[r], i);
-        psi_rows.row(r) = psi.row(rows[r]);
+        psi_rows.row(r) = psi.V.row(rows[r]);
       }
     const Eigen::MatrixXd residual_rows = psi_rows * Y;
     for (unsigned i = 0; i < nr; ++i)

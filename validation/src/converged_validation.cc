@@ -347,8 +347,8 @@ namespace irdm::validation
           "every mode (dense route, double: exact); the converged model keeps the lowest "
        << o.modes
        << " modes plus up to two residual modes per input DoF, which keep the static "
-          "compliance and the feed-through H[0] at the inputs exact (sparse route, SLEPc "
-          "shift-invert; float storage; docs/model-format.md). Time step and "
+          "compliance and the feed-through H[0] at the inputs exact (sparse route, shift-invert "
+          "block Lanczos; float storage; docs/model-format.md). Time step and "
           "material are the scene's; forces in N, SI throughout.\n\n";
     if (o.extrapolated_stiffness > 0)
       md << "Extrapolated driving-point stiffness of the first probe of scene `"

@@ -49,7 +49,7 @@ namespace irdm::fem
     std::vector<double> shapes;         // rows x modes, row-major; M-orthonormal
     std::vector<double> compliance;     // rows x columns, row-major: (K^-1)(row, column), m/N
     double   largest_residual = 0;      // max over the lowest modes of |K x - w2 M x| / |K x|
-    unsigned iterations       = 0;      // Krylov-Schur restarts
+    unsigned iterations       = 0;      // block solves of the eigensolver
     // A free body (no fixed surface): its 6 rigid-body modes found and left out of w2/shapes;
     // compliance is then the inertia-relief K^+ (I - M Phi_r Phi_r^T).
     unsigned n_rigid           = 0;
@@ -57,7 +57,11 @@ namespace irdm::fem
     double   rigid_shift       = 0; // eps of the factored K + eps M, (rad/s)^2
     unsigned refinement_passes = 0; // inertia-relief refinement passes (most over the blocks)
     double   refinement_change = 0; // the last pass's relative correction (largest)
-    double   seconds_eigen = 0, seconds_static = 0;
+    // Wall time: seconds_eigen, the lowest modes, holds the factorization of the shifted K
+    // and the block Lanczos (of which its block solves); the rest of it is the eigenvectors'
+    // purification and check. seconds_static: the residual modes.
+    double seconds_eigen = 0, seconds_factor = 0, seconds_lanczos = 0, seconds_solves = 0,
+           seconds_static = 0;
   };
 
   /// The static compliance of a scene's probes at one time (ElasticDynamics::probe_compliance):
@@ -187,8 +191,8 @@ namespace irdm::fem
     std::vector<int>
     vertex_dof_to_free() const;
 
-    /// The `count` lowest modes by SLEPc (Krylov-Schur, shift-invert at 0 with a MUMPS
-    /// Cholesky of K; sparse, for models beyond the dense route), augmented by the residual
+    /// The `count` lowest modes by block Lanczos (block_lanczos.h: shift-invert at 0 with a
+    /// MUMPS Cholesky of K; sparse, for models beyond the dense route), augmented by the residual
     /// modes of unit loads at the free DoFs `columns` (the static responses K^-1 e_c with the
     /// lowest modes removed, made K- and M-orthogonal by a small eigenproblem: the basis then
     /// holds K^-1 e_c exactly). With step_shift sigma > 0, also the one-step responses

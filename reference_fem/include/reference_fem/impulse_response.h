@@ -12,7 +12,7 @@
 // mode's response to a unit modal impulse is a scalar recursion with the same coefficients, and
 // H[s] = Phi_out diag(h[s]) Phi_in^T. All modes are kept, so H equals stepping the FEM to
 // round-off (tested). Beyond 12000 free DoFs (or with --modes) the sparse route keeps the
-// lowest modes (SLEPc) plus residual modes: the static responses to unit loads at the inputs
+// lowest modes (block Lanczos) plus residual modes: the static responses to unit loads at the inputs
 // with the lowest modes removed, diagonalized by Rayleigh-Ritz (modal truncation
 // augmentation), so the static compliance at the inputs stays exact and H is still a sum of
 // decoupled modes (the modal runtime runs it unchanged). Runs under mpirun: inputs are split
@@ -67,7 +67,7 @@ namespace irdm::fem
     unsigned                inputs_per_chunk = 0; // 0: about 64 MB of responses per chunk
     // Lowest modes kept. Unset: all modes by the dense route (exact), or, beyond its 12000
     // free DoFs, the lowest 200 by the sparse route. Set: the lowest `modes` by the sparse
-    // route (SLEPc), plus up to two residual modes per input DoF (the static and the
+    // route (block Lanczos), plus up to two residual modes per input DoF (the static and the
     // one-step responses the lowest modes miss), so that the static compliance and the
     // feed-through H[0] at the inputs stay exact.
     std::optional<unsigned> modes;
@@ -103,8 +103,10 @@ namespace irdm::fem
     // would make route 1 route 2.
     double   rigid_fit_share_max = 0, rigid_fit_share_mean = 0;
     double   eigen_residual = 0; // sparse: largest |K x - w2 M x| / |K x| of the modes kept
-    unsigned eigen_iterations = 0; // sparse: Krylov-Schur restarts
-    double   seconds_static = 0;   // sparse: the residual modes (static and one-step), within seconds_eigen
+    unsigned eigen_iterations = 0; // sparse: block solves of the eigensolver
+    // Sparse, within seconds_eigen: the factorization of K (or K + eps M), the block Lanczos
+    // and its block solves, and the residual modes (static and one-step).
+    double seconds_factor = 0, seconds_lanczos = 0, seconds_solves = 0, seconds_static = 0;
     // Sparse: the share of the driving-point static compliance (K^-1)_kk the kept modes carry,
     // sum_i phi_ki^2 / w_i^2 over (K^-1)_kk: mean and least over the inputs.
     double static_in_modes_mean = 1, static_in_modes_min = 1;
