@@ -62,10 +62,12 @@ for r in rows:
 md += [
     "",
     "Where the time goes: on the sparse route almost all of it is the eigensolver (`modes`): "
-    "the MUMPS triangular solves of the shift-invert, each bound by memory bandwidth, and the "
-    "orthogonalization of the Krylov basis (`sparse_route.md`). That stage runs on rank 0 "
-    "alone, so a second rank helps only the responses and the write, which are small here; "
-    "its busy-waiting in MPI costs the first rank some speed on a 2-core machine.",
+    "the two Cholesky factorizations (K, then K + sigma M for the one-step responses), the "
+    "block solves of the shift-invert Lanczos and the orthogonalization of its basis "
+    "(`sparse_route.md`). That stage runs on rank 0 alone while the other ranks wait asleep "
+    "(2 ranks run with `mpirun --bind-to none`, so that rank 0's BLAS and MUMPS threads may use "
+    "both cores), so a second rank helps only the responses and the write, which are small "
+    "here, and shares the machine's memory bandwidth with rank 0 during its own FEM set-up.",
 ]
 report = os.path.join(os.path.dirname(sys.argv[2]), "scaling.md")
 with open(report + ".part", "w") as f:

@@ -423,6 +423,12 @@ namespace irdm::fem
                     " modes + residual modes of the inputs"
                 : std::string("dense route, all modes")) +
         (free_body ? "; free body: the 6 rigid-body modes are separated" : ""));
+    if (const auto [allowed, machine] = cores_allowed_of_machine(); allowed < machine)
+      log("note: this process may use " + std::to_string(allowed) + " of the machine's " +
+          std::to_string(machine) + " cores (mpirun binds each rank to one core by default), " +
+          "and the modes run on rank 0 alone while the other ranks wait: `mpirun --bind-to " +
+          "none` lets its BLAS and MUMPS threads use every core (cat_fine P2, 2 ranks: 40.2 -> "
+          "35.0 s)");
 
     // 2. Modes, M-orthonormal, at the output and input DoFs (row-major, rows x nm), on rank 0
     //    and broadcast so that every rank uses the same bits. Dense route: all modes by LAPACK
@@ -439,7 +445,9 @@ namespace irdm::fem
           {
             // The shift of one step of the integrator: k_eff = a (w^2 + sigma) for every mode
             // (ModalStep), so residual modes from (K + sigma M)^-1 at the inputs make the
-            // feed-through H[0] exact there, along with the static compliance.
+            // feed-through H[0] exact there, along with the static compliance. (Computing them
+            // on rank 1 meanwhile was tried: on 2 cores the two factorizations slow each
+            // other, cat_xfine P2 126 s on 2 ranks against 113-127 s on 1.)
             const IntegratorCoefficients ic = IntegratorCoefficients::from_scene(scene);
             const EffectiveStiffness     step(ic, StepCoefficients(ic, scene.time_step),
                                           scene.rayleigh_alpha, scene.rayleigh_beta);
@@ -545,6 +553,7 @@ namespace irdm::fem
               }
           }
       }
+    wait_for_all_quietly(); // the other ranks wait for rank 0's modes without taking a core
     MPI_Bcast(&nm, 1, MPI_UNSIGNED, 0, MPI_COMM_WORLD);
     w2.resize(nm);
     phi_out.resize(static_cast<size_t>(nout) * nm);

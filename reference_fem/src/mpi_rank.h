@@ -3,9 +3,13 @@
 // shared by the precomputes that deal their work to ranks (impulse_response.cc,
 // virtual_dof.cc).
 #include <mpi.h>
+#include <sched.h>
 
+#include <chrono>
 #include <functional>
 #include <string>
+#include <thread>
+#include <utility>
 
 namespace irdm::fem
 {
@@ -29,4 +33,34 @@ namespace irdm::fem
       };
     }
   };
+
+  /// The cores this process may run on (its affinity mask), and the machine's.
+  inline std::pair<unsigned, unsigned>
+  cores_allowed_of_machine()
+  {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    const unsigned machine = std::thread::hardware_concurrency();
+    if (sched_getaffinity(0, sizeof set, &set) != 0)
+      return {machine, machine};
+    return {static_cast<unsigned>(CPU_COUNT(&set)), machine};
+  }
+
+  /// Returns when every rank has called it; a rank that waits sleeps (1 ms between polls).
+  /// Before a collective that follows long work on one rank: Open MPI's blocking calls poll
+  /// without sleeping, so the waiting ranks would take the cores that the working rank's
+  /// threaded BLAS and MUMPS use.
+  inline void
+  wait_for_all_quietly()
+  {
+    MPI_Request request;
+    MPI_Ibarrier(MPI_COMM_WORLD, &request);
+    int done = 0;
+    MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+    while (!done)
+      {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+      }
+  }
 } // namespace irdm::fem

@@ -177,6 +177,53 @@ namespace irdm::fem
       check(MatDenseRestoreArrayRead(dense, &p), "MatDenseRestoreArrayRead");
       return X;
     }
+
+    // F^-1 B for a Cholesky factor F and dense right-hand sides B (MUMPS's multiple-RHS solve).
+    Eigen::MatrixXd
+    solve(const Mat factor, const Eigen::MatrixXd &rhs)
+    {
+      const auto     n  = static_cast<PetscInt>(rhs.rows());
+      const PetscInt nb = static_cast<PetscInt>(rhs.cols());
+      const OwnedMat B = dense_matrix(n, nb), Y = dense_matrix(n, nb);
+      PetscScalar   *b;
+      PetscInt       ldb = n;
+      check(MatDenseGetLDA(B, &ldb), "MatDenseGetLDA");
+      check(MatDenseGetArrayWrite(B, &b), "MatDenseGetArrayWrite");
+      for (PetscInt j = 0; j < nb; ++j)
+        std::copy(rhs.col(j).data(), rhs.col(j).data() + n, b + j * ldb);
+      check(MatDenseRestoreArrayWrite(B, &b), "MatDenseRestoreArrayWrite");
+      check(MatMatSolve(factor, B, Y), "MatMatSolve");
+      return columns_of(Y, n, nb);
+    }
+
+    // Unit loads (n rows) at the free DoFs columns[c0, c0 + nb).
+    Eigen::MatrixXd
+    unit_loads(const PetscInt n, const std::vector<int> &columns, const size_t c0,
+               const size_t nb)
+    {
+      Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(nb));
+      for (size_t j = 0; j < nb; ++j)
+        E(columns[c0 + j], static_cast<Eigen::Index>(j)) = 1.0;
+      return E;
+    }
+
+    constexpr size_t block = 64; // columns per solve of the unit loads and vectors below
+
+    // The one-step responses (K + sigma M)^-1 e_c at the columns, a block of unit loads per
+    // solve; factor: the factorization of K + sigma M.
+    Eigen::MatrixXd
+    step_responses_of(const Mat factor, const PetscInt n, const std::vector<int> &columns)
+    {
+      const size_t    nc = columns.size();
+      Eigen::MatrixXd out(n, static_cast<Eigen::Index>(nc));
+      for (size_t c0 = 0; c0 < nc; c0 += block)
+        {
+          const size_t nb = std::min(block, nc - c0);
+          out.middleCols(static_cast<Eigen::Index>(c0), static_cast<Eigen::Index>(nb)) =
+            solve(factor, unit_loads(n, columns, c0, nb));
+        }
+      return out;
+    }
   } // namespace
 
   LowestModes
@@ -236,7 +283,6 @@ namespace irdm::fem
     const size_t nn = static_cast<size_t>(n), nc = columns.size();
     // Full-length vectors: the block Lanczos basis (and M times it), the lowest modes
     // (n x count) and the static responses (n x nc).
-    const size_t block = 64; // columns per solve of the vectors below
     // The block Lanczos's block: 16 and 32 took the same time on cat_fine and cat_xfine P2
     // (fewer solves against a larger basis to orthogonalize); 16 needs the smaller basis
     // (800 against 1056 vectors on cat_xfine P2). At least 6: a free body's six rigid modes
@@ -247,28 +293,6 @@ namespace irdm::fem
     const size_t lanczos_basis = std::min<size_t>(nn, 6 * n_eigen + 4 * lanczos_block);
     check_memory_estimate("the sparse modal route's vectors",
                           8.0 * nn * (2.0 * lanczos_basis + 2.0 * n_eigen + 3.0 * n_aug), false);
-    // F^-1 B for a Cholesky factor F and dense right-hand sides B (MUMPS's multiple-RHS solve).
-    const auto solve = [&](const Mat factor, const Eigen::MatrixXd &rhs) {
-      const PetscInt nb = static_cast<PetscInt>(rhs.cols());
-      const OwnedMat B = dense_matrix(n, nb), Y = dense_matrix(n, nb);
-      PetscScalar    *b;
-      PetscInt        ldb = n;
-      check(MatDenseGetLDA(B, &ldb), "MatDenseGetLDA");
-      check(MatDenseGetArrayWrite(B, &b), "MatDenseGetArrayWrite");
-      for (PetscInt j = 0; j < nb; ++j)
-        std::copy(rhs.col(j).data(), rhs.col(j).data() + n, b + j * ldb);
-      check(MatDenseRestoreArrayWrite(B, &b), "MatDenseRestoreArrayWrite");
-      check(MatMatSolve(factor, B, Y), "MatMatSolve");
-      return columns_of(Y, n, nb);
-    };
-    // Unit loads at columns [c0, c0 + nb).
-    const auto unit_loads = [&](const size_t c0, const size_t nb) {
-      Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(nb));
-      for (size_t j = 0; j < nb; ++j)
-        E(columns[c0 + j], static_cast<Eigen::Index>(j)) = 1.0;
-      return E;
-    };
-
     // A V for all columns of V at once: PETSc's sparse x dense product reads A once per few
     // columns, where one MatMult per column reads it once per column (both bound by memory).
     const auto apply = [&](const Mat A, const Eigen::MatrixXd &V) {
@@ -382,7 +406,7 @@ namespace irdm::fem
     for (size_t c0 = 0; c0 < nc; c0 += block)
       {
         const size_t    nb = std::min(block, nc - c0);
-        Eigen::MatrixXd f  = unit_loads(c0, nb);
+        Eigen::MatrixXd f  = unit_loads(n, columns, c0, nb);
         if (free_body)
           f -= m_rigid * (rigid.transpose() * f); // the load less its rigid share
         Eigen::MatrixXd y = off_rigid(solve(factor, f));
@@ -461,18 +485,12 @@ namespace irdm::fem
         // with K_eff = a (K + sigma M) (Rayleigh damping), so with these in the basis the
         // feed-through H[0] at the inputs is exact too, not only the static compliance. The
         // force of a probe that prescribes a displacement is H[0]^-1 times it: it needs H[0].
-        check(MatAXPY(shifted_stiffness, step_shift - rigid_shift, M,
-                      SUBSET_NONZERO_PATTERN),
+        // K + sigma M factored in place of K + eps M (the same pattern: MUMPS's analysis is
+        // reused).
+        check(MatAXPY(shifted_stiffness, step_shift - rigid_shift, M, SUBSET_NONZERO_PATTERN),
               "MatAXPY");
-        const Mat step_factor = shift_invert.refactor();
-        Eigen::MatrixXd step_responses(n, static_cast<Eigen::Index>(nc));
-        for (size_t c0 = 0; c0 < nc; c0 += block)
-          {
-            const size_t nb = std::min(block, nc - c0);
-            step_responses.middleCols(static_cast<Eigen::Index>(c0), static_cast<Eigen::Index>(nb)) =
-              solve(step_factor, unit_loads(c0, nb));
-          }
-        const MassBasis step_basis = m_orthonormal(step_responses, psi);
+        const MassBasis step_basis =
+          m_orthonormal(step_responses_of(shift_invert.refactor(), n, columns), psi);
         const auto      extend     = [](Eigen::MatrixXd &A, const Eigen::MatrixXd &B) {
           A.conservativeResize(Eigen::NoChange, A.cols() + B.cols());
           A.rightCols(B.cols()) = B;
