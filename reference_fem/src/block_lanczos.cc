@@ -2,8 +2,9 @@
 //
 // With S = (K - s M)^-1 M and an M-orthonormal basis Q = [Q_0 Q_1 ... Q_j] of the block
 // Krylov space of a random start block, S Q_j = Q C_j + Q_{j+1} R_j: C_j = Q^T M S Q_j are the
-// projections taken off (classical Gram-Schmidt twice: "twice is enough", Kahan/Parlett) and
-// R_j the new block's coupling. T = Q^T M S Q collects them; it is symmetric because S is
+// projections taken off (classical Gram-Schmidt twice, "twice is enough", Kahan/Parlett: first
+// against the last two blocks, where C_j is nonzero but for round-off, then against the whole
+// basis) and R_j the new block's coupling. T = Q^T M S Q collects them; it is symmetric because S is
 // M-symmetric, and its eigenpairs (theta, y) give the Ritz pairs (theta, Q y) with residual
 // |S Q y - theta Q y|_M = |R_j y_j| (y_j: y's rows of the last block), the usual Lanczos
 // estimate, which decides convergence without touching the long vectors.
