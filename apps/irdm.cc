@@ -890,10 +890,14 @@ namespace
                      "90 % of the period; 0: sleep to the tick)")
       ->check(CLI::Range(0.0, 1e6));
     play->add_option("--warm-us", po.warm_us,
-                     "the deformation thread reads the surface shapes into its cache this long "
-                     "before each frame, us (0: never; the update then streams them from memory)")
+                     "the deformation thread wakes this long before each frame, reads the surface "
+                     "shapes into its cache and spins to the frame, us (0: it sleeps to the "
+                     "frame and the update streams the shapes from memory)")
       ->check(CLI::Range(0.0, 1e6))
       ->capture_default_str();
+    play->add_flag("!--no-warm-step", po.warm_step,
+                   "the force thread does not read the step's data into its cache at the start "
+                   "of its spin (ModalInteraction::warm_step)");
     play->add_flag("!--no-baseline", po.baseline,
                    "skip the baseline (the same force loop with no work, run first for as long: "
                    "the machine's own stalls)");

@@ -68,16 +68,54 @@ namespace irdm::play
         }
     }
 
-    // Waits for an absolute tick: sleeps to spin_ns before it, then spins on the clock.
-    // Returns the wake-up time (ns).
+    // What a thread's spins saw of its CPU: a gap over 2 us between two clock reads is time
+    // the thread did not run (an interrupt, or the host running something else). Their rate
+    // and lengths are what the machine does to a step or an update of a given length. Sized
+    // before the loop; gaps beyond its room are counted in time but not kept.
+    struct Interruptions
+    {
+      std::vector<double> gap_us;
+      size_t              count   = 0;
+      std::int64_t        spun_ns = 0;
+
+      explicit Interruptions(const size_t room)
+        : gap_us(room)
+      {}
+      // Spins to the absolute time `until` (ns), recording the gaps. Returns the time it left.
+      std::int64_t
+      spin_to(const std::int64_t until)
+      {
+        const std::int64_t from = now_ns();
+        std::int64_t       last = from;
+        while (last < until)
+          {
+            const std::int64_t t = now_ns();
+            if (t - last > 2000 && count < gap_us.size())
+              gap_us[count++] = 1e-3 * static_cast<double>(t - last);
+            last = t;
+          }
+        spun_ns += last - from;
+        return last;
+      }
+      double
+      per_second() const
+      {
+        return spun_ns > 0 ? static_cast<double>(count) / (1e-9 * static_cast<double>(spun_ns)) : 0;
+      }
+    };
+
+    // Waits for an absolute time: sleeps to spin_ns before it, calls warm() (reads what the
+    // work at that time will read), then spins on the clock: a busy vCPU is not descheduled
+    // by its host, and a halted one may resume on a cold host core. Returns the time it left
+    // the wait (ns).
+    template <class Warm>
     std::int64_t
-    wait_for_tick(const std::int64_t deadline, const std::int64_t spin_ns)
+    wait_for_tick(const std::int64_t deadline, const std::int64_t spin_ns, const Warm &warm,
+                  Interruptions &seen)
     {
       sleep_until_ns(deadline - spin_ns);
-      std::int64_t wake = now_ns();
-      while (wake < deadline) // the spin: a busy vCPU is not descheduled by its host
-        wake = now_ns();
-      return wake;
+      warm();
+      return std::max(now_ns(), seen.spin_to(deadline));
     }
 
     // Stalls of a loop: runs of consecutive wake-ups more than a period late (the thread was
@@ -417,6 +455,9 @@ namespace irdm::play
     frame_u.assign(static_cast<size_t>((display_ticks / frame_stride + 1)) * model.n_outputs, 0.0);
     frame_step.assign(display_ticks / frame_stride + 1, 0);
     long                n_updates = 0, n_warms = 0, n_frames = 0, display_tick_count = 0;
+    // What each thread's spins saw of its CPU (room for 64 gaps per frame, 4 per tick).
+    Interruptions display_seen(static_cast<size_t>(display_ticks) * 64),
+      force_seen(static_cast<size_t>(n_steps) * 4), baseline_seen(static_cast<size_t>(n_steps) * 4);
     std::vector<double> surface(model.n_outputs);
     if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 && !o.quiet)
       out << "note: memory not locked (mlockall refused); page faults may add latency\n";
@@ -464,7 +505,7 @@ namespace irdm::play
           for (long n = 0; n < n_steps; ++n)
             {
               const std::int64_t deadline = start + n * period_ns;
-              baseline_late_us[n] = 1e-3 * static_cast<double>(wait_for_tick(deadline, spin_ns) - deadline);
+              baseline_late_us[n] = 1e-3 * static_cast<double>(wait_for_tick(deadline, spin_ns, [] {}, baseline_seen) - deadline);
             }
         });
         idle.join();
@@ -476,7 +517,10 @@ namespace irdm::play
       for (long n = 0; n < n_steps; ++n)
         {
           const std::int64_t deadline = start + n * period_ns;
-          const std::int64_t wake     = wait_for_tick(deadline, spin_ns);
+          const std::int64_t wake     = wait_for_tick(deadline, spin_ns, [&] {
+            if (o.warm_step)
+              runtime.warm_step();
+          }, force_seen);
           runtime.step(couple(n, runtime.probe_displacement(0)), 1);
           runtime.save_surface_state(exchange.back());
           exchange.publish();
@@ -496,14 +540,15 @@ namespace irdm::play
       const std::int64_t start = wait_for_start();
       for (long tick = 0; tick < display_ticks; ++tick)
         {
+          const std::int64_t frame = start + tick * display_ns;
           if (warm_ns > 0 && tick > 0)
-            {
-              sleep_until_ns(start + tick * display_ns - warm_ns);
+            wait_for_tick(frame, warm_ns, [&] {
               const std::int64_t t0 = now_ns();
               warm_surface(modal);
               warm_us[n_warms++] = 1e-3 * static_cast<double>(now_ns() - t0);
-            }
-          sleep_until_ns(start + tick * display_ns);
+            }, display_seen);
+          else
+            sleep_until_ns(frame);
           const bool finished = force_done.load(std::memory_order_acquire);
           if (exchange.update())
             {
@@ -534,6 +579,15 @@ namespace irdm::play
                    [](double x) { return std::abs(x); });
     update_us.resize(n_updates);
     warm_us.resize(n_warms);
+    for (Interruptions *seen : {&display_seen, &force_seen, &baseline_seen})
+      seen->gap_us.resize(seen->count);
+    // One line of the report per thread: how often its spins were interrupted, and for how long.
+    const auto interruptions_text = [&](const Interruptions &seen) {
+      return std::to_string(seen.count) + " gaps in " + fmt(1e-9 * static_cast<double>(seen.spun_ns)) +
+             " s of spinning (" + fmt(seen.per_second()) + " per s; p50 " +
+             fmt(percentile(seen.gap_us, 0.5)) + " us, p99 " + fmt(percentile(seen.gap_us, 0.99)) +
+             " us, longest " + fmt(percentile(seen.gap_us, 1.0)) + " us)";
+    };
 
     // The same probes offline with every mode in the force loop: the exact model (the modal
     // realization with all modes reproduces H and the FEM, tests/test_irdm.cc).
@@ -619,7 +673,10 @@ namespace irdm::play
                  "force_step_p999_us", "force_step_max_us", "wake_late_p50_us", "wake_late_p99_us",
                  "period_jitter_p99_us", "surface_update_p50_us", "surface_update_p99_us",
                  "surface_update_max_us", "surface_updates", "peak_force_N", "force_error",
-                 "warm_us", "surface_warm_p50_us", "surface_warm_p99_us"},
+                 "warm_us", "surface_warm_p50_us", "surface_warm_p99_us", "warm_step",
+                 "display_interruptions_per_s", "display_interruption_p50_us",
+                 "display_interruption_max_us", "force_interruptions_per_s",
+                 "force_interruption_p50_us", "force_interruption_max_us"},
                 {one(rate), one(spin_us), one(static_cast<double>(n_steps)),
                  one(static_cast<double>(missed)), one(static_cast<double>(missed_overrun)),
                  one(static_cast<double>(missed - missed_overrun)),
@@ -633,7 +690,11 @@ namespace irdm::play
                  one(percentile(update_us, 0.5)), one(percentile(update_us, 0.99)),
                  one(percentile(update_us, 1.0)), one(static_cast<double>(n_updates)),
                  one(peak_force), one(force_error), one(1e-3 * static_cast<double>(warm_ns)),
-                 one(percentile(warm_us, 0.5)), one(percentile(warm_us, 0.99))});
+                 one(percentile(warm_us, 0.5)), one(percentile(warm_us, 0.99)),
+                 one(o.warm_step ? 1 : 0), one(display_seen.per_second()),
+                 one(percentile(display_seen.gap_us, 0.5)), one(percentile(display_seen.gap_us, 1.0)),
+                 one(force_seen.per_second()), one(percentile(force_seen.gap_us, 0.5)),
+                 one(percentile(force_seen.gap_us, 1.0))});
     }
     std::ostringstream md;
     md << "# irdm play\n\n"
@@ -659,6 +720,8 @@ namespace irdm::play
        << "), " << force_rt << ", "
        << (spin_ns > 0 ? "sleeping to " + fmt(spin_us) + " us before each tick and spinning the rest"
                        : std::string("sleeping to each tick"))
+       << (o.warm_step ? ", reading the step's data into its cache when it wakes (warm_step)"
+                       : std::string(", no warm-up of the step's data (--no-warm-step)"))
        << ". Deformation loop at " << fmt(o.display_hz) << " Hz, "
        << display_rt << "; it updated the surface " << n_updates << " times (" << fmt(achieved_display)
        << " Hz). Shared state: a triple buffer (irdm/surface_exchange.h). Machine: " << n_cpus
@@ -679,10 +742,20 @@ namespace irdm::play
        << fmt(percentile(warm_us, 1.0)) << " |\n\n"
        << (warm_ns > 0 ? "The deformation thread reads the surface shapes into its cache " +
                            fmt(1e-3 * static_cast<double>(warm_ns)) +
-                           " us before each frame (warm_surface, --warm-us); the surface update "
-                           "is the time from the newest force state to the surface.\n\n"
+                           " us before each frame (warm_surface, --warm-us) and spins to the frame; "
+                           "the surface update is the time from the newest force state to the "
+                           "surface.\n\n"
                        : std::string("No warm-up (--warm-us 0): each update streams the shapes "
                                      "from wherever the cache left them.\n\n"))
+       << "Interruptions seen by the threads' spins (a gap over 2 us between two clock reads: "
+          "the thread did not run, because of an interrupt or the host): force thread "
+       << interruptions_text(force_seen) << "; deformation thread " << interruptions_text(display_seen)
+       << (o.baseline ? "; the baseline's force loop " + interruptions_text(baseline_seen) : std::string())
+       << ". At these rates a step of the p50 length is interrupted in about "
+       << fmt(100 * force_seen.per_second() * 1e-6 * percentile(step_us, 0.5))
+       << " % of ticks and an update of the p50 length in about "
+       << fmt(100 * display_seen.per_second() * 1e-6 * percentile(update_us, 0.5))
+       << " % of frames: percentiles beyond those shares measure the machine as much as the work.\n\n"
        << "Missed deadlines (a step finished after the next tick was due): " << missed << " of "
        << n_steps << " (" << fmt(100 * missed_fraction) << " %): " << missed_overrun
        << " because the step took longer than a period, " << missed - missed_overrun

@@ -24,8 +24,13 @@ namespace irdm::play
     // its CPU: a vCPU that keeps running is not descheduled by its host between ticks, which
     // is where the late wake-ups of a sleeping loop come from (reports/play/README.md).
     double spin_us = -1;
-    // The deformation thread wakes this long before each frame and reads the surface shapes
-    // into its cache (warm_surface), then sleeps to the frame (us; 0: no warm-up).
+    // The force thread reads the next step's data into its cache when it starts to spin
+    // (ModalInteraction::warm_step): the step then finds it there.
+    bool warm_step = true;
+    // The deformation thread wakes this long before each frame, reads the surface shapes into
+    // its cache (warm_surface) and spins to the frame (us; 0: it sleeps to the frame, no
+    // warm-up). It spins rather than sleeps after the warm-up: a vCPU that halts can resume on
+    // another host core, with the shapes no longer in its cache (reports/play/README.md).
     double warm_us = 500;
     bool        quiet         = false;
     bool        baseline      = true; // first the same loop with no work: the machine's stalls

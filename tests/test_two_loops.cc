@@ -88,11 +88,13 @@ TEST(TwoLoops, DeformationThreadSeesWholeStatesInOrderAndTheLast)
   TripleBuffer<ModalSurfaceState> exchange(make_surface_state(model));
   std::atomic<bool>               done{false};
 
-  // Force thread: step, save the state into the back slot, publish.
+  // Force thread: (warm-up, as irdm play's does while it waits for its tick), step, save the
+  // state into the back slot, publish. The replay below has no warm-up: it changes nothing.
   std::thread force([&] {
     ModalInteraction runtime(model);
     for (long long n = 0; n < n_steps; ++n)
       {
+        runtime.warm_step();
         const ProbeTarget p = probe_at(n);
         runtime.step(&p, 1);
         runtime.save_surface_state(exchange.back());
@@ -110,6 +112,7 @@ TEST(TwoLoops, DeformationThreadSeesWholeStatesInOrderAndTheLast)
     std::vector<double> u(nout);
     for (;;)
       {
+        warm_surface(model); // reads the model only, while the force thread runs
         const bool finished = done.load(std::memory_order_acquire);
         if (exchange.update())
           {

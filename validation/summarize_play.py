@@ -42,17 +42,30 @@ def main():
                 f"{g(max(r['baseline_longest_stall_ms'] for r in ran))})")
 
     def warm(group):
-        # Runs written before the warm-up existed have no such column.
+        # Runs written before the warm-ups existed have no such columns.
+        step = "" if "warm_step" not in group[0] else (
+            "; step warmed" if group[0]["warm_step"] > 0 else "; step not warmed")
         if "warm_us" not in group[0] or group[0]["warm_us"] <= 0:
-            return "none"
-        return f"{g(group[0]['warm_us'])}; {g(med(group, 'surface_warm_p50_us'))}"
+            return "none" + step
+        return f"{g(group[0]['warm_us'])}; {g(med(group, 'surface_warm_p50_us'))}{step}"
+
+    def interruptions(group):
+        # Gaps over 2 us between two clock reads while a thread spun (medians over the runs).
+        if "force_interruptions_per_s" not in group[0]:
+            return "not measured"
+        d = (f"{g(med(group, 'display_interruptions_per_s'))} ({g(med(group, 'display_interruption_p50_us'))})"
+             if group[0]["warm_us"] > 0 else "no spin")
+        f = (f"{g(med(group, 'force_interruptions_per_s'))} ({g(med(group, 'force_interruption_p50_us'))})"
+             if group[0]["spin_us"] > 0 else "no spin")
+        return f"{f} / {d}"
 
     lines = [
         "| run | rate (Hz) | spin (us) | repetitions | missed deadlines (all repetitions) "
         "| of which step overran / woken late | stalls > 1 period (longest, ms) "
         "| baseline, no work: ticks > 1 period late (stalls, longest ms) | runs within 0.1 % | force step p50 / p99 / p99.9 (us) | wake-up lateness p50 / p99 (us) "
-        "| surface update p50 / p99 (us) | warm-up before each frame (us ahead; p50) | force error against all modes |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| surface update p50 / p99 (us) | surface warm-up before each frame (us ahead; p50); force step warm-up "
+        "| interruptions of the spins per s, force / deformation thread (p50 length, us) | force error against all modes |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, group in runs.items():
         steps = sum(r["steps"] for r in group)
@@ -71,6 +84,7 @@ def main():
             f"| {g(med(group, 'wake_late_p50_us'))} / {g(med(group, 'wake_late_p99_us'))} "
             f"| {g(med(group, 'surface_update_p50_us'))} / {g(med(group, 'surface_update_p99_us'))} "
             f"| {warm(group)} "
+            f"| {interruptions(group)} "
             f"| {g(med(group, 'force_error'))} |")
     text = ("# irdm play, repeated runs\n\n"
             "Made by `scripts/play_study.sh` from `" + os.path.basename(sys.argv[1]) + "`. Sums over "

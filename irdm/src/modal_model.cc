@@ -386,6 +386,26 @@ namespace irdm
   }
 
   void
+  ModalInteraction::warm_step() const
+  {
+    double sum = 0;
+    for (const std::vector<double> *v : {&coef_, &xu_, &xv_, &xa_, &g_prev_})
+      for (const double x : *v)
+        sum += x;
+    const size_t nin = model_.n_inputs;
+    for (const unsigned k : pushed_)
+      {
+        sum += Vec(&model_.input_shapes[k * stride_], N_).sum();
+        if (!model_.input_load_shapes.empty())
+          sum += Vec(&model_.input_load_shapes[k * stride_], N_).sum();
+        for (const unsigned i : pushed_)
+          sum += model_.h0_inputs[static_cast<size_t>(i) * nin + k];
+      }
+    volatile double sink = sum; // keeps the loads
+    (void)sink;
+  }
+
+  void
   ModalInteraction::save_surface_state(ModalSurfaceState &state) const
   {
     if (state.modal_displacement.size() != M_ || state.pushed_inputs.size() < pushed_.size())

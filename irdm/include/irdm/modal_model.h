@@ -153,6 +153,12 @@ namespace irdm
     }
     void
     surface_displacement(double *u) const;
+    /// Reads what the next step reads if it touches the inputs the last step touched (the step
+    /// matrices, the state, those inputs' shapes and feed-through), so that it finds them in
+    /// this core's cache. For a force thread that waits for its tick: called at the start of
+    /// the wait, it takes the cache misses out of the step's latency. Changes nothing.
+    void
+    warm_step() const;
     /// Copies what surface_displacement needs into state (made by make_surface_state for
     /// this model). Allocates nothing.
     void
