@@ -57,7 +57,7 @@ namespace
     const double                       scale = exact(wanted - 1);
     const fem::LanczosPairs pairs = fem::block_lanczos(
       n, wanted, [&](const Eigen::MatrixXd &B) { return Eigen::MatrixXd(shifted.solve(B)); },
-      [&](const Eigen::MatrixXd &V) { return Eigen::MatrixXd(M * V); }, 1e-10, block);
+      [&](const Eigen::MatrixXd &V) { return Eigen::MatrixXd(M * V); }, 1e-10, block, 0, true);
     ASSERT_EQ(pairs.theta.size(), wanted);
     ASSERT_EQ(pairs.vectors.cols(), wanted);
     ASSERT_EQ(pairs.purified.cols(), wanted);

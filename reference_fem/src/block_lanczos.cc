@@ -60,7 +60,7 @@ namespace irdm::fem
   LanczosPairs
   block_lanczos(const Eigen::Index n, const Eigen::Index wanted, const BlockMap &shifted_solve,
                 const BlockMap &mass, const double tolerance, const Eigen::Index block,
-                Eigen::Index max_basis)
+                Eigen::Index max_basis, const bool keep_ritz_vectors)
   {
     if (n < 1 || wanted < 1 || wanted > n || block < 1 || !(tolerance > 0))
       throw std::invalid_argument("block_lanczos: needs 1 <= wanted <= n, block >= 1 and a "
@@ -214,11 +214,15 @@ namespace irdm::fem
             if (worst <= tolerance)
               {
                 out.theta            = theta;
-                out.vectors          = product(basis(), false, Y);
-                out.purified         = out.vectors;
+                // Formed in place: one n x wanted matrix beside the basis, not three.
+                out.purified = product(basis(), false, Y);
+                if (keep_ritz_vectors)
+                  out.vectors = out.purified;
                 if (next.R.cols() > 0)
-                  out.purified += product(next.V, false, next.R * Y.middleRows(start, b)) *
-                                  theta.cwiseInverse().asDiagonal();
+                  subtract_product(next.V,
+                                   -(next.R * Y.middleRows(start, b)) *
+                                     theta.cwiseInverse().asDiagonal(),
+                                   out.purified);
                 out.basis            = m_old;
                 out.largest_estimate = worst;
                 out.seconds          = since(started);

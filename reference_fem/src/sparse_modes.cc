@@ -332,7 +332,6 @@ namespace irdm::fem
     // solve: block_lanczos.h), which takes out what the random start block left of the modes
     // far from the shift.
     Eigen::MatrixXd eigenvectors = std::move(pairs.purified);
-    pairs.vectors.resize(0, 0); // not needed: 8 n bytes per mode
     Eigen::MatrixXd     m_eigenvectors(n, n_eigen); // M times them
     std::vector<double> lambdas(n_eigen);
     for (unsigned i = 0; i < n_eigen; ++i)

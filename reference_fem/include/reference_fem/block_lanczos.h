@@ -29,7 +29,8 @@ namespace irdm::fem
   struct LanczosPairs
   {
     Eigen::VectorXd theta;          ///< the wanted Ritz values, descending
-    Eigen::MatrixXd vectors;        ///< their Ritz vectors x, M-orthonormal (n x wanted)
+    Eigen::MatrixXd vectors;        ///< their Ritz vectors x, M-orthonormal (n x wanted);
+                                    ///< empty unless asked for (keep_ritz_vectors)
     /// S x / theta for each Ritz vector x: one step of inverse iteration ("purification"),
     /// which takes out what the random start block left of the modes far from the shift. It
     /// needs no solve: the Lanczos relation S Q = Q T + Q_{j+1} R_j E_j^T gives
@@ -46,9 +47,11 @@ namespace irdm::fem
   /// theta. shifted_solve(B) = (K - s M)^-1 B, mass(V) = M V; n the dimension. Blocks of
   /// `block` columns; the basis grows to at most max_basis vectors (0: min(n, 8 wanted +
   /// 4 block)), beyond which it throws std::runtime_error. The start block is random with a
-  /// fixed seed: the result is reproducible.
+  /// fixed seed: the result is reproducible. The Ritz vectors themselves are kept only if
+  /// keep_ritz_vectors (the purified ones are what a caller uses; each set is 8 n wanted
+  /// bytes, 390 MB on cat_xfine P2, while the basis is still held).
   LanczosPairs
   block_lanczos(Eigen::Index n, Eigen::Index wanted, const BlockMap &shifted_solve,
                 const BlockMap &mass, double tolerance, Eigen::Index block = 64,
-                Eigen::Index max_basis = 0);
+                Eigen::Index max_basis = 0, bool keep_ritz_vectors = false);
 } // namespace irdm::fem
