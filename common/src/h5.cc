@@ -4,9 +4,15 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <sstream>
+
+#include <fcntl.h>
+#include <unistd.h>
 
 namespace irdm::h5
 {
@@ -34,6 +40,32 @@ namespace irdm::h5
       static const bool no_atexit = (H5dont_atexit(), true);
       (void)no_atexit;
       H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    }
+
+    // Objects of 64 KiB or more start on a 4096-byte boundary (a page, and a sector on any
+    // disk; at most 6 % of such an object's size is lost to it): the raw chunks of
+    // create_dataset(..., raw_chunks) can then be written with O_DIRECT. Smaller chunks go
+    // through HDF5. Owned by the caller (H5Pclose).
+    hid_t
+    writer_access_list()
+    {
+      const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+      if (fapl >= 0 && H5Pset_alignment(fapl, hsize_t(64) << 10, 4096) < 0)
+        {
+          H5Pclose(fapl);
+          return H5P_DEFAULT;
+        }
+      return fapl < 0 ? H5P_DEFAULT : fapl;
+    }
+
+    hid_t
+    create_part_file(const std::string &path)
+    {
+      const hid_t fapl = writer_access_list();
+      const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+      if (fapl != H5P_DEFAULT)
+        H5Pclose(fapl);
+      return file;
     }
 
     std::string
@@ -87,7 +119,10 @@ namespace irdm::h5
       if (FILE *f = std::fopen(part_path_.c_str(), "rb"))
         {
           std::fclose(f);
-          file_ = H5Fopen(part_path_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+          const hid_t fapl = writer_access_list();
+          file_            = H5Fopen(part_path_.c_str(), H5F_ACC_RDWR, fapl);
+          if (fapl != H5P_DEFAULT)
+            H5Pclose(fapl);
           if (file_ >= 0)
             {
               resumed_ = true;
@@ -97,7 +132,7 @@ namespace irdm::h5
           std::remove(part_path_.c_str());
           discarded_part_ = true;
         }
-    file_ = H5Fcreate(part_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    file_ = create_part_file(part_path_);
     if (file_ < 0)
       throw InputError("cannot create HDF5 file '" + part_path_ + "'");
   }
@@ -105,17 +140,19 @@ namespace irdm::h5
   void
   Writer::start_over()
   {
+    close_direct();
     if (file_ >= 0 && H5Fclose(file_) < 0)
       close_failed = true;
     std::remove(part_path_.c_str());
     resumed_ = false;
-    file_    = H5Fcreate(part_path_.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    file_    = create_part_file(part_path_);
     if (file_ < 0)
       throw IoError("cannot create HDF5 file '" + part_path_ + "'");
   }
 
   Writer::~Writer()
   {
+    close_direct();
     if (file_ >= 0)
       {
         if (H5Fclose(file_) < 0)
@@ -127,7 +164,7 @@ namespace irdm::h5
 
   void
   Writer::create_dataset(const std::string &name, const std::vector<hsize_t> &dims,
-                         const bool is_double, const hsize_t chunk_rows)
+                         const bool is_double, const hsize_t chunk_rows, const bool raw_chunks)
   {
     const hid_t space = H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr);
     const hid_t plist = H5Pcreate(H5P_DATASET_CREATE);
@@ -135,6 +172,10 @@ namespace irdm::h5
     chunk[0] = std::max<hsize_t>(1, std::min(chunk_rows, dims[0]));
     bool ok = space >= 0 && plist >= 0 &&
               H5Pset_chunk(plist, static_cast<int>(chunk.size()), chunk.data()) >= 0;
+    // Every chunk placed now and never filled: write_rows writes them itself.
+    if (raw_chunks)
+      ok = ok && H5Pset_alloc_time(plist, H5D_ALLOC_TIME_EARLY) >= 0 &&
+           H5Pset_fill_time(plist, H5D_FILL_TIME_NEVER) >= 0;
     const hid_t set = ok ? H5Dcreate2(file_, name.c_str(),
                                       is_double ? H5T_IEEE_F64LE : H5T_IEEE_F32LE, space,
                                       H5P_DEFAULT, plist, H5P_DEFAULT)
@@ -183,15 +224,148 @@ namespace irdm::h5
     }
   } // namespace
 
+  bool
+  Writer::close_direct()
+  {
+    bool ok = true;
+    for (int *fd : {&direct_fd_, &plain_fd_})
+      if (*fd >= 0)
+        {
+          ok  = ::close(*fd) == 0 && ok;
+          *fd = -1;
+        }
+    std::free(bounce_);
+    bounce_       = nullptr;
+    bounce_size_  = 0;
+    direct_state_ = 0;
+    return ok;
+  }
+
+  namespace
+  {
+    // pwrite all of [data, data + size) at offset, retrying short writes and EINTR.
+    bool
+    write_all_at(const int fd, const char *data, std::size_t size, off_t offset)
+    {
+      while (size > 0)
+        {
+          const ssize_t w = ::pwrite(fd, data, size, offset);
+          if (w < 0 && errno == EINTR)
+            continue;
+          if (w <= 0)
+            return false;
+          data += w, size -= static_cast<std::size_t>(w), offset += w;
+        }
+      return true;
+    }
+  } // namespace
+
+  // Rows [first, first + n) that are whole chunks of a raw_chunks dataset (chunks of whole
+  // rows), written to each chunk's place in the file: the 512-byte sectors with O_DIRECT from
+  // an aligned copy, the rest (under a sector) plainly after them. Returns false, having
+  // written nothing that HDF5's write would not overwrite, wherever that does not apply.
+  bool
+  Writer::write_chunks_directly(const std::string &name, const hsize_t first, const hsize_t n,
+                                const void *data, const std::size_t element_size)
+  {
+    if (direct_state_ < 0)
+      return false;
+    if (direct_state_ == 0)
+      {
+        direct_fd_ = ::open(part_path_.c_str(), O_WRONLY | O_DIRECT | O_CLOEXEC);
+        plain_fd_  = ::open(part_path_.c_str(), O_WRONLY | O_CLOEXEC);
+        if (direct_fd_ < 0 || plain_fd_ < 0) // e.g. tmpfs refuses O_DIRECT
+          {
+            close_direct();
+            direct_state_ = -1;
+            return false;
+          }
+        direct_state_ = 1;
+      }
+    const hid_t set = H5Dopen2(file_, name.c_str(), H5P_DEFAULT);
+    if (set < 0)
+      return false;
+    const hid_t          space = H5Dget_space(set), plist = H5Dget_create_plist(set);
+    const int            rank  = space >= 0 ? H5Sget_simple_extent_ndims(space) : -1;
+    std::vector<hsize_t> dims(rank > 0 ? rank : 1), chunk(dims.size()), at(dims.size(), 0);
+    bool ok = rank > 0 && plist >= 0 && H5Sget_simple_extent_dims(space, dims.data(), nullptr) >= 0 &&
+              H5Pget_layout(plist) == H5D_CHUNKED &&
+              H5Pget_chunk(plist, rank, chunk.data()) == rank && first % chunk[0] == 0 &&
+              (n % chunk[0] == 0 || first + n == dims[0]) && first + n <= dims[0];
+    for (int d = 1; ok && d < rank; ++d)
+      ok = chunk[d] == dims[d]; // a chunk is whole rows: contiguous in memory
+    std::size_t row_bytes = element_size;
+    for (int d = 1; d < rank; ++d)
+      row_bytes *= dims[d];
+    // Every chunk's place first: nothing is written unless all have one.
+    std::vector<haddr_t> addresses;
+    for (hsize_t r = first; ok && r < first + n; r += chunk[0])
+      {
+        at[0]            = r;
+        unsigned filters = 0;
+        haddr_t  address = HADDR_UNDEF;
+        hsize_t  size    = 0;
+        ok = H5Dget_chunk_info_by_coord(set, at.data(), &filters, &address, &size) >= 0 &&
+             address != HADDR_UNDEF && address % 512 == 0 && filters == 0 &&
+             size == chunk[0] * row_bytes;
+        addresses.push_back(address);
+      }
+    if (plist >= 0)
+      H5Pclose(plist);
+    if (space >= 0)
+      H5Sclose(space);
+    H5Dclose(set);
+    if (!ok)
+      return false;
+    const std::size_t chunk_bytes = chunk[0] * row_bytes, sectors = chunk_bytes & ~std::size_t(511);
+    if (bounce_size_ < sectors)
+      {
+        std::free(bounce_);
+        bounce_      = nullptr;
+        bounce_size_ = 0;
+        if (posix_memalign(&bounce_, 4096, sectors) != 0)
+          return false;
+        bounce_size_ = sectors;
+      }
+    const char *bytes = static_cast<const char *>(data);
+    for (std::size_t i = 0; i < addresses.size(); ++i)
+      {
+        // The last chunk may hold rows beyond the extent: only the rows given are written.
+        const std::size_t rows  = std::min<hsize_t>(chunk[0], first + n - (first + i * chunk[0]));
+        const std::size_t size  = rows * row_bytes, whole = size & ~std::size_t(511);
+        const char       *from  = bytes + i * chunk_bytes;
+        const off_t       where = static_cast<off_t>(addresses[i]);
+        std::memcpy(bounce_, from, whole);
+        if (!write_all_at(direct_fd_, static_cast<const char *>(bounce_), whole, where))
+          {
+            if (errno == EINVAL && i == 0) // O_DIRECT opened but refused: HDF5 from now on
+              {
+                close_direct();
+                direct_state_ = -1;
+                return false;
+              }
+            throw IoError("cannot write rows of '" + name + "' to '" + part_path_ + "': " +
+                          std::strerror(errno) + " (disk full?)");
+          }
+        if (!write_all_at(plain_fd_, from + whole, size - whole, where + static_cast<off_t>(whole)))
+          throw IoError("cannot write rows of '" + name + "' to '" + part_path_ + "': " +
+                        std::strerror(errno) + " (disk full?)");
+        direct_bytes_ += size;
+      }
+    return true;
+  }
+
   void
   Writer::write_rows(const std::string &name, hsize_t first, hsize_t n, const float *data)
   {
-    write_rows_any(file_, part_path_, name, first, n, H5T_NATIVE_FLOAT, data);
+    if (!write_chunks_directly(name, first, n, data, sizeof(float)))
+      write_rows_any(file_, part_path_, name, first, n, H5T_NATIVE_FLOAT, data);
   }
   void
   Writer::write_rows(const std::string &name, hsize_t first, hsize_t n, const double *data)
   {
-    write_rows_any(file_, part_path_, name, first, n, H5T_NATIVE_DOUBLE, data);
+    if (!write_chunks_directly(name, first, n, data, sizeof(double)))
+      write_rows_any(file_, part_path_, name, first, n, H5T_NATIVE_DOUBLE, data);
   }
   void
   Writer::write_rows(const std::string &name, hsize_t first, hsize_t n, const long long *data)
@@ -439,7 +613,9 @@ namespace irdm::h5
   {
     // HDF5 caches data and metadata: a full disk often shows only here, in the flush or the
     // close. Either failing leaves the final name untouched.
-    const bool flushed = H5Fflush(file_, H5F_SCOPE_GLOBAL) >= 0;
+    // The direct writes' descriptors close first (their data reach the disk with the fsync
+    // of commit_part_file); a failed close is a failed write.
+    const bool flushed = close_direct() && H5Fflush(file_, H5F_SCOPE_GLOBAL) >= 0;
     const bool closed  = H5Fclose(file_) >= 0;
     file_              = -1;
     if (!closed)

@@ -390,10 +390,10 @@ namespace irdm::fem
                     std::string("m: the mean of d_k . X over the band of virtual DOF k (its "
                                 "position at y_k = 0); a rigid wall at w holds the band at "
                                 "rest_position[k] - y_k = w"));
-        f.create_dataset("/virtual_dofs/surface_response", {K, T, n3}, dbl, 1);
+        f.create_dataset("/virtual_dofs/surface_response", {K, T, n3}, dbl, 1, true);
         f.attribute("/virtual_dofs/surface_response", "layout",
                     std::string("[orientation k][step s][3 * surface vertex + axis], m/N"));
-        f.create_dataset("/virtual_dofs/dof_response", {K, T, K}, dbl, 1);
+        f.create_dataset("/virtual_dofs/dof_response", {K, T, K}, dbl, 1, true);
         f.attribute("/virtual_dofs/dof_response", "layout",
                     std::string("[input orientation k][step s][output virtual DOF j], m/N"));
       }

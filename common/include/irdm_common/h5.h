@@ -10,6 +10,7 @@
 
 #include <hdf5.h>
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -52,10 +53,21 @@ namespace irdm::h5
       keep_partial_ = keep;
     }
     /// A dataset written in blocks of rows (first dimension) by write_rows(), chunked so
-    /// that a block of chunk_rows rows is one HDF5 chunk.
+    /// that a block of chunk_rows rows is one HDF5 chunk. raw_chunks: every chunk gets its
+    /// place in the file now (4096-byte aligned, nothing written), and write_rows() writes
+    /// whole chunks there itself with O_DIRECT, past the page cache: on this project's VM a
+    /// buffered write costs about 2.5 s of kernel time per GB, a direct one 0.1 s (dd, 4.8 GB:
+    /// 12.7 s against 2.8 s). Where the file system refuses O_DIRECT, or for a chunk without a
+    /// place (a partial file of an older version), it writes through HDF5 as before.
     void
     create_dataset(const std::string &name, const std::vector<hsize_t> &dims, bool is_double,
-                   hsize_t chunk_rows);
+                   hsize_t chunk_rows, bool raw_chunks = false);
+    /// Bytes write_rows() wrote directly (raw_chunks), and through HDF5.
+    std::size_t
+    bytes_written_directly() const
+    {
+      return direct_bytes_;
+    }
     void
     write_rows(const std::string &name, hsize_t first_row, hsize_t n_rows, const float *data);
     void
@@ -131,6 +143,18 @@ namespace irdm::h5
     bool        discarded_part_ = false;
     bool        keep_partial_   = false;
     OutputLock  lock_;
+    // The direct path of write_rows (raw_chunks): the part file opened again with O_DIRECT,
+    // and plainly for the last bytes of a chunk that are not a whole 512-byte sector; a
+    // bounce buffer aligned for O_DIRECT. direct_state_: 0 not tried, 1 open, -1 refused.
+    int         direct_fd_ = -1, plain_fd_ = -1, direct_state_ = 0;
+    std::size_t direct_bytes_ = 0;
+    void       *bounce_ = nullptr;
+    std::size_t bounce_size_ = 0;
+    bool
+    write_chunks_directly(const std::string &name, hsize_t first, hsize_t n, const void *data,
+                          std::size_t element_size);
+    bool
+    close_direct(); // false if a descriptor failed to close
   };
 
   /// Read access with shape checks; every failure is an InputError naming file and dataset.
