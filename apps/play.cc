@@ -545,7 +545,8 @@ namespace irdm::play
             wait_for_tick(frame, warm_ns, [&] {
               const std::int64_t t0 = now_ns();
               warm_surface(modal);
-              warm_us[n_warms++] = 1e-3 * static_cast<double>(now_ns() - t0);
+              if (n_warms < static_cast<long>(warm_us.size())) // one per frame; never past it
+                warm_us[n_warms++] = 1e-3 * static_cast<double>(now_ns() - t0);
             }, display_seen);
           else
             sleep_until_ns(frame);
