@@ -81,7 +81,8 @@ namespace irdm::play
       explicit Interruptions(const size_t room)
         : gap_us(room)
       {}
-      // Spins to the absolute time `until` (ns), recording the gaps. Returns the time it left.
+      // Spins to the absolute time `until` (ns), recording the gaps. Returns the time it left
+      // (the time it came, if that was already past `until`).
       std::int64_t
       spin_to(const std::int64_t until)
       {
@@ -115,7 +116,7 @@ namespace irdm::play
     {
       sleep_until_ns(deadline - spin_ns);
       warm();
-      return std::max(now_ns(), seen.spin_to(deadline));
+      return seen.spin_to(deadline);
     }
 
     // Stalls of a loop: runs of consecutive wake-ups more than a period late (the thread was

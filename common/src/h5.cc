@@ -58,11 +58,14 @@ namespace irdm::h5
       return fapl < 0 ? H5P_DEFAULT : fapl;
     }
 
+    // A part file opened for writing with that alignment: made anew, or an existing one
+    // reopened (resume). Negative on failure.
     hid_t
-    create_part_file(const std::string &path)
+    open_part_file(const std::string &path, const bool create)
     {
       const hid_t fapl = writer_access_list();
-      const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+      const hid_t file = create ? H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl)
+                                : H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl);
       if (fapl != H5P_DEFAULT)
         H5Pclose(fapl);
       return file;
@@ -119,10 +122,7 @@ namespace irdm::h5
       if (FILE *f = std::fopen(part_path_.c_str(), "rb"))
         {
           std::fclose(f);
-          const hid_t fapl = writer_access_list();
-          file_            = H5Fopen(part_path_.c_str(), H5F_ACC_RDWR, fapl);
-          if (fapl != H5P_DEFAULT)
-            H5Pclose(fapl);
+          file_ = open_part_file(part_path_, false);
           if (file_ >= 0)
             {
               resumed_ = true;
@@ -132,7 +132,7 @@ namespace irdm::h5
           std::remove(part_path_.c_str());
           discarded_part_ = true;
         }
-    file_ = create_part_file(part_path_);
+    file_ = open_part_file(part_path_, true);
     if (file_ < 0)
       throw InputError("cannot create HDF5 file '" + part_path_ + "'");
   }
@@ -145,7 +145,7 @@ namespace irdm::h5
       close_failed = true;
     std::remove(part_path_.c_str());
     resumed_ = false;
-    file_    = create_part_file(part_path_);
+    file_    = open_part_file(part_path_, true);
     if (file_ < 0)
       throw IoError("cannot create HDF5 file '" + part_path_ + "'");
   }

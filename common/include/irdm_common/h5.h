@@ -62,7 +62,7 @@ namespace irdm::h5
     void
     create_dataset(const std::string &name, const std::vector<hsize_t> &dims, bool is_double,
                    hsize_t chunk_rows, bool raw_chunks = false);
-    /// Bytes write_rows() wrote directly (raw_chunks), and through HDF5.
+    /// Bytes write_rows() wrote directly (raw_chunks), past HDF5 and the page cache.
     std::size_t
     bytes_written_directly() const
     {
