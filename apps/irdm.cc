@@ -5,6 +5,7 @@
 #include <irdm/representative_model.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
+#include <irdm_common/format.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
@@ -235,7 +236,8 @@ namespace
   {
     std::string scene, out, storage, free_route = "modal", fit_weights = "uniform";
     unsigned    length = 0, chunk = 0, modes = 0;
-    bool        restart = false, quiet = false, allow_large = false, every_mode_every_step = false;
+    bool        restart = false, quiet = false, allow_large = false, every_mode_every_step = false,
+                modal_only = false;
   };
 
   std::optional<bool>
@@ -262,6 +264,7 @@ namespace
     o.restart          = a.restart;
     o.allow_large      = a.allow_large;
     o.every_mode_every_step = a.every_mode_every_step;
+    o.modal_only       = a.modal_only;
     o.free_route       = a.free_route == "rigid_fit" ? irdm::fem::FreeBodyRoute::rigid_fit
                                                      : irdm::fem::FreeBodyRoute::modal;
     o.fit_weights      = a.fit_weights == "mass" ? irdm::fem::RigidFitWeights::mass
@@ -276,13 +279,16 @@ namespace
                   r.n_modes - r.n_lowest, r.static_in_modes_mean, r.static_in_modes_min,
                   r.static_basis_error_max);
     if (mpi_rank() == 0)
-      std::printf("model %s: %u outputs x %u inputs x %u samples, %.1f MB (%s), %d rank(s); "
+      std::printf("model %s: %u outputs x %u inputs x %u samples, %s, %d rank(s); "
                   "%u free DoFs, %s route, %u modes\n"
                   "time: total %.2f s = FEM %.2f + modes %.2f + responses %.2f + write %.2f "
                   "(+ other)\nenergy left after T: mean %.3g, max %.3g; static compliance beyond T: "
                   "mean %.3g, max %.3g\n",
-                  o.output.c_str(), r.n_outputs, r.n_inputs, r.length, r.bytes / 1e6,
-                  r.double_storage ? "double" : "float", r.ranks, r.n_free,
+                  o.output.c_str(), r.n_outputs, r.n_inputs, r.length,
+                  r.modal_only ? "modal realization only (no H)"
+                               : (irdm::fmt(r.bytes / 1e6, "%.1f") + " MB of H (" +
+                                  (r.double_storage ? "double" : "float") + ")").c_str(),
+                  r.ranks, r.n_free,
                   r.sparse ? "sparse" : "dense", r.n_modes, r.seconds_total,
                   r.seconds_fem, r.seconds_eigen, r.seconds_responses, r.seconds_write,
                   r.energy_left_mean, r.energy_left_max, r.static_left_mean, r.static_left_max);
@@ -546,6 +552,10 @@ namespace
                          "sum every mode at every step (default: a mode is left out once its "
                          "terms stay below a tenth of the storage's round-off of the largest "
                          "response; see the file's /impulse_response/H attributes)");
+    precompute->add_flag("--modal-only", pre.modal_only,
+                         "write the modal realization (/modes) without H (format version 3): "
+                         "for models whose H would not fit (inputs x T x outputs); only the "
+                         "modal runtime reads it (irdm play, validate-converged)");
     precompute->add_flag("--quiet", pre.quiet, "no progress on stderr");
 
     // precompute-vdof

@@ -355,7 +355,7 @@ namespace irdm::play
 
     if (!o.quiet)
       out << "loading " << o.model << "\n" << std::flush;
-    const ImpulseResponseModel model = load_model(o.model);
+    const ImpulseResponseModel model = load_model(o.model, {}, ModelParts::modal_realization);
     ModalModelOptions          mo;
     mo.surface_modes = std::min<unsigned>(o.surface_modes, std::max(1u, model.modes.n_modes));
     mo.force_modes   = o.force_modes == 0 ? 0 : std::max(o.force_modes, mo.surface_modes);

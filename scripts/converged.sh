@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The validation scenes on a converged discretization (reports/converged/): press, tap,
-# tap_coupled and squeeze with a 2 cm contact-radius probe, on the coarse P1 cat and on the
+# tap_coupled, squeeze and trace with a 2 cm contact-radius probe, on the coarse P1 cat and on the
 # P1 cat of lc 3.4 mm (81351 free DoFs; its probe stiffness within 5 % of the extrapolated
 # value of reports/convergence/), through the FEM and IRDM on each: method error and
 # discretization error apart (irdm validate-converged --help).

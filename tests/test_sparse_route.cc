@@ -1,5 +1,7 @@
 // The sparse modal route of the precompute (the lowest modes by block Lanczos plus residual modes of
 // the inputs), against the dense route's all-modes model on the small beam, where both exist.
+#include <irdm/modal_model.h>
+#include <irdm_common/error.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 
@@ -12,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 
 using namespace irdm_test;
 
@@ -254,4 +257,93 @@ TEST(InputSample, EveryKthInputPlusTheKeptRegionWithTheFullModelsResponses)
           }
     }
   EXPECT_LT(worst, 1e-12 * scale);
+}
+
+// A model written without H (--modal-only, format version 3): only the modal runtime reads it,
+// from the modes alone; its feed-through and static correction equal those make_modal_model
+// takes from the stored H (the sparse route, fixed beam; and a free body's rigid-fit route,
+// whose load shapes differ from its response shapes).
+TEST(ModalOnly, TheModalModelFromTheModesAloneEqualsTheOneFromH)
+{
+  struct Case
+  {
+    std::string            name;
+    fem::Scene             scene;
+    fem::PrecomputeOptions options;
+  };
+  std::vector<Case> cases(2);
+  cases[0].name          = "sparse_fixed";
+  cases[0].scene         = fem::parse_scene(beam_scene(""), ".");
+  cases[0].options.modes = 50;
+  cases[1].name          = "rigid_fit_free";
+  cases[1].scene         = fem::parse_scene(beam_scene(""), ".");
+  cases[1].scene.fixed_surfaces.clear();
+  cases[1].options.length     = 60;
+  cases[1].options.free_route = fem::FreeBodyRoute::rigid_fit;
+  for (auto &c : cases)
+    {
+      SCOPED_TRACE(c.name);
+      fem::PrecomputeOptions o = c.options;
+      o.restart                = true;
+      o.output                 = tmp("modal_only_ref_" + c.name + ".h5");
+      fem::precompute_impulse_responses(c.scene, o);
+      const ImpulseResponseModel with_h = load_model(o.output, c.scene.time_step);
+      o.output     = tmp("modal_only_" + c.name + ".h5");
+      o.modal_only = true;
+      const auto rep = fem::precompute_impulse_responses(c.scene, o);
+      EXPECT_TRUE(rep.modal_only);
+      EXPECT_EQ(rep.bytes, 0);
+      {
+        const h5::Reader r(o.output);
+        EXPECT_FALSE(r.exists("/impulse_response/H"));
+        EXPECT_EQ(r.double_attribute("/", "format_version"), 3);
+      }
+      EXPECT_LT(fs::file_size(o.output), fs::file_size(tmp("modal_only_ref_" + c.name + ".h5")) / 2);
+      // A use that needs H refuses the file, naming why.
+      try
+        {
+          load_model(o.output, c.scene.time_step);
+          ADD_FAILURE() << "a modal-only model loaded as if it held H";
+        }
+      catch (const InputError &e)
+        {
+          EXPECT_NE(std::string(e.what()).find("--modal-only"), std::string::npos) << e.what();
+        }
+      const ImpulseResponseModel modes_only =
+        load_model(o.output, c.scene.time_step, ModelParts::modal_realization);
+      EXPECT_TRUE(modes_only.modal_only);
+      EXPECT_TRUE(modes_only.h_double.empty() && modes_only.h_float.empty());
+      ASSERT_EQ(modes_only.modes.n_modes, with_h.modes.n_modes);
+      const unsigned N = with_h.modes.n_modes;
+      // Every mode in the force loop, and the lowest 40 with the rest quasi-static.
+      for (const unsigned force_modes : {0u, 40u})
+        {
+          const ModalModelOptions mo{20, force_modes};
+          const ModalModel        a = make_modal_model(with_h, mo), b = make_modal_model(modes_only, mo);
+          ASSERT_EQ(a.h0_inputs.size(), b.h0_inputs.size());
+          ASSERT_EQ(a.residual.size(), b.residual.size());
+          double h0_scale = 0, h0_diff = 0, e_scale = 0, e_diff = 0;
+          for (size_t i = 0; i < a.h0_inputs.size(); ++i)
+            {
+              h0_scale = std::max(h0_scale, std::abs(a.h0_inputs[i]));
+              h0_diff  = std::max(h0_diff, std::abs(a.h0_inputs[i] - b.h0_inputs[i]));
+            }
+          for (size_t i = 0; i < a.residual.size(); ++i)
+            {
+              e_scale = std::max(e_scale, std::abs(double(a.residual[i])));
+              e_diff  = std::max(e_diff, std::abs(double(a.residual[i]) - b.residual[i]));
+            }
+          std::printf("%s, %u modes, force loop %u: feed-through differs by %.2e, static "
+                      "correction by %.2e of its largest entry\n",
+                      c.name.c_str(), N, force_modes == 0 ? N : force_modes, h0_diff / h0_scale,
+                      e_diff / e_scale);
+          // H in double is the modal sum to a tenth of its round-off (the precompute's live
+          // modes): the feed-through agrees to round-off; E is stored in float.
+          EXPECT_LT(h0_diff, 1e-12 * h0_scale);
+          EXPECT_GT(e_scale, 0);
+          EXPECT_LT(e_diff, 1e-6 * e_scale);
+          EXPECT_EQ(a.input_shapes, b.input_shapes);
+          EXPECT_EQ(a.shapes, b.shapes);
+        }
+    }
 }

@@ -70,10 +70,26 @@ namespace irdm
           std::copy_n(&md.load_shapes[static_cast<size_t>(output_of(k)) * N], N,
                       &out.input_load_shapes[static_cast<size_t>(k) * N]);
       }
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const std::vector<double> &input_load =
+      out.input_load_shapes.empty() ? out.input_shapes : out.input_load_shapes;
+    const Eigen::Map<const RowMajor> phi_in(out.input_shapes.data(), nin, N),
+      load_in(input_load.data(), nin, N);
     out.h0_inputs.resize(static_cast<size_t>(nin) * nin);
-    for (unsigned k = 0; k < nin; ++k)
-      for (unsigned i = 0; i < nin; ++i)
-        out.h0_inputs[static_cast<size_t>(i) * nin + k] = m.h(k, 0, output_of(i));
+    if (m.modal_only)
+      {
+        // H[0] = Phi_in diag(q[0]) L_in^T, q_i[0] the mode's displacement after one unit
+        // force sample from rest: the step's b_new for u (entry [0][3]).
+        Eigen::VectorXd q0(N);
+        for (unsigned i = 0; i < N; ++i)
+          q0[i] = md.step[15 * static_cast<size_t>(i) + 3];
+        Eigen::Map<RowMajor>(out.h0_inputs.data(), nin, nin).noalias() =
+          phi_in * q0.asDiagonal() * load_in.transpose();
+      }
+    else
+      for (unsigned k = 0; k < nin; ++k)
+        for (unsigned i = 0; i < nin; ++i)
+          out.h0_inputs[static_cast<size_t>(i) * nin + k] = m.h(k, 0, output_of(i));
     // A force loop with K < N modes: the modes beyond K respond quasi-statically to this
     // step's force (mode-acceleration method), so the feed-through trades their one-step
     // response q_i[0] for their static compliance 1 / omega_i^2 (M-orthonormal shapes):
@@ -82,7 +98,6 @@ namespace irdm
     // the body's full static compliance.
     if (force_modes < N)
       {
-        using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
         const unsigned  D = N - force_modes;
         Eigen::VectorXd c(D);
         for (unsigned i = 0; i < D; ++i)
@@ -93,18 +108,17 @@ namespace irdm
                                " has no positive frequency; keep every mode in the force loop");
             c[i] = 1 / out.w2[mode] - md.step[15 * static_cast<size_t>(mode) + 3];
           }
-        const Eigen::Map<const RowMajor> phi(out.input_shapes.data(), nin, N);
-        const Eigen::Map<const RowMajor> load(
-          out.input_load_shapes.empty() ? out.input_shapes.data() : out.input_load_shapes.data(), nin, N);
         // h0_inputs[i][k]: to the output of input i (phi) from input DoF k (its load shape).
-        const RowMajor dropped_load = load.rightCols(D), dropped_phi = phi.rightCols(D);
+        const RowMajor dropped_load = load_in.rightCols(D), dropped_phi = phi_in.rightCols(D);
         Eigen::Map<RowMajor>(out.h0_inputs.data(), nin, nin).noalias() +=
           dropped_phi * c.asDiagonal() * dropped_load.transpose();
       }
 
-    // Static gain of each surface mode over the model's length: sum_{s<T} q_i[s].
-    std::vector<double> gain(M, 0.0);
-    for (unsigned i = 0; i < M; ++i)
+    // Static gain of each mode over the model's length: sum_{s<T} q_i[s] (the surface modes';
+    // every mode's when H is not stored, to sum H from the modes).
+    const unsigned      n_gain = m.modal_only ? N : M;
+    std::vector<double> gain(n_gain, 0.0);
+    for (unsigned i = 0; i < n_gain; ++i)
       {
         const double *A = &out.step[15 * i];
         double        x[3] = {0, 0, 0}, f_old = 0;
@@ -121,6 +135,33 @@ namespace irdm
     // E = sum_s H[s] - Phi_M diag(gain) Phi_M(inputs)^T (the load shapes on the right when
     // they differ).
     out.residual.resize(static_cast<size_t>(nin) * nout);
+    if (m.modal_only)
+      {
+        // sum_s H[s] = Phi_out diag(gain) L_in^T over every mode, less the surface modes'
+        // share through their rounded shapes (as below): E^T = Phi_out diag(gain) L_in^T -
+        // Phi~_M diag(gain_M) L_in,M^T, in blocks of outputs so that no nout x nin double
+        // matrix is held (7 GB at 30000 DoFs each way).
+        const Eigen::Map<const RowMajor> phi_out(md.shapes.data(), nout, N);
+        const Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+                        phi_m(out.shapes.data(), nout, M);
+        const Eigen::Map<const Eigen::VectorXd> g(gain.data(), N);
+        const RowMajor  weighted   = load_in * g.asDiagonal();           // nin x N
+        const RowMajor  weighted_m = weighted.leftCols(M);
+        constexpr unsigned block   = 256;
+        for (unsigned j0 = 0; j0 < nout; j0 += block)
+          {
+            const unsigned nj = std::min(block, nout - j0);
+            // [input][output] for outputs j0 .. j0 + nj.
+            const RowMajor e = weighted * phi_out.middleRows(j0, nj).transpose() -
+                               weighted_m * phi_m.middleRows(j0, nj).cast<double>().transpose();
+            for (unsigned k = 0; k < nin; ++k)
+              for (unsigned j = 0; j < nj; ++j)
+                out.residual[static_cast<size_t>(k) * nout + j0 + j] = static_cast<float>(e(k, j));
+          }
+        out.build_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        return out;
+      }
     std::vector<double> h(nout), w(M);
     for (unsigned k = 0; k < nin; ++k)
       {

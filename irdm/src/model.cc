@@ -181,25 +181,11 @@ namespace irdm
                        "precompute again to finish it");
   }
 
-  ImpulseResponseModel
-  load_model(const std::string &path, const std::optional<double> expected_time_step)
+  template <class Fail>
+  void
+  read_impulse_response(const h5::Reader &r, const std::string &path, ImpulseResponseModel &m,
+                        const Fail &fail)
   {
-    h5::Reader r(path);
-    const auto fail = [&](const std::string &what) -> void {
-      throw InputError("model '" + path + "': " + what);
-    };
-    if (!r.has_attribute("/", "format") ||
-        r.string_attribute("/", "format") != "irdm-impulse-response")
-      fail("not an IRDM impulse-response model (attribute 'format' is missing or different)");
-    const double version = r.double_attribute("/", "format_version");
-    // Version 2 added free bodies (attribute body, group /rigid_body); version 1 files are
-    // fixed bodies and read unchanged.
-    if (version != 1 && version != 2)
-      fail("format version " + std::to_string(version) +
-           " is not supported (this build reads 1 and 2)");
-    check_complete(r, path);
-    ImpulseResponseModel m;
-    read_frame(r, path, m, expected_time_step);
     if (!r.exists("/impulse_response/H"))
       fail("missing dataset '/impulse_response/H'");
     const std::vector<hsize_t> hs = {m.n_inputs, m.length, m.n_outputs};
@@ -226,6 +212,41 @@ namespace irdm
       }
     if (!finite)
       fail("impulse_response/H contains NaN or Inf");
+  }
+
+  ImpulseResponseModel
+  load_model(const std::string &path, const std::optional<double> expected_time_step,
+             const ModelParts parts)
+  {
+    h5::Reader r(path);
+    const auto fail = [&](const std::string &what) -> void {
+      throw InputError("model '" + path + "': " + what);
+    };
+    if (!r.has_attribute("/", "format") ||
+        r.string_attribute("/", "format") != "irdm-impulse-response")
+      fail("not an IRDM impulse-response model (attribute 'format' is missing or different)");
+    const double version = r.double_attribute("/", "format_version");
+    // Version 2 added free bodies (attribute body, group /rigid_body); version 1 files are
+    // fixed bodies and read unchanged. Version 3: the modal realization without H
+    // (precompute --modal-only).
+    if (version != 1 && version != 2 && version != 3)
+      fail("format version " + std::to_string(version) +
+           " is not supported (this build reads 1, 2 and 3)");
+    check_complete(r, path);
+    ImpulseResponseModel m;
+    read_frame(r, path, m, expected_time_step);
+    m.modal_only = version == 3;
+    if (m.modal_only)
+      {
+        if (parts == ModelParts::impulse_response)
+          fail("holds only its modal realization, not H (precomputed with --modal-only): "
+               "this use needs H; precompute it again without --modal-only, or run it through "
+               "the modal runtime");
+        if (!r.exists("/modes/shapes") || !r.exists("/modes/step"))
+          fail("format version 3 (the modal realization only) but /modes is missing");
+      }
+    else
+      read_impulse_response(r, path, m, fail);
     if (r.exists("/modes/shapes") && r.exists("/modes/step"))
       {
         const auto shape = r.shape("/modes/shapes");

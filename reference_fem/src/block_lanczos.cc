@@ -25,29 +25,6 @@ namespace irdm::fem
 {
   namespace
   {
-    // The eigenvalues (ascending, into w) and eigenvectors (over A) of the symmetric A by
-    // LAPACK's divide and conquer (the Ritz problem, each block: Eigen's QR iteration took
-    // 10 % of the eigensolver on cat_fine P2).
-    void
-    symmetric_eigen(Eigen::MatrixXd &A, Eigen::VectorXd &w)
-    {
-      const int n = static_cast<int>(A.rows());
-      w.resize(n);
-      int    info = 0, lwork = -1, liwork = -1, iwork_size = 0;
-      double work_size = 0;
-      dsyevd_("V", "L", &n, A.data(), &n, w.data(), &work_size, &lwork, &iwork_size, &liwork,
-              &info);
-      lwork  = static_cast<int>(work_size);
-      liwork = iwork_size;
-      std::vector<double> work(static_cast<size_t>(lwork));
-      std::vector<int>    iwork(static_cast<size_t>(liwork));
-      dsyevd_("V", "L", &n, A.data(), &n, w.data(), work.data(), &lwork, iwork.data(), &liwork,
-              &info);
-      if (info != 0)
-        throw std::runtime_error("block Lanczos: dsyevd failed (info " + std::to_string(info) +
-                                 ")");
-    }
-
     // The eigenvalues (ascending) and eigenvectors of the Gram matrix V^T M V.
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>
     gram_eigen(const Eigen::MatrixXd &V, const Eigen::MatrixXd &MV)

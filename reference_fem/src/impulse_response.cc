@@ -683,7 +683,8 @@ namespace irdm::fem
              : static_cast<unsigned>(std::clamp<size_t>(64000000 / (per_input * scalar), 1, 256)));
     const unsigned n_chunks = (nin + chunk - 1) / chunk;
     rep.n_chunks = n_chunks;
-    rep.bytes    = static_cast<double>(per_input) * nin * scalar;
+    rep.modal_only = options.modal_only;
+    rep.bytes      = options.modal_only ? 0.0 : static_cast<double>(per_input) * nin * scalar;
     // Reciprocity (Maxwell-Betti): with the same vertices in and out, in the same order,
     // H[s] = Phi diag(h[s]) Phi^T is symmetric. Each chunk then computes only the outputs from
     // its own first input on (half the GEMM) and takes the outputs before it from the chunks
@@ -694,9 +695,11 @@ namespace irdm::fem
       // Before the long part: the chunk buffers (two sets on one rank: one computing, one
       // writing) and GEMM operands of every worker, the blocks reciprocity keeps, and the file.
       const double workers_max = size == 1 ? 2 * 4 : 1;
-      const double buffers     = workers_max * chunk * (per_input + static_cast<double>(T) * nm) *
-                                 (scalar + 8) +
-                             (symmetric && rank == 0 ? rep.bytes / 4 : 0);
+      const double buffers     = options.modal_only
+                                   ? 0.0
+                                   : workers_max * chunk * (per_input + static_cast<double>(T) * nm) *
+                                         (scalar + 8) +
+                                       (symmetric && rank == 0 ? rep.bytes / 4 : 0);
       check_memory_estimate("precompute (--chunk " + std::to_string(chunk) + ")", buffers,
                             options.allow_large);
       if (rank == 0)
@@ -716,6 +719,8 @@ namespace irdm::fem
       spec << " modes " << n_lowest;
     if (rigid_fit)
       spec << " rigid_fit " << static_cast<int>(options.fit_weights);
+    if (options.modal_only)
+      spec << " modal_only";
     spec << " live " << live.tolerance;
     spec << " in";
     for (const unsigned v : in_v)
@@ -759,7 +764,9 @@ namespace irdm::fem
             {
               auto &f = *w;
               f.attribute("/", "format", std::string("irdm-impulse-response"));
-              f.attribute("/", "format_version", 2LL);
+              // Version 3: H not stored (modal_only); a build that reads only 1 and 2 then
+              // refuses the file by its version rather than by a missing dataset.
+              f.attribute("/", "format_version", options.modal_only ? 3LL : 2LL);
               write_provenance(f, scene, coef);
               f.attribute("/", "spec_id", spec_id);
               f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; H in m/N"));
@@ -882,21 +889,31 @@ namespace irdm::fem
                 }
               f.write("/modes/step", {nm, 3, 5}, steps.data());
 
-
-              f.create_group("/impulse_response");
-              f.create_dataset("/impulse_response/H", {nin, T, nout}, rep.double_storage, 1, true);
-              f.attribute("/impulse_response/H", "layout",
-                          std::string("[input DoF][step s][output DoF]; DoF = 3 * vertex + axis"));
-              f.attribute("/impulse_response/H", "modes_left_out_below_m_per_N", live.tolerance);
-              f.attribute("/impulse_response/H", "modes_left_out",
-                          std::string("each mode is summed up to its last step whose term can "
-                                      "exceed modes_left_out_below_m_per_N / modes_kept in any "
-                                      "entry; what is left out of an entry is at most "
-                                      "modes_left_out_below_m_per_N (a tenth of the storage's "
-                                      "unit round-off times the largest driving-point response)"));
-              f.create_group("/progress");
-              f.write("/progress/chunk_done", {n_chunks}, done.data());
-              f.flush();
+              if (options.modal_only)
+                {
+                  f.attribute("/", "impulse_response",
+                              std::string("modal realization only: /impulse_response/H is not "
+                                          "stored; H[s] = shapes diag(q[s]) shapes(inputs)^T "
+                                          "with q from /modes/step"));
+                  f.flush();
+                }
+              else
+                {
+                  f.create_group("/impulse_response");
+                  f.create_dataset("/impulse_response/H", {nin, T, nout}, rep.double_storage, 1, true);
+                  f.attribute("/impulse_response/H", "layout",
+                              std::string("[input DoF][step s][output DoF]; DoF = 3 * vertex + axis"));
+                  f.attribute("/impulse_response/H", "modes_left_out_below_m_per_N", live.tolerance);
+                  f.attribute("/impulse_response/H", "modes_left_out",
+                              std::string("each mode is summed up to its last step whose term can "
+                                          "exceed modes_left_out_below_m_per_N / modes_kept in any "
+                                          "entry; what is left out of an entry is at most "
+                                          "modes_left_out_below_m_per_N (a tenth of the storage's "
+                                          "unit round-off times the largest driving-point response)"));
+                  f.create_group("/progress");
+                  f.write("/progress/chunk_done", {n_chunks}, done.data());
+                  f.flush();
+                }
             }
           }
       }
@@ -1101,7 +1118,9 @@ namespace irdm::fem
           }
       return compute_seconds;
     };
-    double compute_seconds = rep.double_storage ? run_chunks(0.0) : run_chunks(0.0f);
+    double compute_seconds = options.modal_only      ? 0.0
+                             : rep.double_storage ? run_chunks(0.0)
+                                                  : run_chunks(0.0f);
     if (openblas_set_num_threads)
       openblas_set_num_threads(blas_threads);
     MPI_Allreduce(MPI_IN_PLACE, &compute_seconds, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
@@ -1113,12 +1132,15 @@ namespace irdm::fem
         const double direct_mb = w->bytes_written_directly() / 1e6;
         w->commit();
         write_seconds += since(tw);
-        log("H: " + std::to_string(static_cast<long long>(direct_mb)) +
-            " MB written past the page cache (O_DIRECT), the rest through HDF5");
+        if (!options.modal_only)
+          log("H: " + std::to_string(static_cast<long long>(direct_mb)) +
+              " MB written past the page cache (O_DIRECT), the rest through HDF5");
       }
     rep.seconds_write = write_seconds;
     rep.seconds_total = since(t_start);
-    log("wrote " + options.output + " (" + std::to_string(rep.bytes / 1e6) + " MB of H) in " +
+    log("wrote " + options.output + " (" +
+        (options.modal_only ? std::string("the modal realization only, no H")
+                            : std::to_string(rep.bytes / 1e6) + " MB of H") + ") in " +
         std::to_string(rep.seconds_total) + " s");
     return rep;
   }

@@ -291,19 +291,38 @@ namespace irdm::fem
     const size_t n_aug = step_shift > 0 ? 2 * nc : nc; // residual vectors
     // The basis limit: 4 vectors per mode sufficed on cat_fine and cat_xfine P2 (800 for 200).
     const size_t lanczos_basis = std::min<size_t>(nn, 6 * n_eigen + 4 * lanczos_block);
+    // The Lanczos basis (and M times it) is freed before the residual vectors are made; those
+    // peak at about 3 n_aug vectors (the static ones and their M products, with the one-step
+    // ones' basis being made: measured 2026-11-25 on the trace region of the 81351-DoF cat).
     check_memory_estimate("the sparse modal route's vectors",
-                          8.0 * nn * (2.0 * lanczos_basis + 2.0 * n_eigen + 3.0 * n_aug), false);
+                          8.0 * nn * (std::max(2.0 * lanczos_basis, 3.0 * n_aug) + 2.0 * n_eigen),
+                          false);
     // A V for all columns of V at once: PETSc's sparse x dense product reads A once per few
     // columns, where one MatMult per column reads it once per column (both bound by memory).
-    const auto apply = [&](const Mat A, const Eigen::MatrixXd &V) {
+    const auto apply = [&](const Mat A, const ConstBlock &V) {
       const PetscInt nb = static_cast<PetscInt>(V.cols());
       if (nb == 0)
         return Eigen::MatrixXd(n, 0);
+      if (V.outerStride() != n)
+        throw std::logic_error("apply: the columns must be contiguous");
       OwnedMat v, av; // v wraps V's storage (column-major, leading dimension n): A V reads it
       check(MatCreateSeqDense(PETSC_COMM_SELF, n, nb, const_cast<PetscScalar *>(V.data()), &v.h),
             "MatCreateSeqDense");
       check(MatMatMult(A, v, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &av.h), "MatMatMult");
       return columns_of(av, n, nb);
+    };
+    // The same for many columns, a block at a time into one result: a single product would
+    // hold PETSc's result and its copy at once (two n x columns matrices: 3.9 GB each for
+    // the 5988 residual vectors of the trace region on the 81351-DoF cat).
+    constexpr Eigen::Index column_block = 256;
+    const auto             apply_blocked = [&](const Mat A, const Eigen::MatrixXd &V) {
+      Eigen::MatrixXd AV(n, V.cols());
+      for (Eigen::Index c0 = 0; c0 < V.cols(); c0 += column_block)
+        {
+          const Eigen::Index nb = std::min(column_block, V.cols() - c0);
+          AV.middleCols(c0, nb) = apply(A, V.middleCols(c0, nb));
+        }
+      return AV;
     };
 
     // The lowest modes: block Lanczos on S = (K + eps M)^-1 M (K^-1 M for a grounded body),
@@ -448,27 +467,31 @@ namespace irdm::fem
         W = off_rigid(W);
         subtract_product(prior.V, product(prior.MV, true, W), W);
       };
-      const Eigen::MatrixXd mv = apply(M, V);
-      for (Eigen::Index j = 0; j < V.cols(); ++j)
-        V.col(j) /= std::sqrt(V.col(j).dot(mv.col(j)));
+      for (Eigen::Index c0 = 0; c0 < V.cols(); c0 += column_block)
+        {
+          const Eigen::Index    nb = std::min(column_block, V.cols() - c0);
+          const Eigen::MatrixXd mv = apply(M, V.middleCols(c0, nb));
+          for (Eigen::Index j = 0; j < nb; ++j)
+            V.col(c0 + j) /= std::sqrt(V.col(c0 + j).dot(mv.col(j)));
+        }
       MassBasis out;
       for (int pass = 0; pass < 2; ++pass)
         {
           for (int twice = 0; twice < 2; ++twice)
             project_off(V);
-          const Eigen::MatrixXd MV = apply(M, V);
-          Eigen::MatrixXd       Mr = product(V, true, MV);
+          Eigen::MatrixXd MV = apply_blocked(M, V);
+          Eigen::MatrixXd Mr = product(V, true, MV);
           Mr = 0.5 * (Mr + Mr.transpose()).eval();
-          Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> mass_eigen(Mr);
-          const double    d_max = mass_eigen.eigenvalues().maxCoeff();
-          Eigen::MatrixXd B(V.cols(), 0);
+          Eigen::VectorXd d; // Mr's eigenvalues; Mr then holds its eigenvectors
+          symmetric_eigen(Mr, d);
+          const double              d_max = d.maxCoeff();
+          std::vector<Eigen::Index> kept;
           for (Eigen::Index j = 0; j < V.cols(); ++j)
-            if (mass_eigen.eigenvalues()(j) > (pass == 0 ? 1e-12 * d_max : 0.5))
-              {
-                B.conservativeResize(Eigen::NoChange, B.cols() + 1);
-                B.col(B.cols() - 1) =
-                  mass_eigen.eigenvectors().col(j) / std::sqrt(mass_eigen.eigenvalues()(j));
-              }
+            if (d(j) > (pass == 0 ? 1e-12 * d_max : 0.5))
+              kept.push_back(j);
+          Eigen::MatrixXd B(V.cols(), static_cast<Eigen::Index>(kept.size()));
+          for (size_t c = 0; c < kept.size(); ++c)
+            B.col(static_cast<Eigen::Index>(c)) = Mr.col(kept[c]) / std::sqrt(d(kept[c]));
           V      = product(V, false, B);
           out.MV = product(MV, false, B);
         }
@@ -477,7 +500,9 @@ namespace irdm::fem
     };
     // Residual vectors (modal truncation augmentation): first what the static responses add
     // to the lowest modes, then what the one-step responses add to both.
-    MassBasis psi = m_orthonormal(X, MassBasis{Eigen::MatrixXd(n, 0), Eigen::MatrixXd(n, 0)});
+    // X is not needed past here (its rows are in out.compliance): moved, not copied.
+    MassBasis psi =
+      m_orthonormal(std::move(X), MassBasis{Eigen::MatrixXd(n, 0), Eigen::MatrixXd(n, 0)});
     if (step_shift > 0)
       {
         // One-step responses (K + sigma M)^-1 E_columns: a step of the FEM's integrator solves
@@ -495,14 +520,20 @@ namespace irdm::fem
           A.rightCols(B.cols()) = B;
         };
         extend(psi.V, step_basis.V);
-        extend(psi.MV, step_basis.MV);
       }
+    psi.MV = Eigen::MatrixXd(); // the Rayleigh-Ritz below needs K psi, not M psi
     // Rayleigh-Ritz on span(psi) (M-orthonormal): Kr y = w2 y gives the residual modes psi y,
     // K- and M-orthogonal to each other and to the lowest modes.
-    Eigen::MatrixXd Kr = product(psi.V, true, apply(K, psi.V));
+    Eigen::MatrixXd Kr(psi.V.cols(), psi.V.cols());
+    for (Eigen::Index c0 = 0; c0 < psi.V.cols(); c0 += column_block)
+      {
+        const Eigen::Index nb = std::min(column_block, psi.V.cols() - c0);
+        Kr.middleCols(c0, nb) = product(psi.V, true, apply(K, psi.V.middleCols(c0, nb)));
+      }
     Kr = 0.5 * (Kr + Kr.transpose()).eval();
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> ritz(Kr);
-    const Eigen::MatrixXd Y = ritz.eigenvectors();
+    Eigen::VectorXd ritz_w2; // Kr's eigenvalues; Kr then holds its eigenvectors
+    symmetric_eigen(Kr, ritz_w2);
+    const Eigen::MatrixXd Y = std::move(Kr);
     const unsigned        nr = static_cast<unsigned>(Y.cols());
     const unsigned        total = count + nr;
     out.w2 = w2;
@@ -518,9 +549,9 @@ namespace irdm::fem
     const Eigen::MatrixXd residual_rows = psi_rows * Y;
     for (unsigned i = 0; i < nr; ++i)
       {
-        if (!(ritz.eigenvalues()(i) > 0))
+        if (!(ritz_w2(i) > 0))
           throw std::runtime_error("a residual mode has a non-positive eigenvalue");
-        out.w2[count + i] = ritz.eigenvalues()(i);
+        out.w2[count + i] = ritz_w2(i);
         for (size_t r = 0; r < rows.size(); ++r)
           out.shapes[r * total + count + i] = residual_rows(r, i);
       }

@@ -44,6 +44,31 @@ namespace irdm::validation
       return longest;
     }
 
+    // Balls that hold every point within `radius` of a path (straight between its points):
+    // centres every radius / 4 along it, each of radius `radius` + half that spacing +
+    // `margin`. A path of one point gives one ball of radius + margin.
+    std::vector<std::pair<Vec3, double>>
+    balls_along(const std::vector<Vec3> &path, const double radius, const double margin)
+    {
+      std::vector<std::pair<Vec3, double>> balls;
+      if (path.size() == 1)
+        balls.push_back({path[0], radius + margin});
+      for (size_t i = 0; i + 1 < path.size(); ++i)
+        {
+          const Vec3   &a = path[i], &b = path[i + 1];
+          const double  length = norm({b[0] - a[0], b[1] - a[1], b[2] - a[2]});
+          const int     n      = std::max(1, static_cast<int>(std::ceil(length / (radius / 4))));
+          for (int k = 0; k <= n; ++k)
+            {
+              const double t = static_cast<double>(k) / n;
+              balls.push_back({{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]),
+                                a[2] + t * (b[2] - a[2])},
+                               radius + length / n / 2 + margin});
+            }
+        }
+      return balls;
+    }
+
     struct Discretization
     {
       std::string label; // "coarse" (the scene's own) or "converged"
@@ -126,8 +151,9 @@ namespace irdm::validation
       fem::Scene scene = base;
       scene.mesh_file  = d.mesh_file;
       scene.fe_degree  = d.degree;
-      // The model's region: the scene's balls widened so that every probe's patch and the
-      // triangles around it are inside; inputs = outputs (H symmetric, small).
+      // The model's region: the scene's balls widened, and balls along every probe's path, so
+      // that each patch the probe touches and the triangles around it are inside; inputs =
+      // outputs.
       if (!scene.model.inputs || scene.model.inputs->balls.empty())
         throw InputError("scene '" + base.name + "': validate-converged needs model.inputs.within "
                          "(balls around the probes): a model of every surface vertex of a "
@@ -135,6 +161,9 @@ namespace irdm::validation
       const double margin = longest_boundary_edge(d.mesh_file);
       for (auto &b : scene.model.inputs->balls)
         b.second = std::max(b.second, o.probe_radius) + margin;
+      for (const auto &p : scene.probes)
+        for (const auto &b : balls_along(p.path.values, p.radius, margin))
+          scene.model.inputs->balls.push_back(b);
       scene.model.outputs = scene.model.inputs;
 
       const unsigned N = scene.n_steps();
@@ -172,7 +201,12 @@ namespace irdm::validation
           const bool coarse = d.label == "coarse";
           po.double_storage = coarse;
           if (!coarse)
-            po.modes = o.modes;
+            {
+              po.modes = o.modes;
+              // The modal runtime alone runs it: H (inputs x T x outputs, 15 GB for trace's
+              // region) is not written.
+              po.modal_only = true;
+            }
           po.log = [&log](const std::string &line) { log << "    " << line << std::endl; };
           const auto pre = fem::precompute_impulse_responses(scene, po);
           models[key]    = {po.output, pre.n_modes, pre.n_lowest, pre.sparse, pre.seconds_total};
@@ -186,7 +220,8 @@ namespace irdm::validation
       r.lowest              = cm.lowest;
       r.sparse              = cm.sparse;
       {
-        const ImpulseResponseModel model = load_model(cm.path, scene.time_step);
+        const ImpulseResponseModel model =
+          load_model(cm.path, scene.time_step, ModelParts::modal_realization);
         r.model_inputs                   = model.n_inputs;
         log << "    FEM run (" << N << " steps)" << std::endl;
         r.fem = run_fem(scene, model, 1, N);
@@ -341,14 +376,15 @@ namespace irdm::validation
        << fs::path(converged.mesh_file).filename().string() << "` P" << converged.degree
        << ". Each runs through the linear FEM (ground truth of that discretization) and through "
           "IRDM from a model of that discretization "
-          "(inputs = outputs = the surface vertices around the probes; one model per body and "
-          "region, T = the longest scene's steps; run by its modal realization with every mode, "
-          "irdm/modal_model.h). The coarse model keeps "
+          "(inputs = outputs = the surface vertices around the probes and along their paths; "
+          "one model per body and region, T = the longest scene's steps; run by its modal "
+          "realization with every mode, irdm/modal_model.h). The coarse model keeps "
           "every mode (dense route, double: exact); the converged model keeps the lowest "
        << o.modes
        << " modes plus up to two residual modes per input DoF, which keep the static "
           "compliance and the feed-through H[0] at the inputs exact (sparse route, shift-invert "
-          "block Lanczos; float storage; docs/model-format.md). Time step and "
+          "block Lanczos; written as its modal realization alone, without H: `irdm precompute "
+          "--modal-only`, docs/model-format.md). Time step and "
           "material are the scene's; forces in N, SI throughout.\n\n";
     if (o.extrapolated_stiffness > 0)
       md << "Extrapolated driving-point stiffness of the first probe of scene `"

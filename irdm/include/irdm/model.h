@@ -54,10 +54,13 @@ namespace irdm
     std::vector<double> step;          // [mode][3 x 5]: [A | b_new | b_old], row-major
   };
 
-  /// The uncompressed model: H in full.
+  /// The uncompressed model: H in full, or only its modal realization (modal_only).
   struct ImpulseResponseModel : ModelFrame
   {
     ModalData modes;
+    // Format version 3 (precompute --modal-only): /modes without H, h_double and h_float
+    // empty; only make_modal_model reads such a model (from the modes alone).
+    bool modal_only = false;
 
     bool        double_storage = true; // which of h_double / h_float holds H
     std::vector<double> h_double;      // [input DoF][s][output DoF]
@@ -80,10 +83,20 @@ namespace irdm
     as_float() const;
   };
 
+  /// What a use of a model needs: H itself (the direct convolution, compression, comparisons),
+  /// or its modal realization, which a file written with --modal-only holds alone.
+  enum class ModelParts
+  {
+    impulse_response,
+    modal_realization
+  };
+
   /// Loads and checks a model file. InputError for: a missing or non-HDF5 file, an unknown
-  /// format or version, missing datasets, inconsistent shapes, NaN or Inf in H, and a time
-  /// step different from expected_time_step (relative 1e-12) when one is given.
+  /// format or version, missing datasets, inconsistent shapes, NaN or Inf in H, a time step
+  /// different from expected_time_step (relative 1e-12) when one is given, and a file without
+  /// H (format version 3) when `parts` asks for H. A file with H is read whole either way.
   ImpulseResponseModel
-  load_model(const std::string &path, std::optional<double> expected_time_step = {});
+  load_model(const std::string &path, std::optional<double> expected_time_step = {},
+             ModelParts parts = ModelParts::impulse_response);
 
 } // namespace irdm

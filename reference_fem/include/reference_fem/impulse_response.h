@@ -83,6 +83,11 @@ namespace irdm::fem
     // driving-point response over the number of modes (damping and the integrator's
     // dissipation end most modes' responses within tens of steps); the file states the bound.
     bool every_mode_every_step = false;
+    // Write the modal realization (/modes) and not H: a file of format version 3 that only
+    // the modal runtime reads (irdm::make_modal_model). For models whose H would not fit on
+    // disk or in memory (inputs x T x outputs: 15 GB for a converged trace region), while the
+    // realization is modes x (inputs + outputs).
+    bool modal_only = false;
     FreeBodyRoute   free_route  = FreeBodyRoute::modal;    // free bodies only
     RigidFitWeights fit_weights = RigidFitWeights::uniform; // rigid_fit only
     std::function<void(const std::string &)> log;      // progress lines (rank 0 only)
@@ -115,7 +120,8 @@ namespace irdm::fem
     double static_basis_error_max = 0;
     int      ranks          = 1;
     bool     double_storage = false;
-    double   bytes          = 0; // of H
+    double   bytes          = 0; // of H (0 when modal_only)
+    bool     modal_only     = false; // H not written (PrecomputeOptions::modal_only)
     double   gemm_work = 1; // the responses' GEMM over that of all modes at every step (live_modes)
     double   seconds_fem = 0, seconds_eigen = 0, seconds_responses = 0, seconds_write = 0,
            seconds_total = 0;

@@ -19,7 +19,7 @@ namespace irdm::validation
   struct ConvergedValidationOptions
   {
     std::string              scenes_dir = "validation/scenes";
-    std::vector<std::string> scenes = {"press", "tap", "tap_coupled", "squeeze"};
+    std::vector<std::string> scenes = {"press", "tap", "tap_coupled", "squeeze", "trace"};
     std::string              converged_mesh;        // gmsh file; required
     unsigned                 converged_degree = 1;  // FE degree on it
     double                   probe_radius     = 0.02; // m, the probes' contact radius
