@@ -38,7 +38,9 @@ md = [
     "",
     "Made by `scripts/scaling.sh` (the numbers below are that run's; rerun it to refresh them).",
     "The grounded cat of `validation/scenes/press.json` (E = 2 kPa, nu = 0.4, rho = 1100, "
-    "generalized-alpha, dt = 2 ms) on `cat`, `cat_fine` and `cat_xfine` (meshes/generate.sh), "
+    "generalized-alpha, dt = 2 ms) on `cat`, `cat_fine`, `cat_lc5mm` (lc 5 mm, "
+    "`meshes/generate.sh --scaling`: its P2 model is the goal's 200k-DoF point) and `cat_xfine` "
+    "(meshes/generate.sh), "
     "P1 and P2; inputs are the skin vertices within 1 cm of the press point, outputs every "
     "surface vertex, T = 200 samples in float. Dense route: all modes by LAPACK (exact). Sparse "
     "route: the lowest 200 modes by shift-invert block Lanczos plus two residual modes per input DoF, from the "
