@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # The main job: install, build, run the validation suites, write the reports.
 #
-#   scripts/main.sh          every report section, on restricted models (below): 9.9 min
-#                            (9:57 wall by /usr/bin/time, install and build checks included)
-#                            and a 3.3 GB peak on 2 cores once built (one run, 2026-11-24,
-#                            after the nonlinear FEM's cached geometry: validate 299 s, benchmarks 45,
-#                            verify-fem 68, virtual-DOF precompute 55, validate-planes 129);
+#   scripts/main.sh          every report section, on restricted models (below): 9.0 min
+#                            (9:02 wall by /usr/bin/time, install and build checks included)
+#                            and a 3.3 GB peak on 2 cores once built (one run, 2026-11-25:
+#                            validate 261 s, benchmarks 40, verify-fem 68, virtual-DOF
+#                            precompute 51, validate-planes 122);
 #                            reports in reports/quick/
 #   scripts/main.sh --full   the full study (the full cat model with the seed's Table 1 on all
 #                            1554 surface DoFs as inputs, the finest verification meshes, the
