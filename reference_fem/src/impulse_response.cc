@@ -893,8 +893,9 @@ namespace irdm::fem
                 {
                   f.attribute("/", "impulse_response",
                               std::string("modal realization only: /impulse_response/H is not "
-                                          "stored; H[s] = shapes diag(q[s]) shapes(inputs)^T "
-                                          "with q from /modes/step"));
+                                          "stored; H[s] = shapes diag(q[s]) L(inputs)^T, L the "
+                                          "load_shapes if present, else the shapes, q from "
+                                          "/modes/step"));
                   f.flush();
                 }
               else

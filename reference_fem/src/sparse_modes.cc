@@ -479,8 +479,8 @@ namespace irdm::fem
         {
           for (int twice = 0; twice < 2; ++twice)
             project_off(V);
-          Eigen::MatrixXd MV = apply_blocked(M, V);
-          Eigen::MatrixXd Mr = product(V, true, MV);
+          const Eigen::MatrixXd MV = apply_blocked(M, V);
+          Eigen::MatrixXd       Mr = product(V, true, MV);
           Mr = 0.5 * (Mr + Mr.transpose()).eval();
           Eigen::VectorXd d; // Mr's eigenvalues; Mr then holds its eigenvectors
           symmetric_eigen(Mr, d);

@@ -203,7 +203,7 @@ namespace irdm::validation
           if (!coarse)
             {
               po.modes = o.modes;
-              // The modal runtime alone runs it: H (inputs x T x outputs, 15 GB for trace's
+              // The modal runtime alone runs it: H (inputs x T x outputs, 26.9 GB for trace's
               // region) is not written.
               po.modal_only = true;
             }
