@@ -138,22 +138,25 @@ namespace irdm
     if (m.modal_only)
       {
         // sum_s H[s] = Phi_out diag(gain) L_in^T over every mode, less the surface modes'
-        // share through their rounded shapes (as below): E^T = Phi_out diag(gain) L_in^T -
-        // Phi~_M diag(gain_M) L_in,M^T, in blocks of outputs so that no nout x nin double
-        // matrix is held (7 GB at 30000 DoFs each way).
+        // share through their rounded shapes (as below). The surface modes' terms cancel but
+        // for that rounding, so E^T = Phi_out,>M diag(gain_>M) L_in,>M^T + (Phi_M - Phi~_M)
+        // diag(gain_M) L_in,M^T: each mode once, no difference of two large products. In
+        // blocks of outputs, so that no nout x nin double matrix is held (7 GB at 30000 DoFs
+        // each way).
         const Eigen::Map<const RowMajor> phi_out(md.shapes.data(), nout, N);
         const Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
                         phi_m(out.shapes.data(), nout, M);
         const Eigen::Map<const Eigen::VectorXd> g(gain.data(), N);
-        const RowMajor  weighted   = load_in * g.asDiagonal();           // nin x N
-        const RowMajor  weighted_m = weighted.leftCols(M);
-        constexpr unsigned block   = 256;
+        const RowMajor  weighted = load_in * g.asDiagonal(); // nin x N
+        constexpr unsigned block = 256;
         for (unsigned j0 = 0; j0 < nout; j0 += block)
           {
             const unsigned nj = std::min(block, nout - j0);
+            const auto     rows = phi_out.middleRows(j0, nj);
+            const RowMajor rounding = rows.leftCols(M) - phi_m.middleRows(j0, nj).cast<double>();
             // [input][output] for outputs j0 .. j0 + nj.
-            const RowMajor e = weighted * phi_out.middleRows(j0, nj).transpose() -
-                               weighted_m * phi_m.middleRows(j0, nj).cast<double>().transpose();
+            const RowMajor e = weighted.rightCols(N - M) * rows.rightCols(N - M).transpose() +
+                               weighted.leftCols(M) * rounding.transpose();
             for (unsigned k = 0; k < nin; ++k)
               for (unsigned j = 0; j < nj; ++j)
                 out.residual[static_cast<size_t>(k) * nout + j0 + j] = static_cast<float>(e(k, j));
