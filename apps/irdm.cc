@@ -152,8 +152,14 @@ namespace
                 result.setup_seconds, result.factorization_seconds, result.n_steps,
                 result.stepping_seconds, 1e3 * result.stepping_seconds / result.n_steps);
     if (scene.kinematics == irdm::fem::Kinematics::nonlinear)
-      std::printf("Newton: %u iterations, %u tangent factorizations\n",
-                  result.newton_iterations, result.tangent_factorizations);
+      {
+        std::printf("Newton: %u iterations, %u tangent factorizations\n",
+                    result.newton_iterations, result.tangent_factorizations);
+        if (result.cut_steps > 0)
+          std::printf("cut back: %u of %u steps solved again in parts (Newton failed at the "
+                      "full step), the shortest %g s\n",
+                      result.cut_steps, result.n_steps, result.smallest_step);
+      }
     for (const auto &[name, tag] : result.vertex_node_tag)
       std::printf("vertex %s: node tag %lld\n", name.c_str(), static_cast<long long>(tag));
     for (const auto &[name, f] : result.probe_force)
@@ -759,6 +765,13 @@ namespace
       ->capture_default_str()
       ->delimiter(',')
       ->check(CLI::Range(1.0, 1e12));
+    validate_free->add_option("--fem-divisions", vfb.fem_divisions,
+                              "the truth's step: the nonlinear FEM runs at tau / M, sampled at "
+                              "tau; one M for every material, or one per material of "
+                              "--materials (the default: 4 for 2 kPa, 1 for 50 kPa)")
+      ->capture_default_str()
+      ->delimiter(',')
+      ->check(CLI::Range(1u, 64u));
     validate_free->add_option("--duration", vfb.duration, "seconds per case")
       ->capture_default_str()
       ->check(CLI::Range(0.002, 100.0));
@@ -791,9 +804,9 @@ namespace
       ->capture_default_str()
       ->check(CLI::Range(1u, 100000u));
     validate_free->add_flag("--truth-check", vfb.truth_check,
-                            "also run the FEM at half the time step and compare it with the "
-                            "FEM at the scene's step by the same measures (truth.csv): how "
-                            "well the truth itself is determined; doubles the FEM's time");
+                            "also run the FEM at half its step (tau / 2M) and compare it with "
+                            "the FEM at tau / M by the same measures (truth.csv): how well the "
+                            "truth itself is determined; triples the FEM's time");
     validate_free->add_flag("--reuse-models", vfb.reuse_models,
                             "take a virtual-DOF model already in --model-dir instead of "
                             "precomputing it (it must be of the same scene and material)");

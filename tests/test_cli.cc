@@ -62,6 +62,18 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
   EXPECT_EQ(status(cli + " precompute " + write_scene("cli_p", "") + " --out " +
                    tmp("no/such/folder/m.h5")),
             2);
+  // validate-free: the truth's step divisions, one for every material or one per material,
+  // refused before a report or a model is begun (the --out folder itself is made when the
+  // options are checked, as for every validate command).
+  const std::string free_scene = IRDM_MESH_DIR "/../validation/scenes/free/free_cat.json";
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --materials 1000,2000,3000 --fem-divisions 1,2"),
+            2);
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --fem-divisions 0"),
+            2);
+  EXPECT_FALSE(fs::exists(tmp("vf") + "/free"));
+  EXPECT_FALSE(fs::exists(tmp("vfm")));
   EXPECT_FALSE(fs::exists(tmp("o.h5")));
 }
 

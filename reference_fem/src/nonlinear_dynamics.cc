@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
+#include <string>
 
 #include "nonlinear_impl.h"
 
@@ -146,7 +148,10 @@ namespace irdm::fem
     const unsigned N  = sc.n_steps();
     const auto    &c  = L.coeffs;
     const double   af = c.alpha_f, am = c.alpha_m;
-    const StepCoefficients k(c, dt);
+    // The length of the step being solved: tau, or a part of it where Newton failed at tau
+    // (cut back below); the residual and its tangent follow it.
+    double           h = dt;
+    StepCoefficients k(c, h);
 
     Vector<double> u(n), v(n), a(n), f(n), f_c(n);         // state n and its loads
     Vector<double> u_new(n), v_new(n), a_new(n), f_new(n), f_c_new(n);
@@ -224,11 +229,11 @@ namespace irdm::fem
                               SparseMatrix<double> *T, PlaneContactState &cs) {
       a_new = x;
       a_new -= u;
-      a_new.add(-dt, v);
-      a_new *= 1 / (c.beta * dt * dt);
+      a_new.add(-h, v);
+      a_new *= 1 / (c.beta * h * h);
       a_new.add(-(1 / (2 * c.beta) - 1), a);
       v_new = v;
-      v_new.add(dt * (1 - c.gamma), a, dt * c.gamma, a_new);
+      v_new.add(h * (1 - c.gamma), a, h * c.gamma, a_new);
       combine(u_alpha, 1 - af, x, af, u); // u at the alpha level
       const bool ok = I.assemble(u_alpha, f_int, T ? &K_T : nullptr, false);
       cs            = I.plane_contact(x, t1, f_c_new, T ? &K_T : nullptr);
@@ -266,118 +271,151 @@ namespace irdm::fem
     };
 
     // The latest factorized tangent, reused while it makes the residual contract (null: use
-    // the linear solver's K_eff).
+    // the linear solver's K_eff, factored for tau).
     std::unique_ptr<DirectSolver> tangent_solver;
+    // Newton's method for the step of length h that ends at t1, from the state (u, v, a, f,
+    // f_c). On success the new state is in u_new, v_new, a_new, f_new, f_c_new and `contact`,
+    // and it returns an empty string; on failure it returns why and leaves the state as it
+    // was (the residual reads it, never writes it).
+    const auto newton_step = [&](const double t1) -> std::string {
+      k = StepCoefficients(c, h);
+      L.external_force(t1, f_new);
+      // Constant-velocity predictor: the acceleration of a body in penalty contact changes
+      // sign from step to step, so extrapolating it overshoots.
+      u_new = u;
+      u_new.add(h, v);
+      L.constraints.set_zero(u_new);
+      if (!residual(t1, u_new, r, nullptr, contact))
+        {
+          u_new = u; // the predictor inverted an element: start from the last state
+          residual(t1, u_new, r, nullptr, contact);
+        }
+      // Newton iterations per step: the damping's tangent is only its symmetric part, so
+      // a fast, soft body can need more than the quadratic rate would. Counted as before the
+      // cut-back existed (the index of the iteration that found convergence); a failed
+      // attempt adds the iterations it spent.
+      constexpr unsigned max_newton = 100;
+      for (unsigned it = 0; it < max_newton; ++it)
+        {
+          const double r_norm = r.l2_norm();
+          if (r_norm <= 1e-7 * scale || scale == 0)
+            {
+              out.newton_iterations += it;
+              return {};
+            }
+          PlaneContactState cs_trial;
+          // First a step with the factors we have (the latest tangent, at first the linear
+          // K_eff): kept if it contracts the residual well, which it does in smooth motion.
+          du = r;
+          du *= -1;
+          if (tangent_solver)
+            tangent_solver->solve(du);
+          else
+            L.stepper().inverse.solve(du);
+          trial = u_new;
+          trial += du;
+          if (residual(t1, trial, r_trial, nullptr, cs_trial) &&
+              r_trial.l2_norm() <= 0.1 * r_norm)
+            {
+              u_new.swap(trial);
+              r.swap(r_trial);
+              contact = cs_trial;
+              if (du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
+                {
+                  out.newton_iterations += it;
+                  return {};
+                }
+              continue;
+            }
+          // Otherwise Newton's step with the tangent at u_new, and a line search.
+          residual(t1, u_new, r, &tangent, contact);
+          tangent_solver = std::make_unique<DirectSolver>();
+          tangent_solver->initialize(tangent);
+          ++out.tangent_factorizations;
+          du = r;
+          du *= -1;
+          tangent_solver->solve(du);
+          double alpha    = 1;
+          bool   accepted = false;
+          for (unsigned cut = 0; cut < 12; ++cut, alpha /= 2)
+            {
+              trial = u_new;
+              trial.add(alpha, du);
+              const bool ok = residual(t1, trial, r_trial, nullptr, cs_trial);
+              if (ok && r_trial.l2_norm() < (1 - 1e-4 * alpha) * r_norm)
+                {
+                  accepted = true;
+                  break;
+                }
+            }
+          if (!accepted)
+            {
+              // No decrease: round-off if the step is negligible against the motion.
+              if (du.linfty_norm() <= 1e-9 * std::max(u_new.linfty_norm(), 1e-300))
+                {
+                  residual(t1, u_new, r, nullptr, contact);
+                  out.newton_iterations += it;
+                  return {};
+                }
+              out.newton_iterations += it + 1;
+              return "the line search found no decrease";
+            }
+          u_new.swap(trial);
+          r.swap(r_trial);
+          contact = cs_trial;
+          if (alpha == 1 && du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
+            {
+              out.newton_iterations += it;
+              return {};
+            }
+        }
+      out.newton_iterations += max_newton;
+      return "Newton did not converge in " + std::to_string(max_newton) +
+             " iterations (residual " + std::to_string(r.l2_norm() / scale) +
+             " of the force scale)";
+    };
+    const auto accept = [&]() {
+      u.swap(u_new);
+      v.swap(v_new);
+      a.swap(a_new);
+      f.swap(f_new);
+      f_c.swap(f_c_new);
+    };
+    // Cut-back: where Newton fails at a step (a soft body hit hard: an element close to
+    // inverting makes the tangent indefinite, and the step's incremental problem is no longer
+    // convex), that step is solved again as two halves, each halved again where it fails,
+    // down to tau / 2^max_cuts. The samples stay at tau; only the failed steps are refined,
+    // and a finer step is the same integrator, more accurate. Counted in out.cut_steps.
+    constexpr unsigned max_cuts = 5;
+    const std::function<void(double, unsigned)> advance = [&](const double t0,
+                                                              const unsigned cuts) {
+      const double length = dt / static_cast<double>(1u << cuts);
+      h                   = length;
+      const std::string error = newton_step(t0 + length);
+      if (error.empty())
+        {
+          accept();
+          return;
+        }
+      if (cuts == max_cuts)
+        throw InputError("nonlinear dynamics: " + error + " at t = " +
+                         std::to_string(t0 + length) + " s, with the step cut back " +
+                         std::to_string(max_cuts) + " times to " + std::to_string(length) +
+                         " s; a smaller time step or a softer penalty may help");
+      if (cuts == 0)
+        ++out.cut_steps;
+      out.smallest_step = std::min(out.smallest_step, length / 2);
+      advance(t0, cuts + 1);
+      advance(t0 + length / 2, cuts + 1);
+    };
+
     const auto     t_start     = std::chrono::steady_clock::now();
     unsigned       last_report = 0;
+    out.smallest_step          = dt;
     for (unsigned step = 1; step <= N; ++step)
       {
         const double t1 = step * dt;
-        L.external_force(t1, f_new);
-        // Constant-velocity predictor: the acceleration of a body in penalty contact changes
-        // sign from step to step, so extrapolating it overshoots.
-        u_new = u;
-        u_new.add(dt, v);
-        L.constraints.set_zero(u_new);
-        if (!residual(t1, u_new, r, nullptr, contact))
-          {
-            u_new = u; // the predictor inverted an element: start from the last state
-            residual(t1, u_new, r, nullptr, contact);
-          }
-        // Newton iterations per step: the damping's tangent is only its symmetric part, so
-        // a fast, soft body can need more than the quadratic rate would.
-        constexpr unsigned max_newton = 100;
-        unsigned           it         = 0;
-        bool               converged  = false;
-        for (; it < max_newton; ++it)
-          {
-            const double r_norm = r.l2_norm();
-            if (r_norm <= 1e-7 * scale || scale == 0)
-              {
-                converged = true;
-                break;
-              }
-            PlaneContactState cs_trial;
-            // First a step with the factors we have (the latest tangent, at first the linear
-            // K_eff): kept if it contracts the residual well, which it does in smooth motion.
-            du = r;
-            du *= -1;
-            if (tangent_solver)
-              tangent_solver->solve(du);
-            else
-              L.stepper().inverse.solve(du);
-            trial = u_new;
-            trial += du;
-            if (residual(t1, trial, r_trial, nullptr, cs_trial) &&
-                r_trial.l2_norm() <= 0.1 * r_norm)
-              {
-                u_new.swap(trial);
-                r.swap(r_trial);
-                contact = cs_trial;
-                if (du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
-                  {
-                    converged = true;
-                    break;
-                  }
-                continue;
-              }
-            // Otherwise Newton's step with the tangent at u_new, and a line search.
-            residual(t1, u_new, r, &tangent, contact);
-            tangent_solver = std::make_unique<DirectSolver>();
-            tangent_solver->initialize(tangent);
-            ++out.tangent_factorizations;
-            du = r;
-            du *= -1;
-            tangent_solver->solve(du);
-            double alpha    = 1;
-            bool   accepted = false;
-            for (unsigned cut = 0; cut < 12; ++cut, alpha /= 2)
-              {
-                trial = u_new;
-                trial.add(alpha, du);
-                const bool ok = residual(t1, trial, r_trial, nullptr, cs_trial);
-                if (ok && r_trial.l2_norm() < (1 - 1e-4 * alpha) * r_norm)
-                  {
-                    accepted = true;
-                    break;
-                  }
-              }
-            if (!accepted)
-              {
-                // No decrease: round-off if the step is negligible against the motion.
-                if (du.linfty_norm() <= 1e-9 * std::max(u_new.linfty_norm(), 1e-300))
-                  {
-                    residual(t1, u_new, r, nullptr, contact);
-                    converged = true;
-                    break;
-                  }
-                throw InputError("nonlinear dynamics: the line search found no decrease at "
-                                 "step " + std::to_string(step) + " (t = " + std::to_string(t1) +
-                                 " s); a smaller time step or a softer penalty may help");
-              }
-            u_new.swap(trial);
-            r.swap(r_trial);
-            contact = cs_trial;
-            if (alpha == 1 && du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
-              {
-                converged = true;
-                break;
-              }
-          }
-        if (!converged)
-          throw InputError("nonlinear dynamics: Newton did not converge in " +
-                           std::to_string(max_newton) + " iterations at step " +
-                           std::to_string(step) + " (t = " + std::to_string(t1) +
-                           " s, residual " + std::to_string(r.l2_norm() / scale) +
-                           " of the force scale); use a smaller time step");
-        out.newton_iterations += it;
-        // The work vectors hold a_new, v_new, f_c_new of the accepted u_new (the last residual
-        // evaluated was at u_new).
-        u.swap(u_new);
-        v.swap(v_new);
-        a.swap(a_new);
-        f.swap(f_new);
-        f_c.swap(f_c_new);
+        advance(t1 - dt, 0);
         if (step % sc.outputs.every == 0 || step == N)
           {
             record(t1, contact);

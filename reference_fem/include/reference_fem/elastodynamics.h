@@ -101,6 +101,10 @@ namespace irdm::fem
     std::vector<Vec3>   linear_momentum; // N s, sum of M v per axis
     std::vector<Vec3>   center_of_mass_displacement; // m, (1^T M u) / mass per axis (nonlinear)
     unsigned newton_iterations = 0, tangent_factorizations = 0;
+    // Nonlinear: the steps of tau at which Newton failed and which were solved again in parts
+    // (cut back), and the shortest part used (s; tau when none was cut).
+    unsigned cut_steps     = 0;
+    double   smallest_step = 0;
     SurfaceMesh                              surface;             // filled if outputs.surface
     std::vector<std::vector<double>>         surface_displacement; // per sample: 3 * n_vertices, m
 
