@@ -17,6 +17,7 @@
 #include "surface_product.h"
 
 #include <cmath>
+#include <numeric>
 #include <cstdlib>
 #include <filesystem>
 #include <new>
@@ -593,6 +594,92 @@ TEST(Runtime, UntruncatedVertexContactReproducesTheFem)
 TEST(Runtime, UntruncatedCompliantVertexContactReproducesTheFem)
 {
   EXPECT_GE(expect_vertex_contact_reproduces_the_fem(R"(, "vertex_stiffness_N_m": 20)", "vertex_compliant"), 10); // measured 12
+}
+
+// A penalty wall (PlaneTarget::penalty, Pa/m) pushes each vertex with the penalty times the
+// vertex's lumped area, as the nonlinear FEM's P1 contact (integrated at the face vertices)
+// does. The lumped areas tile the model's surface (the faces of the box its free vertices
+// span, all but the clamp's end: triangles with a fixed vertex are not the model's); a
+// plane that touches the tip's top corner alone pushes it exactly as a plane of that vertex's
+// stiffness, and measurably unlike a plane of the mean vertex's.
+TEST(Runtime, PenaltyWallWeighsEachVertexByItsLumpedArea)
+{
+  fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  scene.model.inputs.reset(); // every free surface vertex
+  const ImpulseResponseModel model = make_model(scene, "penalty_wall.h5");
+  const std::vector<double>  area  = lumped_vertex_areas(model);
+  ASSERT_EQ(area.size(), model.n_outputs / 3);
+  // The box of the beam's free vertices (meshes/beam.geo: 0.25 x 0.01 x 0.01 m, less the
+  // clamped layer).
+  std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const auto &X : model.output_coordinates)
+    for (int d = 0; d < 3; ++d)
+      lo[d] = std::min(lo[d], X[d]), hi[d] = std::max(hi[d], X[d]);
+  const double length = hi[0] - lo[0], side = hi[1] - lo[1];
+  ASSERT_NEAR(hi[2] - lo[2], side, 1e-12);
+  const double total = std::accumulate(area.begin(), area.end(), 0.0);
+  const double side_faces = 4 * length * side, tip_face = side * side;
+  std::printf("lumped areas: %.12g m^2, the four sides and the tip %.12g m^2\n", total,
+              side_faces + tip_face);
+  EXPECT_NEAR(total, side_faces + tip_face, 1e-12 * total);
+
+  // The corner farthest along (1, 1, 1): the plane with that normal's opposite meets it first.
+  unsigned corner = 0;
+  for (unsigned v = 0; v < area.size(); ++v)
+    {
+      const auto &X = model.output_coordinates[v], &C = model.output_coordinates[corner];
+      if (X[0] + X[1] + X[2] > C[0] + C[1] + C[2])
+        corner = v;
+    }
+  double mean = 0;
+  for (unsigned v = 0; v < area.size(); ++v)
+    mean += area[v] / area.size();
+  ASSERT_GT(std::abs(area[corner] / mean - 1), 0.2); // a corner's area is not the mean's
+  // A penalty whose corner stiffness equals the corner's own compliance n . H[0] n, so that
+  // the wall's give and the body's share the step: the force depends on the stiffness.
+  const double       r3 = 1 / std::sqrt(3.0);
+  const unsigned     in = static_cast<unsigned>(model.output_input_index[corner]);
+  double             w  = 0;
+  for (int e = 0; e < 3; ++e)
+    for (int d = 0; d < 3; ++d)
+      w += r3 * r3 * model.h(3 * in + e, 0, 3 * corner + d);
+  const double penalty = 1 / (w * area[corner]);
+  PointInteraction by_penalty(model), by_own(model), by_mean(model);
+  double           largest = 0, off_mean = 0;
+  int              touching = 0; // steps with the corner in contact
+  for (unsigned n = 1; n <= 10; ++n)
+    {
+      // The plane moves 0.05 mm per step into the corner along -(1, 1, 1).
+      const auto  &C     = model.output_coordinates[corner];
+      const double depth = 5e-5 * n;
+      PlaneTarget  plane;
+      plane.normal = {-r3, -r3, -r3};
+      plane.point  = {C[0] - r3 * depth, C[1] - r3 * depth, C[2] - r3 * depth};
+      PlaneTarget own = plane, at_mean = plane;
+      plane.penalty     = penalty;
+      own.stiffness     = penalty * area[corner];
+      at_mean.stiffness = penalty * mean;
+      ASSERT_TRUE(by_penalty.step(&plane, 1) && by_own.step(&own, 1) && by_mean.step(&at_mean, 1));
+      const auto &fp = by_penalty.vertex_contact().plane(0), &fo = by_own.vertex_contact().plane(0),
+                 &fm = by_mean.vertex_contact().plane(0);
+      // The corner alone, while it touches (the pushed beam swings off and back).
+      EXPECT_LE(fp.active, 1);
+      EXPECT_EQ(fo.active, fp.active);
+      touching += fp.active;
+      for (int d = 0; d < 3; ++d)
+        EXPECT_EQ(fp.force[d], fo.force[d]) << "step " << n;
+      EXPECT_EQ(fp.penetration, fo.penetration);
+      const double f = std::sqrt(fp.force[0] * fp.force[0] + fp.force[1] * fp.force[1] +
+                                 fp.force[2] * fp.force[2]);
+      largest  = std::max(largest, f);
+      off_mean = std::max(off_mean, std::abs(fm.force[0] - fp.force[0]));
+    }
+  std::printf("corner area %.4g of the mean; in contact at %d of 10 steps, force up to %.4g N, "
+              "the mean's stiffness off by %.3g of it\n", area[corner] / mean, touching, largest,
+              off_mean / largest);
+  EXPECT_GE(touching, 3);
+  EXPECT_GT(largest, 0);
+  EXPECT_GT(off_mean, 0.05 * largest);
 }
 
 // Device-held plates (virtual coupling, issue 15): each plane is pulled toward its prescribed

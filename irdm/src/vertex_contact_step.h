@@ -63,6 +63,7 @@ namespace irdm
       same_plane[p] = p < previous_.n_planes &&
                       planes[p].normal == previous_.planes[p].normal &&
                       planes[p].stiffness == previous_.planes[p].stiffness &&
+                      planes[p].penalty == previous_.planes[p].penalty &&
                       planes[p].coupling_compliance == previous_.planes[p].coupling_compliance;
     const auto old_row = [&](const int c) {
       return same_plane[plane_[c]]
@@ -128,7 +129,7 @@ namespace irdm
               s += rigid->tau2_over_mass * dot(nc, nb) + lever_[c].dot(turn_[b]);
             w[b] = s + (plane_[b] == plane_[c] ? planes[plane_[c]].coupling_compliance : 0.0);
           }
-        const double k = planes[plane_[c]].stiffness;
+        const double k = stiffness(planes[plane_[c]], c);
         if (k > 0 && oc < 0)
           w[c] += 1 / k;
       }
@@ -153,7 +154,7 @@ namespace irdm
       {
         auto &r = results_[plane_[c]];
         // The solve's gap includes a compliant plane's give lambda / k; the body's does not.
-        const double k = planes[plane_[c]].stiffness;
+        const double k = stiffness(planes[plane_[c]], c);
         r.penetration  = std::max(r.penetration, (k > 0 ? lambda_[c] / k : 0) - solver_.g(c));
         if (lambda_[c] <= 0)
           continue;

@@ -46,18 +46,9 @@ namespace irdm::validation
   inline double
   mean_free_vertex_area(const ModelFrame &m)
   {
-    std::vector<double> area(m.n_outputs / 3, 0.0);
-    for (const auto &t : m.triangles)
-      {
-        const auto &a = m.output_coordinates[t[0]], &b = m.output_coordinates[t[1]],
-                   &q = m.output_coordinates[t[2]];
-        const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{q[0] - a[0], q[1] - a[1], q[2] - a[2]};
-        const Vec3 x{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-        for (const unsigned i : t)
-          area[i] += norm(x) / 6;
-      }
-    double   sum    = 0;
-    unsigned n_free = 0;
+    const std::vector<double> area = lumped_vertex_areas(m);
+    double                    sum  = 0;
+    unsigned                  n_free = 0;
     for (unsigned v = 0; v < area.size(); ++v)
       if (m.output_input_index[v] >= 0)
         sum += area[v], ++n_free;

@@ -12,9 +12,11 @@
 //               projection n_p^T Phi_v in a slot while the row stays a candidate: one dot
 //               product per kept row instead of three);
 //   gaps        q_c = n_p . (X_v + u_hist(v) - x_p), what the step reaches with no contact;
-//   feed-through W_cd = n_p^T H[0](v_c <- v_d) n_q, + 1/k_p on the diagonal for a compliant
-//               plane of per-vertex stiffness k_p (N/m; the force is k_p times the
-//               penetration, solved implicitly, so a stiff wall does not chatter), + 1/c_p
+//   feed-through W_cd = n_p^T H[0](v_c <- v_d) n_q, + 1/k_c on the diagonal for a compliant
+//               plane: per-vertex stiffness k_c (N/m; the force is k_c times the
+//               penetration, solved implicitly, so a stiff wall does not chatter), either the
+//               plane's `stiffness` for every vertex or its `penalty` (Pa/m) times the vertex's
+//               lumped area, as the nonlinear FEM's P1 penalty weighs its vertices, + 1/c_p
 //               on every pair of rows of a device-held plate (its coupling's compliance);
 //   forces      lambda >= 0 complementary to g = W lambda + q >= 0
 //               (irdm_common/complementarity.h: block principal pivoting, exact to round-off,
@@ -29,7 +31,10 @@
 #include <irdm/rigid_body.h>
 #include <irdm_common/complementarity.h>
 
+#include <Eigen/Core>
+
 #include <array>
+#include <cmath>
 #include <vector>
 
 namespace irdm
@@ -39,12 +44,35 @@ namespace irdm
     constexpr int max_planes = 8;
   }
 
+  /// Lumped area (m^2) of each output vertex: a third of every surface triangle it is a corner
+  /// of. A P1 penalty wall of p Pa/m (the nonlinear FEM's, integrated at the face vertices)
+  /// pushes vertex v with stiffness p times this.
+  inline std::vector<double>
+  lumped_vertex_areas(const ModelFrame &m)
+  {
+    std::vector<double> area(m.n_outputs / 3, 0.0);
+    const auto          at = [&](const unsigned v) {
+      const auto &x = m.output_coordinates[v];
+      return Eigen::Vector3d(x[0], x[1], x[2]);
+    };
+    for (const auto &t : m.triangles)
+      {
+        const double a = (at(t[1]) - at(t[0])).cross(at(t[2]) - at(t[0])).norm() / 6;
+        for (const unsigned v : t)
+          area[v] += a;
+      }
+    return area;
+  }
+
   /// A plane in the model's frame during one step.
   struct PlaneTarget
   {
     std::array<double, 3> normal    = {0, 0, 1}; // unit, toward the body
     std::array<double, 3> point     = {0, 0, 0}; // m, a point of the plane at the step's end
     double                stiffness = 0;         // N/m per vertex; 0: rigid
+    // Pa/m: a penalty wall, each vertex's stiffness this times its lumped area
+    // (lumped_vertex_areas), the nonlinear FEM's P1 penalty; when > 0 it replaces `stiffness`.
+    double penalty = 0;
     // m/N: a device-held plate's virtual coupling 1 / (k + b / tau) (contact::Coupling), with
     // `point` its target z; the plate then stands at z - compliance (F . n) n, F the plane's
     // force. All its rows share this compliance. 0: the plane is at `point`.
@@ -86,6 +114,7 @@ namespace irdm
       lever_.assign(cap, Eigen::Vector3d::Zero());
       turn_.assign(cap, Eigen::Vector3d::Zero());
       was_active_.assign(contact::max_planes * n_vertices, 0);
+      vertex_area_ = lumped_vertex_areas(m);
       n_candidates_ = 0;
       rounds_       = 0;
       previous_.plane.assign(cap, 0);
@@ -143,6 +172,13 @@ namespace irdm
     std::vector<Eigen::Vector3d>                          lever_, turn_;
     std::vector<char>                                     guess_;
     std::vector<char> was_active_; // [plane][output vertex]: in contact at the last step
+    std::vector<double> vertex_area_; // [output vertex] m^2, for a plane's penalty
+    // N/m, candidate c's stiffness against its plane; 0: rigid.
+    double
+    stiffness(const PlaneTarget &p, const int c) const
+    {
+      return p.penalty > 0 ? p.penalty * vertex_area_[vertex_[c]] : p.stiffness;
+    }
     int               n_candidates_ = 0, rounds_ = 0;
     // The last step's rows and W: W does not change while the rows and the planes' normals and
     // stiffnesses do not (H[0] is constant), so the entries of rows kept are copied, not
