@@ -140,6 +140,10 @@ TEST(NonlinearDynamics, BouncingBallKeepsEnergyAndTakesTheFloorsImpulse)
   // Frictionless, undamped, Newmark: the energy is kept (the tolerance covers the penalty's
   // contact kinks and Newton's tolerance).
   EXPECT_LT(drift, 5e-3);
+  // Nor does the energy rise above its start by more than that (irdm simulate warns above
+  // 1e-2 of the scale).
+  std::printf("energy rise %.3g of its scale\n", r.energy_rise / r.energy_scale);
+  EXPECT_LT(r.energy_rise, 5e-3 * r.energy_scale);
   // It bounces back with most of its speed; the rest stays as vibration energy.
   EXPECT_GT(v_end, 0.8 * v);
   EXPECT_LE(v_end, v * (1 + 1e-3));
@@ -166,8 +170,10 @@ TEST(NonlinearDynamics, StepsWhereNewtonFailsAreCutBackInsteadOfStoppingTheRun)
       .run();
   };
   const RunResult r = run(0.004), coarse = run(0.008);
-  std::printf("soft ball at 4 ms: %u of %u steps cut back (shortest %.3g s); at 8 ms: %u\n",
-              r.cut_steps, r.n_steps, r.smallest_step, coarse.cut_steps);
+  std::printf("soft ball at 4 ms: %u of %u steps cut back (shortest %.3g s), energy rise %.3g "
+              "of its scale; at 8 ms: %u cut back\n",
+              r.cut_steps, r.n_steps, r.smallest_step, r.energy_rise / r.energy_scale,
+              coarse.cut_steps);
   ASSERT_EQ(r.time.size(), 41u);
   EXPECT_NEAR(r.time.back(), duration, 1e-12);
   EXPECT_GT(r.cut_steps, 0u);
@@ -175,6 +181,9 @@ TEST(NonlinearDynamics, StepsWhereNewtonFailsAreCutBackInsteadOfStoppingTheRun)
   EXPECT_GE(r.smallest_step, 0.004 / 32);
   EXPECT_EQ(coarse.cut_steps, 0u);
   EXPECT_EQ(coarse.smallest_step, 0.008);
+  // The run says what it is: with no loads and a floor that stands still the energy can only
+  // fall, and it rose (irdm simulate warns above 1e-2 of the scale).
+  EXPECT_GT(r.energy_rise, 0.1 * r.energy_scale);
 }
 
 TEST(NonlinearDynamics, BallPeakForceFollowsHertzAtLowSpeed)

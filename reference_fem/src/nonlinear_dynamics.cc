@@ -180,7 +180,8 @@ namespace irdm::fem
         }
     }
 
-    const double total_mass = sc.density * L.total_volume; // kg
+    const double total_mass   = sc.density * L.total_volume; // kg
+    double       energy_start = 0; // J, the total energy of the first sample
     const auto record = [&](const double t, const PlaneContactState &cs) {
       // The linear record() takes the fixed reactions as M a + C v + K_0 u - f; passing
       // f + f_c + K_0 u - f_int(u) makes them the nonlinear balance M a + C v + f_int - f - f_c.
@@ -196,6 +197,12 @@ namespace irdm::fem
       out.strain_energy.back() = W;
       out.contact_energy.push_back(cs.energy);
       out.gravity_energy.push_back(-(L.gravity_force * u));
+      const double mechanical = out.kinetic_energy.back() + W + cs.energy;
+      const double total      = mechanical + out.gravity_energy.back();
+      if (t == 0)
+        energy_start = total;
+      out.energy_rise  = std::max(out.energy_rise, total - energy_start);
+      out.energy_scale = std::max(out.energy_scale, mechanical);
       L.mass.vmult(balance, v);
       Vec3 momentum = {0, 0, 0};
       for (unsigned i = 0; i < n; ++i)

@@ -461,6 +461,9 @@ namespace irdm::validation
               log << "  the FEM cut back " << fem_r.cut_steps << " of its " << fem_r.n_steps
                   << " steps (Newton failed at the full step; shortest " << fem_r.smallest_step
                   << " s)" << std::endl;
+            log << "  the FEM's energy rose at most " << fem_r.energy_rise / fem_r.energy_scale
+                << " of its scale above its start"
+                << (probed ? " (the probe's work included)" : "") << std::endl;
             const std::vector<Eigen::Vector3d> fem_impulse = sample_at_tau(fem_r, M, tau);
             const unsigned n = static_cast<unsigned>(fem_impulse.size() - 1); // steps of tau
             floor_penalty    = fem_r.plane_penalty.at("floor");

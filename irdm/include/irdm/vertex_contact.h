@@ -34,7 +34,6 @@
 #include <Eigen/Core>
 
 #include <array>
-#include <cmath>
 #include <vector>
 
 namespace irdm

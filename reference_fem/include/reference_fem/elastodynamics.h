@@ -105,6 +105,12 @@ namespace irdm::fem
     // (cut back), and the shortest part used (s; tau when none was cut).
     unsigned cut_steps     = 0;
     double   smallest_step = 0;
+    // Nonlinear, J: the largest rise of the total energy (kinetic + strain + contact +
+    // gravity) above its start over the samples, and the largest kinetic + strain + contact
+    // energy (its scale). With no loads and planes that stand still the total can only fall
+    // (damping), so a rise is the integrator's own: average-acceleration Newmark does not keep
+    // the energy of large strains at a coarse step (docs/scene-format.md).
+    double energy_rise = 0, energy_scale = 0;
     SurfaceMesh                              surface;             // filled if outputs.surface
     std::vector<std::vector<double>>         surface_displacement; // per sample: 3 * n_vertices, m
 
