@@ -160,6 +160,13 @@ namespace irdm::validation
       return impulse;
     }
 
+    // The truth's FEM step divisions for material m: one value for every material, or one each.
+    unsigned
+    fem_divisions_of(const FreeBodyValidationOptions &o, const size_t m)
+    {
+      return o.fem_divisions.size() == 1 ? o.fem_divisions[0] : o.fem_divisions[m];
+    }
+
     std::string
     material_name(const double E)
     {
@@ -302,8 +309,7 @@ namespace irdm::validation
     for (size_t material = 0; material < o.materials.size(); ++material)
       {
         const double   E = o.materials[material];
-        const unsigned M = o.fem_divisions.size() == 1 ? o.fem_divisions[0]
-                                                       : o.fem_divisions[material];
+        const unsigned M = fem_divisions_of(o, material);
         // The body in this material: the scene's text with its modulus replaced, so that the
         // model records the scene it was made from.
         std::ostringstream e;
@@ -840,8 +846,7 @@ namespace irdm::validation
     std::ostringstream fem_steps; // the truth's step per material
     for (size_t m = 0; m < o.materials.size(); ++m)
       {
-        const unsigned M = o.fem_divisions.size() == 1 ? o.fem_divisions[0] : o.fem_divisions[m];
-        fem_steps << (m ? ", " : "") << base.time_step * 1e3 / M << " ms at "
+        fem_steps << (m ? ", " : "") << base.time_step * 1e3 / fem_divisions_of(o, m) << " ms at "
                   << material_name(o.materials[m]);
       }
     std::ostringstream divisions;
