@@ -765,7 +765,8 @@ namespace
       "virtual DOFs take no probe); then the runtime alone rolls "
       "for --stability seconds and flies free for 10 s. Writes DIR/free/free.csv (one row per "
       "case, material and method), first_contact.csv (the same measures over the first "
-      "contact alone), truth.csv (with --truth-check), series.csv (forces, heights, angles and "
+      "contact alone), truth.csv (with --truth-check), linearization.csv (the small-strain "
+      "FEM against the truth, the runtime against the small-strain FEM), series.csv (forces, heights, angles and "
       "deformation against time), "
       "frames.csv and triangles.csv (surfaces of the rolling cat), fig6.png, frames.png and "
       "report.md. Units SI.");
@@ -790,9 +791,15 @@ namespace
     validate_free->add_option("--duration", vfb.duration, "seconds per case")
       ->capture_default_str()
       ->check(CLI::Range(0.002, 100.0));
-    validate_free->add_option("--surface-modes", vfb.surface_modes, "modes in the surface update")
+    validate_free->add_option("--surface-modes", vfb.surface_modes,
+                              "modes in the surface update; 0: every mode")
       ->capture_default_str()
-      ->check(CLI::Range(1u, 100000u));
+      ->check(CLI::Range(0u, 100000u));
+    validate_free->add_option("--study-surface-modes", vfb.study_surface_modes,
+                              "the impact study also runs route 2 with this many modes in its "
+                              "surface (route2_modal_s<M>); 0: not run")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 100000u));
     validate_free->add_option("--stability", vfb.stability_seconds,
                               "seconds of rolling for the runtime's stability run")
       ->capture_default_str()
@@ -805,10 +812,17 @@ namespace
       ->check(CLI::Range(0u, 100000u));
     validate_free->add_option("--cases", vfb.only_cases,
                               "run only these cases: drop_2cm, drop_5cm, drop_10cm, spin_roll, "
-                              "wall_throw, tilted_5cm, probe_push")
+                              "wall_throw, tilted_5cm, probe_push, and impact (the impact "
+                              "study, which a full run includes)")
       ->delimiter(',')
       ->check(CLI::IsMember({"drop_2cm", "drop_5cm", "drop_10cm", "spin_roll", "wall_throw",
-                             "tilted_5cm", "probe_push"}));
+                             "tilted_5cm", "probe_push", "impact"}));
+    validate_free->add_option("--impact-speeds", vfb.impact_speeds,
+                              "the impact study's speeds (m/s): the upright cat 1 mm above the "
+                              "floor moving onto it, gravity off, 0.3 s (impact.csv)")
+      ->capture_default_str()
+      ->delimiter(',')
+      ->check(CLI::Range(1e-4, 10.0));
     validate_free->add_option("--vdof-subdivisions", vfb.vdof_subdivisions,
                               "the virtual-DOF model's dome: 10 * 4^S + 2 orientations; -1: no "
                               "virtual-DOF method")
@@ -822,6 +836,11 @@ namespace
                             "also run the FEM at half its step (tau / 2M) and compare it with "
                             "the FEM at tau / M by the same measures (truth.csv): how well the "
                             "truth itself is determined; triples the FEM's time");
+    validate_free->add_flag("--small-strain,!--no-small-strain", vfb.small_strain,
+                            "also run the FEM with the small-strain law and report linear "
+                            "elasticity's own error (it against the truth) and the method's (the "
+                            "runtime against it) apart (linearization.csv); on by default")
+      ->capture_default_str();
     validate_free->add_flag("--reuse-models", vfb.reuse_models,
                             "take a virtual-DOF model already in --model-dir instead of "
                             "precomputing it (it must be of the same scene and material)");

@@ -9,7 +9,11 @@ triangles.csv (a, b, c: surface triangles, vertex indices). Writes:
   fig6.png    the floor force along its normal against time for the rolling cat (spin_roll),
               the FEM and both IRDM routes, one panel per material (N, s);
   frames.png  the rolling cat at six times, FEM and both routes side by side, the firmest
-              material (m in the files, mm on the axes).
+              material (m in the files, mm on the axes);
+  impact.png  with impact.csv (the impact study: case, material, speed_m_s,
+              speed_over_wave_speed, method, reference, ..., first_deformation_error, ...): the
+              first contact's deformation error against the impact speed over the wave speed,
+              log-log, one line per material and comparison.
 """
 import csv
 import os
@@ -130,6 +134,38 @@ def frames(folder):
     return True
 
 
+def impact(folder):
+    path = folder / "impact.csv"
+    if not path.exists():
+        return True  # the study was not run: nothing to draw
+    lines = defaultdict(list)  # (material, method, reference) -> [(v / c, error)]
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            key = (row["material"], row["method"], row["reference"])
+            lines[key].append((float(row["speed_over_wave_speed"]),
+                               float(row["first_deformation_error"])))
+    styles = {("route2_modal", "fem_neo_hookean"): ("o-", "IRDM route 2 against the nonlinear FEM"),
+              ("route1_rigid_fit", "fem_neo_hookean"): ("s--", "IRDM route 1 against the nonlinear FEM"),
+              ("fem_small_strain", "fem_neo_hookean"): ("^-", "small-strain FEM against the nonlinear FEM"),
+              ("route2_modal", "fem_small_strain"): ("x:", "IRDM route 2 against the small-strain FEM"),
+              ("route2_modal_s100", "fem_small_strain"): ("+-.", "IRDM route 2, 100 surface modes, against the small-strain FEM")}
+    materials = sorted({m for m, _, _ in lines}, key=material_key)
+    fig, ax = plt.subplots(figsize=(8, 6.5))
+    for i, material in enumerate(materials):
+        for (method, reference), (marker, label) in styles.items():
+            pts = sorted(lines.get((material, method, reference), []))
+            if pts:
+                ax.loglog([p[0] for p in pts], [p[1] for p in pts], marker, color=f"C{i}",
+                          label=f"{material}: {label}", lw=1, ms=4)
+    ax.set_xlabel("impact speed / wave speed sqrt(E / rho)")
+    ax.set_ylabel("deformation error over the first contact (rel. RMS)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
+    fig.tight_layout()
+    save(fig, folder / "impact.png", 110)
+    return True
+
+
 def main():
     if len(sys.argv) != 2:
         print(__doc__, file=sys.stderr)
@@ -137,6 +173,7 @@ def main():
     folder = Path(sys.argv[1])
     ok = fig6(folder)
     ok = frames(folder) and ok
+    ok = impact(folder) and ok
     return 0 if ok else 1
 
 

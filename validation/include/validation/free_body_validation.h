@@ -24,7 +24,11 @@ namespace irdm::validation
     // FEM's energy grows (average-acceleration Newmark on large strains), at 1 and 0.5 ms it
     // falls with the damping and the two agree (docs/scene-format.md, reports/free).
     std::vector<unsigned> fem_divisions = {4, 1};
-    unsigned            surface_modes = 100;            // in the runtime's surface update
+    // Modes in the runtime's surface update; 0: every mode (the method's own error, with no
+    // truncation of the surface). The impact study also runs route 2 with study_surface_modes
+    // in its surface (method route2_modal_s<M>, 0: not run): what the truncation costs.
+    unsigned            surface_modes = 0;
+    unsigned            study_surface_modes = 100;
     // Each route also with this many modes in the force loop (the rest quasi-static): methods
     // route1_rigid_fit_k<K> and route2_modal_k<K>, the cheaper step. 0: not run.
     unsigned            force_modes = 300;
@@ -39,6 +43,14 @@ namespace irdm::validation
     // Also run the FEM at half the time step and compare it with the FEM at tau by the same
     // measures: how well the truth itself is determined (truth.csv, a table in report.md).
     bool     truth_check = false;
+    // Also run the FEM with the small-strain law (material.law "linear") and measure the
+    // linearization (it against the truth) and the method (the runtime against it) apart
+    // (linearization.csv, a table in report.md). Not for a case that starts spinning.
+    bool     small_strain = true;
+    // The impact study: the upright cat moving at these speeds (m/s) onto the floor, gravity
+    // off (impact.csv). Runs in a full run, or with only_cases holding "impact"; empty: not run.
+    // The last two are the impact speeds of the 2 and 5 cm drops, sqrt(2 g h).
+    std::vector<double> impact_speeds = {0.05, 0.1, 0.2, 0.4, 0.626, 0.99};
     std::string         plot_script = "validation/plot_free.py"; // empty: no charts
   };
 
