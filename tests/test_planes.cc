@@ -1,6 +1,8 @@
 // Virtual-DOF plane contact: the geodesic dome, the orientation mapping, and the runtime's
 // rigid-wall solve on a small precomputed model (the wall is met exactly, never pulls).
 #include <irdm/plane_interaction.h>
+#include <irdm/rigid_body.h>
+#include <irdm/vertex_contact.h>
 #include <irdm_common/complementarity.h>
 #include <reference_fem/scene.h>
 #include <reference_fem/virtual_dof.h>
@@ -13,6 +15,7 @@
 #include <vector>
 
 #include "irdm_test_util.h"
+#include "vertex_contact_step.h" // irdm/src: the contact step the runtimes share
 
 using namespace irdm;
 
@@ -248,4 +251,37 @@ TEST(Planes, ComplementaritySolverMeetsTheConditionsExactly)
   double       lambda[2];
   char         active[2] = {1, 1};
   EXPECT_EQ(solver.solve(2, W, 2, q, active, lambda), -1);
+}
+
+// A free body's contact row meets the rigid body's step compliance through its lever r =
+// (X + u - c) x n, taken at the deformed point the kind's displacement callback gives (where
+// FreeBody's torque acts), anew at every step: also for a row kept from the last step, whose
+// deformation part of W is reused. One vertex 5 cm from the centre, 1 mm into a rigid floor,
+// no deformation compliance: W = tau^2/4m + r . T r and the force is 1 mm / W.
+TEST(Runtime, FreeBodyContactLeversAreAtTheDeformedPointsEveryStep)
+{
+  irdm::ModelFrame m;
+  m.n_inputs = m.n_outputs = 3;
+  m.output_coordinates     = {{{0.05, 0.0, 0.0}}};
+  m.output_input_index     = {0};
+  m.input_output_index     = {0};
+  irdm::VertexContact contact;
+  contact.reset(m, irdm::VertexContactOptions{});
+  irdm::RigidStepCompliance rigid;
+  rigid.tau2_over_mass       = 1e-3;                                // m/N
+  rigid.tau2_inverse_inertia = 0.5 * Eigen::Matrix3d::Identity();   // 1/(N m)
+  irdm::PlaneTarget floor;
+  floor.point = {0, 0, 0.001}; // the vertex is 1 mm below it
+  for (const double ux : {0.0, 0.05, -0.02, 0.05})
+    {
+      double     force = 0;
+      const bool ok    = contact.step(
+        m, &floor, 1, [](unsigned, unsigned, const std::array<double, 3> &, int, bool) { return 0.0; },
+        [](unsigned, unsigned) { return 0.0; },
+        [&](const unsigned k, const double f) { force += k == 2 ? f : 0.0; }, &rigid,
+        [&](unsigned) { return Eigen::Vector3d(ux, 0, 0); });
+      ASSERT_TRUE(ok);
+      const double lever = 0.05 + ux; // |(X + u - c) x n|
+      EXPECT_NEAR(force, 0.001 / (1e-3 + 0.5 * lever * lever), 1e-12) << "u_x = " << ux;
+    }
 }

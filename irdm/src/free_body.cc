@@ -77,7 +77,7 @@ namespace irdm
         for (int d = 0; d < 3; ++d)
           {
             f(d) = interaction_.force_on_input(3 * vertex + d);
-            r(d) += interaction_.input_displacement(3 * vertex + d);
+            r(d) += interaction_.lever_displacement(3 * vertex + d);
           }
         force += f;
         torque += r.cross(f);

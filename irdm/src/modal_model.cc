@@ -209,6 +209,9 @@ namespace irdm
     is_pushed_.assign(model.n_inputs, 0);
     pushed_.reserve(model.n_inputs);
     vertex_contact_.reset(model, planes);
+    lever_u_.assign(model.n_inputs, 0.0);
+    lever_set_.assign(model.n_inputs / 3, 0);
+    lever_vertices_.reserve(model.n_inputs / 3);
     projected_.assign(static_cast<size_t>(planes.max_candidates) * N_, 0.0); // 8 MB at 512 x 2037
   }
 
@@ -230,6 +233,9 @@ namespace irdm
     for (const unsigned k : pushed_)
       force_now_[k] = 0, is_pushed_[k] = 0;
     pushed_.clear();
+    for (const unsigned v : lever_vertices_)
+      lever_set_[v] = 0;
+    lever_vertices_.clear();
     // The state this step reaches if its force is zero: structure of arrays, in Eigen's
     // packet arithmetic (a plain loop over the std::vector members stayed scalar, 47
     // instructions per mode: GCC 12 would not vectorize it).
@@ -352,7 +358,16 @@ namespace irdm
           [&](const unsigned vi, unsigned, const std::array<double, 3> &n, const int slot,
               const bool fresh) { return history_along(vi, n, slot, fresh); },
           [&](const unsigned k, const unsigned j) { return deformation_feed_through(k, j); },
-          [&](const unsigned k, const double f) { push(k, f); }, rigid_))
+          [&](const unsigned k, const double f) { push(k, f); }, rigid_,
+          [&](const unsigned vi) {
+            // The state is the step's start until end_step.
+            Eigen::Vector3d u;
+            for (unsigned d = 0; d < 3; ++d)
+              u(d) = lever_u_[3 * vi + d] = input_displacement(3 * vi + d);
+            if (!lever_set_[vi])
+              lever_set_[vi] = 1, lever_vertices_.push_back(vi); // reserved: no allocation
+            return u;
+          }))
       return false;
     end_step();
     return true;

@@ -11,11 +11,11 @@
 
 namespace irdm
 {
-  template <class History, class FeedThrough, class Push>
+  template <class History, class FeedThrough, class Push, class Displacement>
   bool
   VertexContact::step(const ModelFrame &m, const PlaneTarget *planes, const int n_planes,
                       History &&history, FeedThrough &&h0, Push &&push,
-                      const RigidStepCompliance *rigid)
+                      const RigidStepCompliance *rigid, Displacement &&displacement)
   {
     if (n_planes < 0 || n_planes > contact::max_planes)
       return false;
@@ -91,15 +91,18 @@ namespace irdm
         q_[c] += history(static_cast<unsigned>(m.output_input_index[vertex_[c]]), vertex_[c],
                          planes[plane_[c]].normal, slot_[c], fresh);
       }
-    // A free body's levers (the rigid compliance's rank-6 form, vertex_contact.h).
+    // A free body's levers (the rigid compliance's rank-6 form, vertex_contact.h), at the
+    // deformed points.
     if (rigid)
       for (int c = 0; c < n; ++c)
         {
           const auto &X = m.output_coordinates[vertex_[c]];
           const auto &nn = planes[plane_[c]].normal;
-          lever_[c] = (Eigen::Vector3d(X[0], X[1], X[2]) - rigid->center)
-                        .cross(Eigen::Vector3d(nn[0], nn[1], nn[2]));
-          turn_[c] = rigid->tau2_inverse_inertia * lever_[c];
+          const Eigen::Vector3d x =
+            Eigen::Vector3d(X[0], X[1], X[2]) +
+            displacement(static_cast<unsigned>(m.output_input_index[vertex_[c]]));
+          lever_[c] = (x - rigid->center).cross(Eigen::Vector3d(nn[0], nn[1], nn[2]));
+          turn_[c]  = rigid->tau2_inverse_inertia * lever_[c];
         }
     // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b (plus a
     // free body's rigid compliance), copied from the last step where both rows were rows then.
@@ -125,8 +128,6 @@ namespace irdm
                 for (int d = 0; d < 3; ++d)
                   s += nc[d] * nb[e] * h0(k, out_dof(c, d));
               }
-            if (rigid)
-              s += rigid->tau2_over_mass * dot(nc, nb) + lever_[c].dot(turn_[b]);
             w[b] = s + (plane_[b] == plane_[c] ? planes[plane_[c]].coupling_compliance : 0.0);
           }
         const double k = stiffness(planes[plane_[c]], c);
@@ -147,7 +148,23 @@ namespace irdm
     previous_.n_planes = n_planes;
     std::copy(planes, planes + n_planes, previous_.planes.begin());
     std::swap(W_, previous_.W); // the solver reads previous_.W below
-    rounds_ = solver_.solve(n, previous_.W.data(), cap, q_.data(), guess_.data(), lambda_.data());
+    const double *W = previous_.W.data();
+    if (rigid)
+      {
+        // The rigid compliance with this step's levers, on a copy: the rows kept next step
+        // take their W without it.
+        for (int c = 0; c < n; ++c)
+          {
+            const auto   &nc = planes[plane_[c]].normal;
+            const double *w  = &previous_.W[static_cast<size_t>(c) * cap];
+            double       *wr = &W_rigid_[static_cast<size_t>(c) * cap];
+            for (int b = 0; b <= c; ++b)
+              wr[b] = w[b] + rigid->tau2_over_mass * dot(nc, planes[plane_[b]].normal) +
+                      lever_[c].dot(turn_[b]);
+          }
+        W = W_rigid_.data();
+      }
+    rounds_ = solver_.solve(n, W, cap, q_.data(), guess_.data(), lambda_.data());
     if (rounds_ < 0)
       return false;
     for (int c = 0; c < n; ++c)

@@ -18,7 +18,9 @@
 //   3. the contact forces join the deformation's force history (model frame), and the rigid
 //      body takes its step again from where it was, with gravity and the contact forces'
 //      net force and torque about the centre of mass, at the contact points, turned into the
-//      world by R'.
+//      world by R'. A contact point is the deformed one at the step's start, X + u, both in
+//      the compliance of step 2 (each row's lever) and in this torque, so that the torque acts
+//      where the solve expected it to.
 // The contact is exact to first order in the step's rotation (the compliance is linear in
 // the torque); the pose, the momenta and the energy are the rigid body's exact integrator.
 //
@@ -97,7 +99,8 @@ namespace irdm
       return model_.output_input_index[v];
     }
     /// Net force and torque about `center` of the latest step's contact (model frame), at the
-    /// deformed contact points.
+    /// deformed contact points (a contact row's at the step's start, where the solve took its
+    /// lever; a known force's after the step).
     void
     contact_wrench(const Eigen::Vector3d &center, Eigen::Vector3d &force, Eigen::Vector3d &torque);
     Eigen::Vector3d

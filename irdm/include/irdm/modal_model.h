@@ -142,6 +142,14 @@ namespace irdm
     /// mode unless force_modes was set). O(modes).
     double
     input_displacement(unsigned k) const;
+    /// Displacement of input DoF k at the start of the latest step where the free body's
+    /// contact took it as a lever (a candidate of that step), else after the step: where the
+    /// contact solve put its lever, so that the torque acts where the solve expected it.
+    double
+    lever_displacement(unsigned k) const
+    {
+      return lever_set_[k / 3] ? lever_u_[k] : input_displacement(k);
+    }
     /// Energy of the modes in the force loop, 1/2 sum (v_i^2 + w_i^2 u_i^2) (J; M-orthonormal
     /// shapes): kinetic plus strain energy of the deformation.
     double
@@ -180,6 +188,11 @@ namespace irdm
     // the normal is then one dot product with fu_ (VertexContact::step's slots).
     std::vector<double>    projected_;
     const RigidStepCompliance *rigid_ = nullptr; // during a free body's step
+    // [input DoF] a free-body contact candidate's displacement at the step's start (its
+    // lever), for the input vertices listed in lever_vertices_ (lever_set_ marks them).
+    std::vector<double>        lever_u_;
+    std::vector<char>          lever_set_;
+    std::vector<unsigned>      lever_vertices_;
     const AppliedForce        *applied_ = nullptr; // during a step with known forces
     int                        n_applied_ = 0;
 

@@ -110,6 +110,7 @@ namespace irdm
       lambda_.assign(cap, 0.0);
       guess_.assign(cap, 0);
       W_.assign(cap * cap, 0.0);
+      W_rigid_.assign(cap * cap, 0.0);
       lever_.assign(cap, Eigen::Vector3d::Zero());
       turn_.assign(cap, Eigen::Vector3d::Zero());
       was_active_.assign(contact::max_planes * n_vertices, 0);
@@ -154,10 +155,22 @@ namespace irdm
     // rigid (a free body's step, irdm/free_body.h): the rigid body's step compliance joins W.
     // It is rank 6, so it is added as mu n_c . n_b + r_c . T r_b with r_c = (X_c - C) x n_c
     // (one lever per row) rather than entry by entry.
+    // displacement(in_vertex) (with rigid): the candidate's displacement at the step's start
+    // (m, model frame), so that its lever is taken at the deformed point X + u, where the
+    // free body's torque acts (FreeBody::step).
+    template <class History, class FeedThrough, class Push, class Displacement>
+    bool
+    step(const ModelFrame &m, const PlaneTarget *planes, int n_planes, History &&history,
+         FeedThrough &&h0, Push &&push, const RigidStepCompliance *rigid,
+         Displacement &&displacement);
     template <class History, class FeedThrough, class Push>
     bool
     step(const ModelFrame &m, const PlaneTarget *planes, int n_planes, History &&history,
-         FeedThrough &&h0, Push &&push, const RigidStepCompliance *rigid = nullptr);
+         FeedThrough &&h0, Push &&push)
+    {
+      return step(m, planes, n_planes, history, h0, push, nullptr,
+                  [](unsigned) { return Eigen::Vector3d::Zero().eval(); });
+    }
 
   private:
     VertexContactOptions                                  options_;
@@ -167,6 +180,9 @@ namespace irdm
     std::vector<int>                                      slot_;   // [candidate]
     std::vector<char>                                     slot_taken_; // [slot]
     std::vector<double>                                   q_, lambda_, W_;
+    // A free body's W: the rows' W (kept from step to step, as H[0] does not change) plus the
+    // rigid compliance, whose levers move with the deformation; what the solver reads.
+    std::vector<double>                                   W_rigid_;
     // [candidate] a free body's lever r_c = (X_c - C) x n_c and T r_c (T: tau^2/4 I^-1).
     std::vector<Eigen::Vector3d>                          lever_, turn_;
     std::vector<char>                                     guess_;
