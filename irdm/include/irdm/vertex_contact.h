@@ -153,7 +153,7 @@ namespace irdm
     // slot < max_candidates) stays the row's while it stays a candidate with the same plane
     // normal, fresh says it was just given (a runtime may cache per slot, see ModalInteraction).
     // rigid (a free body's step, irdm/free_body.h): the rigid body's step compliance joins W.
-    // It is rank 6, so it is added as mu n_c . n_b + r_c . T r_b with r_c = (X_c - C) x n_c
+    // It is rank 6, so it is added as mu n_c . n_b + r_c . T r_b with r_c = (X_c + u_c - C) x n_c
     // (one lever per row) rather than entry by entry.
     // displacement(in_vertex) (with rigid): the candidate's displacement at the step's start
     // (m, model frame), so that its lever is taken at the deformed point X + u, where the
@@ -183,7 +183,7 @@ namespace irdm
     // A free body's W: the rows' W (kept from step to step, as H[0] does not change) plus the
     // rigid compliance, whose levers move with the deformation; what the solver reads.
     std::vector<double>                                   W_rigid_;
-    // [candidate] a free body's lever r_c = (X_c - C) x n_c and T r_c (T: tau^2/4 I^-1).
+    // [candidate] a free body's lever r_c = (X_c + u_c - C) x n_c and T r_c (T: tau^2/4 I^-1).
     std::vector<Eigen::Vector3d>                          lever_, turn_;
     std::vector<char>                                     guess_;
     std::vector<char> was_active_; // [plane][output vertex]: in contact at the last step
