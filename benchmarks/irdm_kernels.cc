@@ -168,7 +168,8 @@ main(int argc, char **argv)
   for (const auto &[M, model] : g_modal)
     {
       const irdm::ModalModel *mm = model.get();
-      const auto product = [mm](benchmark::State &s, const bool avx2, const bool cold) {
+      using Kernel = void (*)(const float *, std::size_t, std::size_t, const double *, double *);
+      const auto product = [mm](benchmark::State &s, const Kernel kernel, const bool cold) {
         std::vector<double> a(mm->surface_modes), u(mm->n_outputs);
         for (size_t i = 0; i < a.size(); ++i)
           a[i] = std::sin(1.0 + static_cast<double>(i));
@@ -182,8 +183,7 @@ main(int argc, char **argv)
                 benchmark::ClobberMemory();
               }
             const auto t0 = std::chrono::steady_clock::now(); // the product alone (manual time)
-            (avx2 ? irdm::detail::surface_product_avx2 : irdm::detail::surface_product_portable)(
-              mm->shapes.data(), mm->surface_modes, mm->n_outputs, a.data(), u.data());
+            kernel(mm->shapes.data(), mm->surface_modes, mm->n_outputs, a.data(), u.data());
             benchmark::DoNotOptimize(u.data());
             benchmark::ClobberMemory();
             s.SetIterationTime(
@@ -202,12 +202,17 @@ main(int argc, char **argv)
       for (const bool cold : {false, true})
         {
           const std::string c = cold ? " cold" : "";
-          setup(benchmark::RegisterBenchmark(("Phi_M a product/portable (build flags)" + tag + c).c_str(),
-                                             [=](benchmark::State &s) { product(s, false, cold); }),
-                cold);
+          std::vector<std::pair<std::string, Kernel>> kernels = {
+            {"portable (build flags)", irdm::detail::surface_product_portable}};
           if (irdm::detail::surface_product_avx2_available())
-            setup(benchmark::RegisterBenchmark(("Phi_M a product/AVX2 FMA" + tag + c).c_str(),
-                                               [=](benchmark::State &s) { product(s, true, cold); }),
+            {
+              kernels.emplace_back("AVX2 FMA", irdm::detail::surface_product_avx2);
+              kernels.emplace_back("AVX2 FMA single precision (the runtime's)",
+                                   irdm::detail::surface_product_avx2_single);
+            }
+          for (const auto &[name, kernel] : kernels)
+            setup(benchmark::RegisterBenchmark(("Phi_M a product/" + name + tag + c).c_str(),
+                                               [=, k = kernel](benchmark::State &s) { product(s, k, cold); }),
                   cold);
         }
     }

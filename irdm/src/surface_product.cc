@@ -58,7 +58,8 @@ namespace irdm::detail
   } // namespace
 
   // Eight output rows at a time share each load of a, and their eight independent FMA chains
-  // hide the FMA latency; the rows are read once, front to back (the cost is streaming Phi_M),
+  // hide the FMA latency (the row loop unrolled: at -O2 GCC would keep acc in memory, twice as
+  // slow); the rows are read once, front to back (the cost is streaming Phi_M),
   // four floats at a time widened to double.
   __attribute__((target("avx2,fma"))) void
   surface_product_avx2(const float *shapes, const std::size_t M, const std::size_t n_outputs,
@@ -75,6 +76,7 @@ namespace irdm::detail
         for (std::size_t m = 0; m < M4; m += 4)
           {
             const __m256d am = _mm256_loadu_pd(a + m);
+            #pragma GCC unroll 8
             for (int r = 0; r < 8; ++r)
               acc[r] = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + r * M + m)), am, acc[r]);
           }
@@ -100,6 +102,81 @@ namespace irdm::detail
         u[j] = s;
       }
   }
+  namespace
+  {
+    // The eight sums of the lanes of r[0..7], as one vector {sum r[0], ..., sum r[7]}.
+    __attribute__((target("avx2,fma"))) inline __m256
+    lane_sums(const __m256 *r)
+    {
+      // Two rounds of pairwise adds leave in lane i of the low half a partial sum of row i
+      // (rows 0 to 3) or of row i + 4 (the other vector), the high half the rest of the same
+      // rows; the last add joins the halves.
+      const __m256 s0123 = _mm256_hadd_ps(_mm256_hadd_ps(r[0], r[1]), _mm256_hadd_ps(r[2], r[3]));
+      const __m256 s4567 = _mm256_hadd_ps(_mm256_hadd_ps(r[4], r[5]), _mm256_hadd_ps(r[6], r[7]));
+      return _mm256_add_ps(_mm256_permute2f128_ps(s0123, s4567, 0x20),
+                           _mm256_permute2f128_ps(s0123, s4567, 0x31));
+    }
+  } // namespace
+
+  // As surface_product_avx2, but the products and sums in single precision: eight modes per
+  // FMA instead of four, and no widening. The shapes are floats already, so the rounding this
+  // adds (a to float, about M / 8 + 3 float additions per row) is of the order of the
+  // storage's own. a goes to float a block of modes at a time, into a buffer on the stack.
+  __attribute__((target("avx2,fma"))) void
+  surface_product_avx2_single(const float *shapes, const std::size_t M,
+                              const std::size_t n_outputs, const double *a, double *u)
+  {
+    constexpr std::size_t block = 512;
+    alignas(32) float     af[block];
+    // maskload's mask for the first c % 8 lanes: eight -1 then eight 0, read from 8 - c % 8.
+    static constexpr int ones_then_zeros[16] = {-1, -1, -1, -1, -1, -1, -1, -1,
+                                                0,  0,  0,  0,  0,  0,  0,  0};
+    std::fill(u, u + n_outputs, 0.0);
+    for (std::size_t m0 = 0; m0 < M; m0 += block)
+      {
+        const std::size_t c  = std::min(block, M - m0);
+        const std::size_t c8 = c - c % 8;
+        for (std::size_t i = 0; i < c; ++i)
+          af[i] = static_cast<float>(a[m0 + i]);
+        const __m256i tail = _mm256_loadu_si256(
+          reinterpret_cast<const __m256i *>(ones_then_zeros + 8 - c % 8));
+        std::size_t j = 0;
+        for (; j + 8 <= n_outputs; j += 8)
+          {
+            const float *row = shapes + j * M + m0;
+            __m256       acc[8];
+            for (auto &r : acc)
+              r = _mm256_setzero_ps();
+            for (std::size_t m = 0; m < c8; m += 8)
+              {
+                const __m256 am = _mm256_load_ps(af + m);
+                #pragma GCC unroll 8
+                for (int r = 0; r < 8; ++r)
+                  acc[r] = _mm256_fmadd_ps(_mm256_loadu_ps(row + r * M + m), am, acc[r]);
+              }
+            if (c8 < c) // the last c % 8 modes, masked: no load passes the end of a row
+              {
+                const __m256 am = _mm256_maskload_ps(af + c8, tail);
+                #pragma GCC unroll 8
+                for (int r = 0; r < 8; ++r)
+                  acc[r] = _mm256_fmadd_ps(_mm256_maskload_ps(row + r * M + c8, tail), am, acc[r]);
+              }
+            const __m256 s = lane_sums(acc);
+            _mm256_storeu_pd(u + j, _mm256_add_pd(_mm256_loadu_pd(u + j),
+                                                  _mm256_cvtps_pd(_mm256_castps256_ps128(s))));
+            _mm256_storeu_pd(u + j + 4,
+                             _mm256_add_pd(_mm256_loadu_pd(u + j + 4),
+                                           _mm256_cvtps_pd(_mm256_extractf128_ps(s, 1))));
+          }
+        for (; j < n_outputs; ++j) // the last n_outputs % 8 rows
+          {
+            float s = 0;
+            for (std::size_t m = 0; m < c; ++m)
+              s += shapes[j * M + m0 + m] * af[m];
+            u[j] += static_cast<double>(s);
+          }
+      }
+  }
 #else
   bool
   surface_product_avx2_available()
@@ -113,6 +190,13 @@ namespace irdm::detail
   {
     surface_product_portable(shapes, M, n_outputs, a, u);
   }
+
+  void
+  surface_product_avx2_single(const float *shapes, const std::size_t M,
+                              const std::size_t n_outputs, const double *a, double *u)
+  {
+    surface_product_portable(shapes, M, n_outputs, a, u);
+  }
 #endif
 
   void
@@ -121,7 +205,7 @@ namespace irdm::detail
   {
     static const bool avx2 = surface_product_avx2_available(); // thread-safe, decided once
     if (avx2)
-      surface_product_avx2(shapes, M, n_outputs, a, u);
+      surface_product_avx2_single(shapes, M, n_outputs, a, u);
     else
       surface_product_portable(shapes, M, n_outputs, a, u);
   }

@@ -1,10 +1,12 @@
 #pragma once
 // The modal surface update's matrix-vector product u = Phi_M a, Phi_M stored [output][mode]
-// row-major in single precision (ModalModel::shapes), a and u in double, the sums in double.
+// row-major in single precision (ModalModel::shapes), a and u in double.
 // It is the full surface update's cost (100 modes x 1554 outputs): streaming Phi_M, so the
-// shapes are floats (half the bytes), and it has an AVX2/FMA kernel chosen at run time,
-// besides the portable one that the build's own flags give (x86-64: SSE2 only). Both are
-// here so that a test can hold them to each other.
+// shapes are floats (half the bytes). Three kernels: the portable one that the build's own
+// flags give (x86-64: SSE2 only) and an AVX2/FMA one, both summing in double, and the one the
+// runtime takes where the CPU has AVX2 and FMA: AVX2/FMA summing in single precision (eight
+// modes per instruction; its rounding is of the order of the shapes' own storage). All three
+// are here so that a test can hold them to an exact sum and a benchmark to each other.
 #include <cstddef>
 
 namespace irdm::detail
@@ -23,7 +25,14 @@ namespace irdm::detail
   surface_product_avx2(const float *shapes, std::size_t M, std::size_t n_outputs,
                        const double *a, double *u);
 
-  // The fastest of the two this CPU runs (decided once).
+  // The same product in single-precision arithmetic (a rounded to float, float sums of about
+  // M / 8 terms per lane, the eight lane sums of a row added in float and widened to double);
+  // call only if surface_product_avx2_available().
+  void
+  surface_product_avx2_single(const float *shapes, std::size_t M, std::size_t n_outputs,
+                              const double *a, double *u);
+
+  // The fastest this CPU runs (decided once).
   void
   surface_product(const float *shapes, std::size_t M, std::size_t n_outputs, const double *a,
                   double *u);

@@ -35,7 +35,10 @@ namespace irdm
     double              highest_frequency_hz = 0; // of the surface modes
     double              build_seconds        = 0;
     std::vector<float>  shapes;       // [output DoF][surface mode], single precision: the
-                                      // surface update streams them (relative rounding 6e-8)
+                                      // surface update streams them, and sums them in single
+                                      // precision where the CPU has AVX2 (surface_product.h;
+                                      // relative to the sum of the terms' magnitudes, rounding
+                                      // 6e-8 stored, about (M / 8 + 5) 6e-8 summed)
     std::vector<double> input_shapes; // [input DoF][mode], every mode: displacement there
     // [input DoF][mode]: the modal force of a unit force there, when it differs from
     // input_shapes (ModalData::load_shapes); empty: input_shapes.
