@@ -33,6 +33,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <numeric>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -348,7 +349,8 @@ namespace irdm::play
       throw InputError("--display-hz must be in (0, 10000]");
     check_output_folder("--out", o.out_dir);
     const fs::path dir(o.out_dir);
-    for (const auto &name : {"forces.csv", "histogram.csv", "summary.csv", "play.md"})
+    for (const auto &name :
+         {"forces.csv", "surface_updates.csv", "histogram.csv", "summary.csv", "play.md"})
       check_output_file("--out", (dir / name).string(), {o.model, o.trajectory});
     OutputLock lock((dir / "play").string());
     const Trajectory trajectory = read_trajectory(o.trajectory);
@@ -451,7 +453,8 @@ namespace irdm::play
     std::vector<std::int64_t> wake_ns(n_steps);
     const long display_ticks = static_cast<long>(std::ceil(n_steps / rate * o.display_hz)) + 2;
     const long frame_stride  = std::max<long>(1, (display_ticks + o.max_frames - 1) / std::max(1u, o.max_frames));
-    std::vector<double>    update_us(display_ticks, 0.0), warm_us(display_ticks, 0.0), frame_u;
+    std::vector<double>    update_us(display_ticks, 0.0), update_step(display_ticks, 0.0),
+      warm_us(display_ticks, 0.0), frame_u;
     std::vector<long long> frame_step;
     frame_u.assign(static_cast<size_t>((display_ticks / frame_stride + 1)) * model.n_outputs, 0.0);
     frame_step.assign(display_ticks / frame_stride + 1, 0);
@@ -556,7 +559,8 @@ namespace irdm::play
             {
               const std::int64_t t0 = now_ns();
               surface_displacement(modal, exchange.front(), surface.data());
-              update_us[n_updates++] = 1e-3 * static_cast<double>(now_ns() - t0);
+              update_us[n_updates]     = 1e-3 * static_cast<double>(now_ns() - t0);
+              update_step[n_updates++] = static_cast<double>(exchange.front().steps);
               if (display_tick_count++ % frame_stride == 0)
                 {
                   std::copy(surface.begin(), surface.end(),
@@ -580,6 +584,7 @@ namespace irdm::play
     std::transform(jitter_us.begin(), jitter_us.end(), abs_jitter.begin(),
                    [](double x) { return std::abs(x); });
     update_us.resize(n_updates);
+    update_step.resize(n_updates);
     warm_us.resize(n_warms);
     for (Interruptions *seen : {&display_seen, &force_seen, &baseline_seen})
       seen->gap_us.resize(seen->count);
@@ -626,6 +631,13 @@ namespace irdm::play
               {"step", "time_s", "device_x_m", "device_y_m", "device_z_m", "present", "force_x_N",
                "force_y_N", "force_z_N", "force_step_us", "wake_late_us"},
               {step_index, time_s, dx, dy, dz, present, force_x, force_y, force_z, step_us, late_us});
+    {
+      // Every surface update's latency, for percentiles pooled over repeated runs.
+      std::vector<double> index(update_us.size());
+      std::iota(index.begin(), index.end(), 0.0);
+      write_csv((dir / "surface_updates.csv").string(), {"update", "steps", "surface_update_us"},
+                {index, update_step, update_us});
+    }
     {
       std::vector<double> lo(Histogram::bins), hi(Histogram::bins);
       for (int b = 0; b < Histogram::bins; ++b)
@@ -779,7 +791,8 @@ namespace irdm::play
          << ". Peak force " << fmt(peak_force) << " N.\n\n";
     md << "Files: `forces.csv` (per step: device, force, force_step_us, wake_late_us), "
        << "`summary.csv` (these figures in one row; force_error and baseline_* -1: not run), "
-       << "`histogram.csv` (log bins, 10 per decade), `surface/surface.pvd` (" << n_frames
+       << "`surface_updates.csv` (per surface update: the force step it showed, its "
+       << "surface_update_us), `histogram.csv` (log bins, 10 per decade), `surface/surface.pvd` (" << n_frames
        << " VTU frames of the deformed surface for ParaView; displacement_m per vertex).\n";
     write_text_file((dir / "play.md").string(), md.str());
     out << md.str();

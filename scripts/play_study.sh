@@ -6,7 +6,9 @@
 #   MODEL.h5  default out/models/quick/cat_vertex.h5 (scripts/main.sh makes it)
 #   OUT_DIR   default reports/play
 # Each configuration's first repetition keeps its files in OUT_DIR/NAME/ (press_k100_1khz also
-# its VTU frames and frames.png); the others keep play.md and summary.csv in OUT_DIR/NAME/rK/.
+# its VTU frames and frames.png); the others keep play.md, summary.csv and surface_updates.csv
+# in OUT_DIR/NAME/rK/. Every force step's and surface update's latency, of every repetition,
+# goes to OUT_DIR/samples.csv.gz (run,repetition,kind,us) for percentiles pooled over the runs.
 # About 10 minutes (each run first measures its baseline: the same loop with no work). Run it on an otherwise idle machine: it measures deadlines.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,6 +17,8 @@ out=${2:-reports/play}
 [ -f "$model" ] || { echo "play_study: no model $model (scripts/main.sh makes it)" >&2; exit 2; }
 mkdir -p "$out"
 csv="$out/study.csv.part"
+samples="$out/samples.csv.part"
+echo "run,repetition,kind,us" > "$samples"
 first=1
 play() { # NAME REPETITIONS FRAMES [irdm play options]
   local name=$1 reps=$2 frames=$3
@@ -26,6 +30,13 @@ play() { # NAME REPETITIONS FRAMES [irdm play options]
     # Exit 3 (more than 0.1 % of deadlines missed) is a measurement, not a failure here.
     build/apps/irdm play "$model" --frames "$([ "$r" -eq 1 ] && echo "$frames" || echo 0)" \
       --out "$dir.tmp" --quiet "$@" > /dev/null || [ $? -eq 3 ]
+    # The latencies by column name: force_step_us of forces.csv, surface_update_us of
+    # surface_updates.csv.
+    for f in forces.csv:force_step surface_updates.csv:surface_update; do
+      awk -F, -v run="$name" -v rep="$r" -v kind="${f#*:}" -v col="${f#*:}_us" \
+        'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == col) c = i; next }
+         { printf "%s,%s,%s,%.4g\n", run, rep, kind, $c }' "$dir.tmp/${f%%:*}" >> "$samples"
+    done
     if [ "$r" -gt 1 ]; then rm -rf "$dir.tmp/surface" "$dir.tmp/forces.csv" "$dir.tmp/histogram.csv"; fi
     rm -rf "$dir"
     mv "$dir.tmp" "$dir"
@@ -50,6 +61,9 @@ play tap_coupled_k100_1khz 3 0   --trajectory $T/tap_back.csv --rate-hz 1000 --f
 # shellcheck disable=SC2086
 play tap_coupled_all_500hz 2 0   --trajectory $T/tap_back.csv $coupled
 mv "$csv" "$out/study.csv"
-/usr/bin/python3 validation/summarize_play.py "$out/study.csv" "$out/study.md"
+gzip -n -c "$samples" > "$out/samples.csv.gz.part"
+rm "$samples"
+mv "$out/samples.csv.gz.part" "$out/samples.csv.gz"
+/usr/bin/python3 validation/summarize_play.py "$out/study.csv" "$out/study.md" "$out/samples.csv.gz"
 /usr/bin/python3 validation/plot_frame_strip.py "$out/press_k100_1khz/surface" "$out/press_k100_1khz/frames.png"
 echo "play_study: wrote $out/study.md"

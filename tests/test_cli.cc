@@ -344,6 +344,24 @@ TEST(Cli, PlayRunsBothLoopsAndMatchesTheOfflineReplay)
   EXPECT_GT(v["surface_updates"], 0);
   EXPECT_TRUE(fs::exists(fs::path(dir) / "forces.csv"));
   EXPECT_TRUE(fs::exists(fs::path(dir) / "surface" / "surface.pvd"));
+  // One row per surface update, each with the force step it showed: in order, none past the last.
+  std::ifstream updates(fs::path(dir) / "surface_updates.csv");
+  ASSERT_TRUE(std::getline(updates, header));
+  EXPECT_EQ(header, "update,steps,surface_update_us");
+  long   n_rows     = 0;
+  double last_steps = 0;
+  for (std::string line; std::getline(updates, line); ++n_rows)
+    {
+      std::stringstream l(line);
+      std::string       index, steps, us;
+      ASSERT_TRUE(std::getline(l, index, ',') && std::getline(l, steps, ',') && std::getline(l, us));
+      EXPECT_EQ(std::stod(index), n_rows);
+      EXPECT_GT(std::stod(steps), last_steps);
+      EXPECT_LE(std::stod(steps), 100);
+      EXPECT_GT(std::stod(us), 0);
+      last_steps = std::stod(steps);
+    }
+  EXPECT_EQ(n_rows, v["surface_updates"]);
   std::ofstream(tmp("cli_play_bad.csv")) << "time_s,x_m,y_m\n0,0.255,0\n";
   EXPECT_EQ(status(play + "_bad --trajectory " + tmp("cli_play_bad.csv")), 2);
   EXPECT_EQ(status(play + "_missing --trajectory " + tmp("no_such.csv")), 2);

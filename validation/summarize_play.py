@@ -1,22 +1,27 @@
 #!/usr/bin/python3
 """One table over repeated `irdm play` runs (scripts/play_study.sh).
 
-Usage: /usr/bin/python3 validation/summarize_play.py STUDY.csv OUT.md
+Usage: /usr/bin/python3 validation/summarize_play.py STUDY.csv OUT.md [SAMPLES.csv.gz]
 
 STUDY.csv: one row per run and repetition, the columns of play's summary.csv after `run` and
 `repetition`. Per configuration: missed deadlines summed over the repetitions (with their
 causes), the stalls in which the force thread did not run for more than a period, the
 baseline's (the same loop with no work, run just before: the machine's own stalls), and the
-median over the repetitions of each latency percentile (us). Standard library only.
+median over the repetitions of each latency percentile (us). With SAMPLES (run,repetition,
+kind,us: every force step's and surface update's latency), also the percentiles of all the
+repetitions' samples pooled: a run has 100 to 300 surface updates, so its own p99 is its second
+or third largest, while the pool's rests on several hundred. Standard library only.
 """
 import csv
+import gzip
+import math
 import os
 import statistics
 import sys
 
 
 def main():
-    if len(sys.argv) != 3:
+    if len(sys.argv) not in (3, 4):
         sys.exit(__doc__)
     rows = list(csv.DictReader(open(sys.argv[1])))
     if not rows:
@@ -24,6 +29,25 @@ def main():
     runs = {}
     for row in rows:
         runs.setdefault(row["run"], []).append({k: float(v) for k, v in row.items() if k != "run"})
+
+    pooled = {}  # (run, kind) -> every sample of every repetition
+    if len(sys.argv) == 4:
+        with gzip.open(sys.argv[3], "rt") as f:
+            for row in csv.DictReader(f):
+                pooled.setdefault((row["run"], row["kind"]), []).append(float(row["us"]))
+        for v in pooled.values():
+            v.sort()
+
+    def nearest_rank(v, p):
+        # As irdm play's percentile: the smallest sample with at least p of them at or below.
+        return v[min(len(v) - 1, max(0, math.ceil(p * len(v)) - 1))]
+
+    def pool(name, kind):
+        v = pooled.get((name, kind))
+        if not v:
+            return "not recorded"
+        return (f"{g(nearest_rank(v, 0.5))} / {g(nearest_rank(v, 0.99))} / "
+                f"{g(nearest_rank(v, 0.999))} ({len(v)})")
 
     def med(group, key):
         return statistics.median(r[key] for r in group)
@@ -64,8 +88,9 @@ def main():
         "| of which step overran / woken late | stalls > 1 period (longest, ms) "
         "| baseline, no work: ticks > 1 period late (stalls, longest ms) | runs within 0.1 % | force step p50 / p99 / p99.9 (us) | wake-up lateness p50 / p99 (us) "
         "| surface update p50 / p99 (us) | surface warm-up before each frame (us ahead; p50); force step warm-up "
-        "| interruptions of the spins per s, force / deformation thread (p50 length, us) | force error against all modes |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| interruptions of the spins per s, force / deformation thread (p50 length, us) | force error against all modes "
+        "| pooled over the repetitions: force step p50 / p99 / p99.9 (us; samples) | pooled: surface update p50 / p99 / p99.9 (us; samples) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, group in runs.items():
         steps = sum(r["steps"] for r in group)
@@ -85,10 +110,12 @@ def main():
             f"| {g(med(group, 'surface_update_p50_us'))} / {g(med(group, 'surface_update_p99_us'))} "
             f"| {warm(group)} "
             f"| {interruptions(group)} "
-            f"| {g(med(group, 'force_error'))} |")
+            f"| {g(med(group, 'force_error'))} "
+            f"| {pool(name, 'force_step')} | {pool(name, 'surface_update')} |")
     text = ("# irdm play, repeated runs\n\n"
             "Made by `scripts/play_study.sh` from `" + os.path.basename(sys.argv[1]) + "`. Sums over "
-            "the repetitions for deadlines; medians over the repetitions for latencies.\n\n"
+            "the repetitions for deadlines; medians over the repetitions for latencies, and in the "
+            "last two columns the percentiles of every repetition's samples together.\n\n"
             + "\n".join(lines) + "\n")
     part = sys.argv[2] + ".part"
     with open(part, "w") as f:
