@@ -841,6 +841,10 @@ namespace
                             "elasticity's own error (it against the truth) and the method's (the "
                             "runtime against it) apart (linearization.csv); on by default")
       ->capture_default_str();
+    validate_free->add_flag("--centrifugal", vfb.centrifugal,
+                            "the modal routes take the spin's centrifugal force into the "
+                            "deformation (the model's /modes/centrifugal_load); free flight "
+                            "then runs with it as well");
     validate_free->add_flag("--reuse-models", vfb.reuse_models,
                             "take a virtual-DOF model already in --model-dir instead of "
                             "precomputing it (it must be of the same scene and material)");

@@ -51,7 +51,12 @@ namespace irdm
     : model_(model)
     , interaction_(model, options.contact)
     , vertex_done_(model.n_inputs / 3, 0)
-  {}
+    , centrifugal_(options.centrifugal)
+  {
+    if (centrifugal_ && model.centrifugal_load.empty())
+      throw InputError("free body: the centrifugal force needs a model with "
+                       "/modes/centrifugal_load (irdm precompute's dense route, this version)");
+  }
 
   bool
   ModalDeformation::step(const PlaneTarget *body_planes, const int n_planes,
@@ -200,6 +205,7 @@ namespace irdm
     rigid_.step(weight, Eigen::Vector3d::Zero(), tau_);
     const Eigen::Matrix3d R  = rigid_.rotation();
     const Eigen::Vector3d c1 = rigid_.state().position;
+    deformation_.set_spin(R.transpose() * rigid_.angular_velocity()); // at the step's end
     for (int p = 0; p < n_planes; ++p)
       {
         body_planes_[p]        = world_planes[p];

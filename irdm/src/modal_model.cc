@@ -43,6 +43,7 @@ namespace irdm
     out.surface_modes        = M;
     out.highest_frequency_hz = md.frequency_hz[M - 1];
     out.step                 = md.step;
+    out.centrifugal_load     = md.centrifugal_load;
     out.w2.resize(N);
     for (unsigned i = 0; i < N; ++i)
       {
@@ -205,6 +206,7 @@ namespace irdm
       for (unsigned e = 0; e < 15; ++e)
         coef_[e * static_cast<size_t>(N_) + i] = model.step[15 * static_cast<size_t>(i) + e];
     g_prev_.assign(N_, 0.0);
+    spin_load_.assign(N_, 0.0);
     force_now_.assign(model.n_inputs, 0.0);
     is_pushed_.assign(model.n_inputs, 0);
     pushed_.reserve(model.n_inputs);
@@ -245,6 +247,37 @@ namespace irdm
     ArrMut(fu_.data(), N) = coef(0) * u + coef(1) * v + coef(2) * a + coef(4) * g;
     ArrMut(fv_.data(), N) = coef(5) * u + coef(6) * v + coef(7) * a + coef(9) * g;
     ArrMut(fa_.data(), N) = coef(10) * u + coef(11) * v + coef(12) * a + coef(14) * g;
+    if (spinning_) // a known load of this step: in the history the contact solve reads
+      {
+        const Arr c(spin_load_.data(), N);
+        ArrMut(fu_.data(), N) += coef(3) * c;
+        ArrMut(fv_.data(), N) += coef(8) * c;
+        ArrMut(fa_.data(), N) += coef(13) * c;
+      }
+  }
+
+  bool
+  ModalInteraction::set_spin(const Eigen::Vector3d &omega)
+  {
+    if (model_.centrifugal_load.empty() || !omega.allFinite())
+      return false;
+    spinning_ = !omega.isZero(0);
+    if (!spinning_)
+      return true;
+    // -omega x (omega x r) = S r, S = |omega|^2 I - omega omega^T: mode i's load is
+    // sum_ab S_ab C_i[a][b].
+    const Eigen::Matrix3d S =
+      omega.squaredNorm() * Eigen::Matrix3d::Identity() - omega * omega.transpose();
+    for (unsigned i = 0; i < N_; ++i)
+      {
+        const double *C = &model_.centrifugal_load[9 * static_cast<size_t>(i)];
+        double        g = 0;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            g += S(a, b) * C[3 * a + b];
+        spin_load_[i] = g;
+      }
+    return true;
   }
 
   void
@@ -262,6 +295,8 @@ namespace irdm
     ArrMut(xu_.data(), N) = Arr(fu_.data(), N) + coef(3) * g;
     ArrMut(xv_.data(), N) = Arr(fv_.data(), N) + coef(8) * g;
     ArrMut(xa_.data(), N) = Arr(fa_.data(), N) + coef(13) * g;
+    if (spinning_) // fu_ holds its response already; the next step's history needs it in g
+      VecMut(g_prev_.data(), N_) += Vec(spin_load_.data(), N_);
     ++n_;
   }
 

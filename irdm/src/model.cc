@@ -261,8 +261,10 @@ namespace irdm
         md.step         = r.read_double("/modes/step", {shape[1], 3, 5});
         if (r.exists("/modes/load_shapes"))
           md.load_shapes = r.read_double("/modes/load_shapes", shape);
-        for (const auto *v :
-             {&md.frequency_hz, &md.damping_ratio, &md.shapes, &md.load_shapes, &md.step})
+        if (r.exists("/modes/centrifugal_load"))
+          md.centrifugal_load = r.read_double("/modes/centrifugal_load", {shape[1], 3, 3});
+        for (const auto *v : {&md.frequency_hz, &md.damping_ratio, &md.shapes, &md.load_shapes,
+                              &md.step, &md.centrifugal_load})
           for (const double x : *v)
             if (!std::isfinite(x))
               fail("the modal realization (/modes) contains NaN or Inf");

@@ -112,6 +112,9 @@ namespace irdm::fem
     /// spin about it, w x (x - c) at the DoF's support point; 0 on constrained DoFs.
     Vector<double>
     initial_velocity() const;
+    // The support point of every DoF (m): mesh vertices and, for P2, edge midpoints.
+    std::vector<Point<3>>
+    dof_support_points() const;
     void
     record(const Vector<double> &u, const Vector<double> &v, const Vector<double> &a,
            const Vector<double> &f, const Vector<double> &lambda, double t,

@@ -496,6 +496,23 @@ namespace irdm::fem
     return g;
   }
 
+  std::vector<Point<3>>
+  ElasticDynamics::Impl::dof_support_points() const
+  {
+    std::vector<Point<3>> x(dof_handler.n_dofs());
+    const Quadrature<3>   support(fe.get_unit_support_points());
+    FEValues<3>           values(mapping, fe, support, update_quadrature_points);
+    std::vector<types::global_dof_index> indices(fe.n_dofs_per_cell());
+    for (const auto &cell : dof_handler.active_cell_iterators())
+      {
+        values.reinit(cell);
+        cell->get_dof_indices(indices);
+        for (unsigned i = 0; i < indices.size(); ++i)
+          x[indices[i]] = values.quadrature_point(i);
+      }
+    return x;
+  }
+
   Vector<double>
   ElasticDynamics::Impl::initial_velocity() const
   {
@@ -503,24 +520,15 @@ namespace irdm::fem
     const Vec3    &v0 = scene.initial_velocity, &w = scene.initial_angular_velocity;
     if (v0 == Vec3{0, 0, 0} && w == Vec3{0, 0, 0})
       return v;
-    const auto c = mass_properties(mesh, scene.density).center;
-    // The support point of every DoF (vertices and, for P2, edge midpoints).
-    const Quadrature<3> support(fe.get_unit_support_points());
-    FEValues<3>         values(mapping, fe, support, update_quadrature_points);
-    std::vector<types::global_dof_index> indices(fe.n_dofs_per_cell());
-    for (const auto &cell : dof_handler.active_cell_iterators())
+    const auto                  c = mass_properties(mesh, scene.density).center;
+    const std::vector<Point<3>> x = dof_support_points();
+    for (types::global_dof_index i = 0; i < x.size(); ++i)
       {
-        values.reinit(cell);
-        cell->get_dof_indices(indices);
-        for (unsigned i = 0; i < indices.size(); ++i)
-          {
-            const Point<3> &x = values.quadrature_point(i);
-            const double    r[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]};
-            const double    spin[3] = {w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2],
-                                       w[0] * r[1] - w[1] * r[0]};
-            const unsigned  d = dof_component[indices[i]];
-            v[indices[i]]     = v0[d] + spin[d];
-          }
+        const double   r[3]    = {x[i][0] - c[0], x[i][1] - c[1], x[i][2] - c[2]};
+        const double   spin[3] = {w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2],
+                                  w[0] * r[1] - w[1] * r[0]};
+        const unsigned d       = dof_component[i];
+        v[i]                   = v0[d] + spin[d];
       }
     constraints.set_zero(v);
     return v;

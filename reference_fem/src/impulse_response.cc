@@ -439,6 +439,11 @@ namespace irdm::fem
     double              rigid_w2_max = 0; // free body: largest |w^2| of the rigid modes
     std::vector<double> w2, phi_out, phi_in, compliance; // compliance: nout x nin (sparse)
     std::vector<double> load_out; // route 1: the modes' shapes at the outputs before the fit
+    // Free body, dense route: each elastic mode's load of the spin's centrifugal field,
+    // [mode][a][b] = phi_i^T M w_ab, w_ab the field e_a (x_b - c_b) (x - c from the centre of
+    // mass): the modal force of -M (omega x (omega x r)) is sum_ab S_ab [i][a][b] with
+    // S = |omega|^2 I - omega omega^T (docs/model-format.md).
+    std::vector<double> centrifugal;
     if (rank == 0)
       {
         if (sparse)
@@ -530,6 +535,29 @@ namespace irdm::fem
             };
             phi_out = restrict_rows(out_free);
             phi_in  = restrict_rows(in_free);
+            if (free_body)
+              {
+                // M W, W the nine linear fields (n x 9, row-major), then Phi^T (M W).
+                std::vector<double> mw(static_cast<size_t>(n) * 9, 0.0);
+                for (unsigned r = 0; r < n; ++r)
+                  for (unsigned j = 0; j < n; ++j)
+                    {
+                      const double mrj = sys.mass[static_cast<size_t>(r) * n + j];
+                      if (mrj == 0)
+                        continue;
+                      const unsigned a = sys.free_dof_axis[j];
+                      for (unsigned c = 0; c < 3; ++c)
+                        mw[static_cast<size_t>(r) * 9 + 3 * a + c] += mrj * sys.free_dof_offset[j][c];
+                    }
+                centrifugal.assign(static_cast<size_t>(nm) * 9, 0.0);
+                for (unsigned i = 0; i < nm; ++i)
+                  {
+                    const double *col = &phi[static_cast<size_t>(i + n_rigid) * n];
+                    for (unsigned r = 0; r < n; ++r)
+                      for (unsigned e = 0; e < 9; ++e)
+                        centrifugal[static_cast<size_t>(i) * 9 + e] += col[r] * mw[static_cast<size_t>(r) * 9 + e];
+                  }
+              }
             if (rigid_fit)
               {
                 std::vector<std::array<double, 3>> x(nout / 3);
@@ -888,6 +916,17 @@ namespace irdm::fem
                   std::copy(m.begin(), m.end(), steps.begin() + 15 * i);
                 }
               f.write("/modes/step", {nm, 3, 5}, steps.data());
+              if (!centrifugal.empty())
+                {
+                  f.write("/modes/centrifugal_load", {nm, 3, 3}, centrifugal.data());
+                  f.attribute("/modes/centrifugal_load", "meaning",
+                              std::string("[mode i][a][b] = phi_i^T M w_ab, w_ab the field e_a (x_b "
+                                          "- c_b), c the centre of mass (kg m per unit modal "
+                                          "coordinate): a spin omega (rad/s, model frame) loads "
+                                          "mode i by sum_ab S_ab [i][a][b] N, S = |omega|^2 I - "
+                                          "omega omega^T, the centrifugal force -M (omega x "
+                                          "(omega x r))"));
+                }
 
               if (options.modal_only)
                 {

@@ -30,7 +30,12 @@
 // r)) drives none of them: in the accelerating frame the deformation is driven by the contact
 // forces alone, which is exact for linear elasticity. Left out: the centrifugal and Coriolis
 // forces of the body's spin (-M omega x (omega x r), -2 M omega x v), which are not rigid
-// motions; free_body_validation measures their size against the contact's.
+// motions; free_body_validation measures their size against the contact's. With
+// FreeBodyOptions::centrifugal the modal kind takes the centrifugal force of the step's
+// predicted spin into its force history (the model's /modes/centrifugal_load, from the
+// precompute's full mode shapes and mass matrix): a load on the elastic modes only, the rigid
+// body's inertia kept as it is (its change with the stretch, which would take the stretch's
+// energy from the spin, is left out, as are the Coriolis forces).
 //
 // Virtual DOFs: the deformation is what the nonlinear FEM's free body did after a wall hit,
 // less its best rigid fit, so it holds what the hit's own acceleration did to the body; the
@@ -71,6 +76,10 @@ namespace irdm
     VertexContactOptions contact; // FreeBodyInteraction: the many-vertex contact
     // FreeBodyVirtualDofs: how a plane maps to the dome's virtual DOFs.
     OrientationMapping mapping = OrientationMapping::nearest;
+    // FreeBodyInteraction: the spin's centrifugal force on the deformation (the step's
+    // predicted angular velocity; ModalInteraction::set_spin). Needs a model with
+    // /modes/centrifugal_load (dense route); the constructor refuses one without.
+    bool centrifugal = false;
   };
 
   /// The modal deformation under many-vertex contact (FreeBodyInteraction's).
@@ -92,6 +101,14 @@ namespace irdm
     bool
     step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid,
          const AppliedForce *applied, int n_applied);
+    /// The spin (rad/s, model frame) whose centrifugal force loads the next steps, if
+    /// FreeBodyOptions::centrifugal.
+    void
+    set_spin(const Eigen::Vector3d &omega)
+    {
+      if (centrifugal_)
+        interaction_.set_spin(omega);
+    }
     /// The input vertex of surface vertex v, or -1 (no force can be applied there).
     int
     input_vertex(unsigned v) const
@@ -141,6 +158,7 @@ namespace irdm
     const ModalModel &model_;
     ModalInteraction  interaction_;
     std::vector<char> vertex_done_; // [input vertex], scratch
+    bool              centrifugal_;
   };
 
   /// The seed's virtual DOFs of a free body (FreeBodyVirtualDofs').
@@ -157,6 +175,10 @@ namespace irdm
     {
       return model_.time_step;
     }
+    /// The spin's centrifugal force is not in the model (header): a no-op.
+    void
+    set_spin(const Eigen::Vector3d &)
+    {}
     /// Up to PlaneInteraction::max_walls walls, as stiff as the precompute's (a plane's own
     /// stiffness is not used). Known point forces are refused (false): the model holds
     /// responses to walls only.

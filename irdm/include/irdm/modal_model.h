@@ -49,12 +49,13 @@ namespace irdm
                                       // DoF i from input DoF k, [i][k]: H[0] (with K < N
                                       // modes, plus the dropped modes' static correction)
     std::vector<float>  residual;     // static correction E, [input DoF][output DoF]
+    std::vector<double> centrifugal_load; // [mode][3][3], as ModalData's; empty: none
     /// Bytes in memory.
     double
     bytes() const
     {
       return 8.0 * (input_shapes.size() + input_load_shapes.size() + step.size() +
-                    h0_inputs.size()) +
+                    h0_inputs.size() + centrifugal_load.size()) +
              4.0 * (shapes.size() + residual.size());
     }
   };
@@ -153,6 +154,14 @@ namespace irdm
     {
       return lever_set_[k / 3] ? lever_u_[k] : input_displacement(k);
     }
+    /// A free body's spin (rad/s, model frame) from the next step on: its centrifugal force
+    /// -M (omega x (omega x r)) about the centre of mass loads the force loop's modes, in the
+    /// history the contact solve sees as well (ModalModel::centrifugal_load; the modes beyond
+    /// K and the surface's static correction leave it out). Stays until set again; zero turns
+    /// it off. Returns false (and changes nothing) if the model has no centrifugal load or
+    /// omega is not finite. Allocates nothing.
+    bool
+    set_spin(const Eigen::Vector3d &omega);
     /// Energy of the modes in the force loop, 1/2 sum (v_i^2 + w_i^2 u_i^2) (J; M-orthonormal
     /// shapes): kinetic plus strain energy of the deformation.
     double
@@ -183,6 +192,8 @@ namespace irdm
     std::vector<double>    xu_, xv_, xa_;  // [mode] state (u, v, a) after the last step
     std::vector<double>    fu_, fv_, fa_;  // [mode] this step's state without its force
     std::vector<double>    g_prev_;  // [mode] modal force of the last step
+    std::vector<double>    spin_load_; // [mode] the spin's centrifugal load (set_spin)
+    bool                   spinning_ = false;
     std::vector<double>    force_now_;  // [input DoF] this step's force
     std::vector<unsigned>  pushed_;     // inputs with force this step
     std::vector<char>      is_pushed_;

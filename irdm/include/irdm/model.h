@@ -52,6 +52,10 @@ namespace irdm
     // symmetric). Empty: the same as `shapes`.
     std::vector<double> load_shapes;
     std::vector<double> step;          // [mode][3 x 5]: [A | b_new | b_old], row-major
+    // A free body's dense-route model: [mode][a][b] = phi_i^T M w_ab, w_ab the field
+    // e_a (x_b - c_b) about the centre of mass c (the modal load of the spin's centrifugal
+    // force; docs/model-format.md). Empty: the file has none.
+    std::vector<double> centrifugal_load;
   };
 
   /// The uncompressed model: H in full, or only its modal realization (modal_only).

@@ -37,6 +37,10 @@ namespace irdm::fem
     std::vector<double> stiffness; // N/m, n_free x n_free
     std::vector<double> mass;      // kg, n_free x n_free (consistent)
     std::vector<int>    vertex_dof_to_free; // [3 * mesh vertex + d] -> free index, -1 if fixed
+    // Each free DoF's support point minus the body's centre of mass (m; uniform density), and
+    // its axis (0, 1, 2): a linear field's nodal values (P1 and P2 interpolate it exactly).
+    std::vector<Vec3>          free_dof_offset;
+    std::vector<unsigned char> free_dof_axis;
   };
 
   /// A truncated modal basis of the fixed system (K phi = w^2 M phi on the free DoFs) at
