@@ -49,7 +49,7 @@ namespace irdm::validation
     bool     small_strain = true;
     // The modal routes take the spin's centrifugal force into the deformation
     // (FreeBodyOptions::centrifugal); false: left out, as the virtual DOFs leave it. Off by
-    // default: on the cat it changed no figure beyond the runs' spread (reports/free/README.md)
+    // default: on the cat's roll it changed no figure at 50 kPa and made 2 kPa worse (README.md)
     // and its strain energy is not taken from the spin (free flight then gains energy).
     bool     centrifugal = false;
     // The impact study: the upright cat moving at these speeds (m/s) onto the floor, gravity
