@@ -13,7 +13,10 @@ triangles.csv (a, b, c: surface triangles, vertex indices). Writes:
   impact.png  with impact.csv (the impact study: case, material, speed_m_s,
               speed_over_wave_speed, method, reference, ..., first_deformation_error, ...): the
               first contact's deformation error against the impact speed over the wave speed,
-              log-log, one line per material and comparison.
+              log-log, one line per material and comparison;
+  stability.png with stability.csv (material, method, time_s, energy_gain, ...): the long
+              rolls' energy gain over the energy brought in against time, one panel per
+              material (symlog: the soft runs grow by orders).
 """
 import csv
 import os
@@ -166,6 +169,34 @@ def impact(folder):
     return True
 
 
+def stability(folder):
+    path = folder / "stability.csv"
+    if not path.exists():
+        return True  # the long rolls were not run
+    runs = defaultdict(list)  # (material, method) -> [(t, gain)]
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            runs[(row["material"], row["method"])].append((float(row["time_s"]),
+                                                           float(row["energy_gain"])))
+    if not runs:
+        return True
+    materials = sorted({m for m, _ in runs}, key=material_key)
+    fig, axes = plt.subplots(1, len(materials), figsize=(6 * len(materials), 4.2), squeeze=False)
+    for ax, material in zip(axes[0], materials):
+        for i, method in enumerate(sorted(m for mat, m in runs if mat == material)):
+            pts = runs[(material, method)]
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], color=f"C{i}", lw=1, label=method)
+        ax.set_yscale("symlog", linthresh=1e-3)
+        ax.set_title(material)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("energy gain / energy brought in")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    save(fig, folder / "stability.png", 100)
+    return True
+
+
 def main():
     if len(sys.argv) != 2:
         print(__doc__, file=sys.stderr)
@@ -174,6 +205,7 @@ def main():
     ok = fig6(folder)
     ok = frames(folder) and ok
     ok = impact(folder) and ok
+    ok = stability(folder) and ok
     return 0 if ok else 1
 
 

@@ -23,6 +23,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 namespace fs = std::filesystem;
 
@@ -455,6 +456,10 @@ namespace irdm::validation
               "fem_angle_deg,irdm_angle_deg,fem_deformation_rms_m,deformation_difference_rms_m\n";
     frames << "case,material,method,time_s,vertex,x_m,y_m,z_m\n";
     std::ostringstream       stability;
+    // The long runs' energy over time, every 0.1 s (stability.csv).
+    std::ostringstream stability_csv;
+    stability_csv << "material,method,time_s,energy_gain,elastic_energy_over_input,turned_deg,"
+                     "active_vertices\n";
     // The truth's own determination (--truth-check): the FEM at tau / 2M against the FEM at tau / M.
     std::ostringstream truth_csv, truth_md;
     truth_csv << "case,material,com_error,angle_error_deg,force_error,impulse_error,"
@@ -889,6 +894,7 @@ namespace irdm::validation
             EnergyWatch<std::decay_t<decltype(irdm)>> watch{irdm, fo.gravity};
             watch.start(roll.height);
             const unsigned steps = static_cast<unsigned>(std::lround(o.stability_seconds / tau));
+            const unsigned trace_every = std::max(1u, static_cast<unsigned>(std::lround(0.1 / tau)));
             double growth = 0, turned = 0, seconds = 0;
             unsigned failed = 0;
             Eigen::Matrix3d R_prev = Eigen::Matrix3d::Identity();
@@ -900,6 +906,16 @@ namespace irdm::validation
                 growth = std::max(growth, watch.growth());
                 turned += angle_deg(irdm.rigid().rotation() * R_prev.transpose());
                 R_prev = irdm.rigid().rotation();
+                if (step % trace_every == 0)
+                  {
+                    int active = 0;
+                    if constexpr (std::is_same_v<std::decay_t<decltype(irdm)>, FreeBodyInteraction>)
+                      active = irdm.deformation().plane_result(0).active;
+                    stability_csv << material_name(E) << ',' << method << ',' << step * tau << ','
+                                  << watch.growth() << ','
+                                  << irdm.deformation().elastic_energy() / watch.e_in << ','
+                                  << turned << ',' << active << '\n';
+                  }
               }
             stability << "| rolling, " << o.stability_seconds << " s | " << material_name(E) << " | "
                       << method << " | " << growth << " | " << turned << " | "
@@ -1068,6 +1084,7 @@ namespace irdm::validation
       tri << t[0] << ',' << t[1] << ',' << t[2] << '\n';
     write_text_file((fs::path(dir) / "free.csv").string(), csv.str());
     write_text_file((fs::path(dir) / "series.csv").string(), series.str());
+    write_text_file((fs::path(dir) / "stability.csv").string(), stability_csv.str());
     write_text_file((fs::path(dir) / "frames.csv").string(), frames.str());
     write_text_file((fs::path(dir) / "triangles.csv").string(), tri.str());
     if (o.truth_check)
@@ -1284,13 +1301,18 @@ namespace irdm::validation
           "The rolling cat's start (spin_roll) run for " << o.stability_seconds
        << " s by each route on the floor, and free flight with no plane for 10 s (spinning at "
           "(3, 8, -5) rad/s, thrown at (0.3, -0.2, 1) m/s). Energy gain: the largest E(t) - E(0) "
-          "over the energy brought in; final: at the end.\n\n"
+          "over the energy brought in; final: at the end. `stability.csv` traces the rolls every "
+          "0.1 s: energy gain, the deformation's energy over the energy brought in (0 for the "
+          "virtual DOFs, whose energy is not known), turned angle, vertices the floor pushes (0 "
+          "for the virtual DOFs).\n\n"
           "| run | material | method | largest energy gain | turned (deg) | final | failed steps "
           "| us/step |\n|---|---|---|---|---|---|---|---|\n"
-       << stability.str() << "\nFree flight:\n\n";
+       << stability.str() << "\n"
+       << (charts ? "![energy gain over time](stability.png)\n\n" : "") << "Free flight:\n\n";
     for (const auto &line : free_flight_lines)
       md << "- " << line << "\n";
     write_text_file((fs::path(dir) / "report.md").string(), md.str());
-    log << "validate-free: wrote " << dir << "/free.csv, series.csv, report.md" << std::endl;
+    log << "validate-free: wrote " << dir << "/free.csv, series.csv, stability.csv, report.md"
+        << std::endl;
   }
 } // namespace irdm::validation
