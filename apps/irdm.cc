@@ -845,6 +845,11 @@ namespace
                             "the modal routes take the spin's centrifugal force into the "
                             "deformation (the model's /modes/centrifugal_load); free flight "
                             "then runs with it as well");
+    validate_free->add_flag("--deformed-inertia", vfb.deformed_inertia,
+                            "the modal routes' rigid body takes the deformed body's inertia "
+                            "(to first order in the deformation; the spin slows as the body "
+                            "stretches); with --centrifugal, spin and stretch exchange energy "
+                            "and create none; free flight then runs with it as well");
     validate_free->add_flag("--reuse-models", vfb.reuse_models,
                             "take a virtual-DOF model already in --model-dir instead of "
                             "precomputing it (it must be of the same scene and material)");

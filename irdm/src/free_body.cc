@@ -53,9 +53,9 @@ namespace irdm
     , vertex_done_(model.n_inputs / 3, 0)
     , centrifugal_(options.centrifugal)
   {
-    if (centrifugal_ && model.centrifugal_load.empty())
-      throw InputError("free body: the centrifugal force needs a model with "
-                       "/modes/centrifugal_load (irdm precompute's dense route, this version)");
+    if ((options.centrifugal || options.deformed_inertia) && model.centrifugal_load.empty())
+      throw InputError("free body: the centrifugal force and the deformed inertia need a model "
+                       "with /modes/centrifugal_load (irdm precompute's dense route, this version)");
   }
 
   bool
@@ -112,7 +112,11 @@ namespace irdm
                                                const FreeBodyOptions &options)
     : model_(model)
     , interaction_(model, options.mapping)
-  {}
+  {
+    if (options.centrifugal || options.deformed_inertia)
+      throw InputError("free body: the virtual DOFs hold no mode shapes, so neither the "
+                       "centrifugal force nor the deformed inertia can be taken in");
+  }
 
   bool
   VirtualDofDeformation::step(const PlaneTarget *body_planes, const int n_planes,
@@ -175,6 +179,7 @@ namespace irdm
     : options_(options)
     , tau_(model.time_step)
     , rigid_(Deformation::inertia(model))
+    , undeformed_inertia_(rigid_.inertia().inertia)
     , compliance_(rigid_.step_compliance(model.time_step))
     , deformation_(model, options)
     , u_(3 * deformation_.n_vertices(), 0.0)
@@ -198,6 +203,14 @@ namespace irdm
       if (forces[a].vertex >= deformation_.n_vertices() ||
           deformation_.input_vertex(forces[a].vertex) < 0 || !forces[a].force.allFinite())
         return false;
+    // The deformed body's inertia (its mass moved by the deformation at the step's start),
+    // in the rigid step and in its compliance.
+    if (options_.deformed_inertia)
+      {
+        if (!rigid_.set_inertia(undeformed_inertia_ + deformation_.inertia_change()))
+          return false;
+        compliance_ = rigid_.step_compliance(tau_);
+      }
     const RigidBodyState   start  = rigid_.state();
     const Eigen::Vector3d  weight = rigid_.inertia().mass * options_.gravity;
     const Eigen::Vector3d &center = rigid_.inertia().center;
@@ -232,6 +245,21 @@ namespace irdm
     rigid_.set_state(start);
     rigid_.step(weight + R * force, R * torque, tau_);
     return true;
+  }
+
+  template <class Deformation>
+  double
+  FreeBody<Deformation>::energy() const
+  {
+    if (!options_.deformed_inertia)
+      return rigid_.kinetic_energy() + deformation_.elastic_energy();
+    // The rigid body holds the inertia of the last step's start; the spin's energy is that
+    // of the deformation now.
+    const RigidBodyState &s = rigid_.state();
+    const Eigen::Vector3d L = rigid_.rotation().transpose() * s.angular_momentum; // model frame
+    const Eigen::Matrix3d I = undeformed_inertia_ + deformation_.inertia_change();
+    return 0.5 * s.linear_momentum.squaredNorm() / rigid_.inertia().mass +
+           0.5 * L.dot(I.ldlt().solve(L)) + deformation_.elastic_energy();
   }
 
   template <class Deformation>

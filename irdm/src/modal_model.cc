@@ -280,6 +280,21 @@ namespace irdm
     return true;
   }
 
+  Eigen::Matrix3d
+  ModalInteraction::inertia_change() const
+  {
+    if (model_.centrifugal_load.empty())
+      return Eigen::Matrix3d::Zero();
+    // Q = sum_i u_i C_i: the load's rows are contiguous, 9 per mode.
+    const Eigen::Map<const Eigen::Matrix<double, 9, Eigen::Dynamic>> C(model_.centrifugal_load.data(), 9, N_);
+    const Eigen::Matrix<double, 9, 1> q = C * Vec(xu_.data(), N_);
+    Eigen::Matrix3d                   Q;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        Q(a, b) = q(3 * a + b);
+    return 2 * Q.trace() * Eigen::Matrix3d::Identity() - Q - Q.transpose();
+  }
+
   void
   ModalInteraction::end_step()
   {

@@ -8,6 +8,29 @@
 
 namespace irdm
 {
+  namespace
+  {
+    // Principal axes (right-handed columns) and moments of a symmetric inertia tensor; false
+    // if a moment is not positive, or, with `of_a_body`, if the moments are not those of a
+    // body: every real mass distribution has I_a + I_b >= I_c (the moments are sums of
+    // squared distances); round-off of a thin body is allowed.
+    bool
+    principal_frame(const Eigen::Matrix3d &inertia, Eigen::Matrix3d &axes, Eigen::Vector3d &moments,
+                    const bool of_a_body)
+    {
+      // Fixed size: no allocation. The iterative solver, not computeDirect's closed form,
+      // which loses digits when two moments are close (a body of revolution).
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(inertia);
+      moments = eig.eigenvalues();
+      axes    = eig.eigenvectors();
+      if (axes.determinant() < 0)
+        axes.col(2) *= -1;
+      const double tol = 1e-9 * moments.sum();
+      return moments.allFinite() && moments.minCoeff() > 0 &&
+             (!of_a_body || moments(0) + moments(1) >= moments(2) - tol);
+    }
+  } // namespace
+
   RigidBody::RigidBody(const RigidBodyInertia &inertia)
     : inertia_(inertia)
   {
@@ -19,21 +42,31 @@ namespace irdm
     const Eigen::Matrix3d sym = 0.5 * (inertia.inertia + inertia.inertia.transpose());
     if ((sym - inertia.inertia).norm() > 1e-12 * sym.norm())
       throw InputError("rigid body: the inertia tensor is not symmetric");
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(sym);
-    principal_ = eig.eigenvalues();
-    axes_      = eig.eigenvectors();
-    if (axes_.determinant() < 0)
-      axes_.col(2) *= -1; // a right-handed principal frame
-    // Every real mass distribution has I_a + I_b >= I_c (the moments are sums of squared
-    // distances); allow round-off of a thin body.
-    const double tol = 1e-9 * principal_.sum();
-    if (!(principal_.minCoeff() > 0) || principal_(0) + principal_(1) < principal_(2) - tol)
+    if (!principal_frame(sym, axes_, principal_, true))
       throw InputError("rigid body: principal moments " + std::to_string(principal_(0)) + ", " +
                        std::to_string(principal_(1)) + ", " + std::to_string(principal_(2)) +
                        " kg m^2 are not those of a body");
     inverse_inertia_ = axes_ * principal_.cwiseInverse().asDiagonal() * axes_.transpose();
     state_.position  = inertia.center;
     rotation_        = Eigen::Matrix3d::Identity();
+  }
+
+  bool
+  RigidBody::set_inertia(const Eigen::Matrix3d &inertia)
+  {
+    const Eigen::Matrix3d sym = 0.5 * (inertia + inertia.transpose());
+    Eigen::Matrix3d       axes;
+    Eigen::Vector3d       moments;
+    // Positive moments only: a first-order deformed inertia (FreeBodyOptions::
+    // deformed_inertia) leaves out sum m u u^T, so a large deformation can break the triangle
+    // inequality while the spin's energy 1/2 L^T I^-1 L stays well defined.
+    if (!sym.allFinite() || !principal_frame(sym, axes, moments, false))
+      return false;
+    inertia_.inertia = sym;
+    axes_            = axes;
+    principal_       = moments;
+    inverse_inertia_ = axes_ * principal_.cwiseInverse().asDiagonal() * axes_.transpose();
+    return true;
   }
 
   void

@@ -759,7 +759,8 @@ namespace irdm::validation
             // runtime's index of the comparison's vertex v.
             FreeBodyOptions fo;
             fo.gravity     = k.gravity ? Eigen::Vector3d(-9.81 * k.up) : Eigen::Vector3d::Zero();
-            fo.centrifugal = o.centrifugal;
+            fo.centrifugal      = o.centrifugal;
+            fo.deformed_inertia = o.deformed_inertia;
             const auto run_method = [&](auto &irdm, const char *method,
                                         const std::vector<unsigned> &order) {
                 irdm.rigid().set_velocity(k.velocity, k.spin);
@@ -873,7 +874,10 @@ namespace irdm::validation
             // is of the modal routes.
             if (vdof && !probed && !k.in_study())
               {
-                FreeBodyVirtualDofs irdm(*vdof, fo);
+                FreeBodyOptions vo  = fo; // the virtual DOFs hold no mode shapes
+                vo.centrifugal      = false;
+                vo.deformed_inertia = false;
+                FreeBodyVirtualDofs irdm(*vdof, vo);
                 run_method(irdm, vdof_method, vdof_order);
               }
           }
@@ -929,7 +933,8 @@ namespace irdm::validation
           if (!models[r].impact_study_only)
           {
             FreeBodyOptions fo;
-            fo.centrifugal = o.centrifugal;
+            fo.centrifugal      = o.centrifugal;
+            fo.deformed_inertia = o.deformed_inertia;
             FreeBodyInteraction irdm(models[r].model, fo);
             roll_for_long(irdm, models[r].method.c_str());
           }
@@ -939,15 +944,17 @@ namespace irdm::validation
             roll_for_long(irdm, vdof_method);
           }
         // Free flight: no plane, 10 s, spinning about an axis off the principal ones. Without
-        // the centrifugal force the deformation stays zero and the energy is the rigid
-        // integrator's; with it the spin stretches the body, whose strain energy is not taken
-        // from the spin (the rigid inertia stays the undeformed body's): the gain it shows.
+        // the spin's coupling the deformation stays zero and the energy is the rigid
+        // integrator's; with the centrifugal force alone the spin stretches the body, whose
+        // strain energy is not taken from the spin (the gain it shows); with the deformed
+        // inertia as well it is.
         for (const bool centrifugal : {false, true})
           {
-            if (centrifugal && !o.centrifugal)
+            if (centrifugal && !o.centrifugal && !o.deformed_inertia)
               continue;
             FreeBodyOptions fo;
-            fo.centrifugal = centrifugal;
+            fo.centrifugal      = centrifugal && o.centrifugal;
+            fo.deformed_inertia = centrifugal && o.deformed_inertia;
             FreeBodyInteraction irdm(models.back().model, fo);
             const Eigen::Vector3d v0(0.3, -0.2, 1.0), w0(3, 8, -5);
             irdm.rigid().set_velocity(v0, w0);
@@ -965,7 +972,11 @@ namespace irdm::validation
                 dL     = std::max(dL, (irdm.rigid().state().angular_momentum - L0).norm() / L0.norm());
                 growth = std::max(growth, watch.growth());
               }
-            const std::string what = centrifugal ? ", with the centrifugal force" : "";
+            const std::string what =
+              !centrifugal ? ""
+              : fo.centrifugal && fo.deformed_inertia ? ", with the centrifugal force and the deformed inertia"
+              : fo.centrifugal ? ", with the centrifugal force"
+                               : ", with the deformed inertia";
             stability << "| free flight, 10 s" << what << " | " << material_name(E) << " | "
                       << (centrifugal ? models.back().method : std::string("either (no contact)"))
                       << " | " << growth << " | | | 0 | |\n";
@@ -1116,7 +1127,8 @@ namespace irdm::validation
        << (o.reuse_models ? " --reuse-models" : "") << (o.truth_check ? " --truth-check" : "")
        << (o.surface_modes ? " --surface-modes " + std::to_string(o.surface_modes) : std::string())
        << (o.small_strain ? "" : " --no-small-strain")
-       << (o.centrifugal ? " --centrifugal" : "") << "`. Body: `" << o.scene
+       << (o.centrifugal ? " --centrifugal" : "")
+       << (o.deformed_inertia ? " --deformed-inertia" : "") << "`. Body: `" << o.scene
        << "` (the cat, P1, fixed to nothing), Newmark average acceleration, tau = "
        << base.time_step * 1e3 << " ms, " << o.duration
        << " s per case (spin_roll 2 s), gravity 9.81 m/s^2 against the floor's normal. Truth: "
@@ -1188,11 +1200,18 @@ namespace irdm::validation
                "/modes/centrifugal_load; test FreeBodyRuntime.SpinStretchesTheBodyAsTheNonlinear"
                "FemDoes), on the force loop's modes (with K = 300 the modes beyond K leave it "
                "out); the virtual DOFs leave it out. Left out everywhere: the Coriolis forces "
-               "-2 M w x v and the change of the body's inertia with its stretch (so the "
-               "stretch's strain energy is not taken from the spin). "
+               "-2 M w x v. "
              : "left out here, as are the Coriolis forces -2 M w x v (`--centrifugal` takes it "
                "in for the modal routes: FreeBodyOptions::centrifugal, test FreeBodyRuntime."
                "SpinStretchesTheBodyAsTheNonlinearFemDoes). ")
+       << (o.deformed_inertia
+             ? "The modal routes' rigid body has the deformed body's inertia, I0 + dI(u) to "
+               "first order in the deformation, at every step's start (FreeBodyOptions::"
+               "deformed_inertia; tests FreeBodyRuntime.SpinStretchesTheBodyAsTheNonlinearFemDoes "
+               "and RigidBody.NewInertiaKeepsTheAngularMomentum): the angular momentum is kept, so the spin changes as the "
+               "body is pressed in or stretched. "
+             : "The rigid body's inertia is the undeformed body's (`--deformed-inertia` takes "
+               "its change with the deformation in). ")
        << "The column `centrifugal / contact` measures the centrifugal load's size.\n\n"
        << "RunErrors: centre of mass, the largest distance between the two paths over the run, "
           "relative to the distance the FEM's centre travelled; orientation, the largest angle "

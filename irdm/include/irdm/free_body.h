@@ -33,9 +33,12 @@
 // motions; free_body_validation measures their size against the contact's. With
 // FreeBodyOptions::centrifugal the modal kind takes the centrifugal force of the step's
 // predicted spin into its force history (the model's /modes/centrifugal_load, from the
-// precompute's full mode shapes and mass matrix): a load on the elastic modes only, the rigid
-// body's inertia kept as it is (its change with the stretch, which would take the stretch's
-// energy from the spin, is left out, as are the Coriolis forces).
+// precompute's full mode shapes and mass matrix): a load on the elastic modes only. With
+// FreeBodyOptions::deformed_inertia the rigid body's inertia is the deformed body's (to first
+// order in the deformation, from the same data), so that the spin slows as the body stretches
+// and the stretch's energy is taken from the spin: the centrifugal load is the gradient of the
+// spin's kinetic energy 1/2 L^T I(u)^-1 L in the deformation at fixed angular momentum, so
+// the two together create no energy. The Coriolis forces stay left out.
 //
 // Virtual DOFs: the deformation is what the nonlinear FEM's free body did after a wall hit,
 // less its best rigid fit, so it holds what the hit's own acceleration did to the body; the
@@ -80,6 +83,13 @@ namespace irdm
     // predicted angular velocity; ModalInteraction::set_spin). Needs a model with
     // /modes/centrifugal_load (dense route); the constructor refuses one without.
     bool centrifugal = false;
+    // FreeBodyInteraction: the rigid body's inertia is the deformed body's, I0 + dI(u) to
+    // first order in the deformation (ModalInteraction::inertia_change), updated at every
+    // step's start; the angular momentum is kept, so the spin slows as the body stretches and
+    // quickens as it is pressed in. With `centrifugal` as well, the spin and the deformation
+    // exchange energy and create none (the centrifugal load is the gradient of the spin's
+    // kinetic energy in the deformation). Needs /modes/centrifugal_load, as `centrifugal`.
+    bool deformed_inertia = false;
   };
 
   /// The modal deformation under many-vertex contact (FreeBodyInteraction's).
@@ -108,6 +118,12 @@ namespace irdm
     {
       if (centrifugal_)
         interaction_.set_spin(omega);
+    }
+    /// The deformed body's inertia less the undeformed one (ModalInteraction::inertia_change).
+    Eigen::Matrix3d
+    inertia_change() const
+    {
+      return interaction_.inertia_change();
     }
     /// The input vertex of surface vertex v, or -1 (no force can be applied there).
     int
@@ -179,6 +195,13 @@ namespace irdm
     void
     set_spin(const Eigen::Vector3d &)
     {}
+    /// The mode shapes are not in the model: the constructor refuses
+    /// FreeBodyOptions::deformed_inertia, and this is never called with it.
+    Eigen::Matrix3d
+    inertia_change() const
+    {
+      return Eigen::Matrix3d::Zero();
+    }
     /// Up to PlaneInteraction::max_walls walls, as stiff as the precompute's (a plane's own
     /// stiffness is not used). Known point forces are refused (false): the model holds
     /// responses to walls only.
@@ -279,12 +302,10 @@ namespace irdm
     void
     surface_positions(double *x) const;
     /// Rigid kinetic energy plus the deformation's energy (J); with gravity g, add
-    /// -m g . c for the potential.
+    /// -m g . c for the potential. With FreeBodyOptions::deformed_inertia the spin's energy
+    /// is 1/2 L^T I(u)^-1 L with the deformation as it is now.
     double
-    energy() const
-    {
-      return rigid_.kinetic_energy() + deformation_.elastic_energy();
-    }
+    energy() const;
     double
     time_step() const
     {
@@ -295,6 +316,7 @@ namespace irdm
     FreeBodyOptions                                  options_;
     double                                           tau_;
     RigidBody                                        rigid_;
+    Eigen::Matrix3d                                  undeformed_inertia_; // model frame
     RigidStepCompliance                              compliance_;
     Deformation                                      deformation_;
     std::array<PlaneTarget, contact::max_planes>     body_planes_{};

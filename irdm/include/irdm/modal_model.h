@@ -162,6 +162,16 @@ namespace irdm
     /// omega is not finite. Allocates nothing.
     bool
     set_spin(const Eigen::Vector3d &omega);
+    /// A free body's inertia tensor less the undeformed one (kg m^2, model frame, about the
+    /// centre of mass), to first order in the deformation of the force loop's modes:
+    ///   dI = sum_i u_i (2 tr(C_i) I - C_i - C_i^T),  C_i[a][b] = phi_i^T M (e_a x_b)
+    /// (ModalModel::centrifugal_load). Its gradient in u_i is what makes the centrifugal load
+    /// sum_ab S_ab C_i[a][b] = 1/2 omega^T (dI/du_i) omega the force of the spin's kinetic
+    /// energy 1/2 L^T I^-1 L at fixed angular momentum: the two together exchange energy
+    /// between spin and stretch and create none. Zero for a model without the load.
+    /// O(9 modes); allocates nothing.
+    Eigen::Matrix3d
+    inertia_change() const;
     /// Energy of the modes in the force loop, 1/2 sum (v_i^2 + w_i^2 u_i^2) (J; M-orthonormal
     /// shapes): kinetic plus strain energy of the deformation.
     double

@@ -99,6 +99,14 @@ namespace irdm
       state_.force  = force;
       state_.torque = torque;
     }
+    /// The inertia tensor (model frame, about the centre of mass) from now on: a deformed
+    /// body's, I0 + dI(q) (FreeBodyOptions::deformed_inertia). The angular momentum is kept,
+    /// so the spin changes as the body's mass moves in or out (a skater's pull-in). Returns
+    /// false and changes nothing if a principal moment is not positive and finite (the
+    /// triangle inequality of a real body is not asked: a first-order deformed inertia can
+    /// break it). Allocates nothing.
+    bool
+    set_inertia(const Eigen::Matrix3d &inertia);
     /// One step of length tau to a time where the load is force and torque (kick, drift, kick;
     /// see above). Allocates nothing.
     void

@@ -52,6 +52,9 @@ namespace irdm::validation
     // default: on the cat's roll it changed no figure at 50 kPa and made 2 kPa worse (README.md)
     // and its strain energy is not taken from the spin (free flight then gains energy).
     bool     centrifugal = false;
+    // The modal routes' rigid body takes the deformed body's inertia (FreeBodyOptions::
+    // deformed_inertia): with `centrifugal`, spin and stretch exchange energy and create none.
+    bool     deformed_inertia = false;
     // The impact study: the upright cat moving at these speeds (m/s) onto the floor, gravity
     // off (impact.csv). Runs in a full run, or with only_cases holding "impact"; empty: not run.
     // The last two are the impact speeds of the 2 and 5 cm drops, sqrt(2 g h).
