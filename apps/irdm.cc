@@ -765,7 +765,7 @@ namespace
       "virtual DOFs take no probe); then the runtime alone rolls "
       "for --stability seconds and flies free for 10 s. Writes DIR/free/free.csv (one row per "
       "case, material and method), first_contact.csv (the same measures over the first "
-      "contact alone), truth.csv (with --truth-check), linearization.csv (the small-strain "
+      "contact alone), truth_strain.csv (the truth's largest strain), truth.csv (with --truth-check), linearization.csv (the small-strain "
       "FEM against the truth, the runtime against the small-strain FEM), series.csv (forces, heights, angles and "
       "deformation against time), "
       "frames.csv and triangles.csv (surfaces of the rolling cat), fig6.png, frames.png and "

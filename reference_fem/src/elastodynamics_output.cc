@@ -76,6 +76,8 @@ namespace irdm::fem
     r.gravity_energy.clear();
     r.linear_momentum.clear();
     r.center_of_mass_displacement.clear();
+    r.largest_strain.clear();
+    r.strained_volume_fraction.clear();
     r.surface_displacement.clear();
   }
 

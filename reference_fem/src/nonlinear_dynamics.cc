@@ -185,8 +185,11 @@ namespace irdm::fem
     const auto record = [&](const double t, const PlaneContactState &cs) {
       // The linear record() takes the fixed reactions as M a + C v + K_0 u - f; passing
       // f + f_c + K_0 u - f_int(u) makes them the nonlinear balance M a + C v + f_int - f - f_c.
-      double W = 0;
-      I.assemble(u, f_int, nullptr, false, &W);
+      double                               W = 0;
+      NonlinearElasticity::Impl::StrainMeasure strain;
+      I.assemble(u, f_int, nullptr, false, &W, &strain);
+      out.largest_strain.push_back(strain.largest);
+      out.strained_volume_fraction.push_back(strain.strained_volume_fraction);
       Vector<double> balance(n);
       L.stiffness.vmult(balance, u);
       balance += f;

@@ -95,7 +95,7 @@ namespace irdm::fem
   bool
   NonlinearElasticity::Impl::assemble(const Vector<double> &u, Vector<double> &f_int,
                                        SparseMatrix<double> *K, const bool constrained,
-                                       double *energy) const
+                                       double *energy, StrainMeasure *strain) const
   {
     const auto &L = linear;
     const auto    &R      = reference;
@@ -112,6 +112,9 @@ namespace irdm::fem
       *K = 0;
     if (energy)
       *energy = 0;
+    if (strain)
+      *strain = StrainMeasure();
+    double       strained_volume = 0, volume = 0;
     bool         ok      = true;
     const size_t n_cells = R.dofs.size() / n_dofs;
     for (size_t c = 0; c < n_cells; ++c)
@@ -126,6 +129,21 @@ namespace irdm::fem
             const Tensor<2, 3>  H  = R.gradient(u, c, q);
             const double        tH = trace(H);
             const double        dx = R.JxW[c * n_q + q];
+            if (strain)
+              {
+                // The principal stretches' largest departure from 1: lambda_i^2 are the
+                // eigenvalues of C = F^T F = I + 2E (the small-strain law: eps's eigenvalues).
+                const SymmetricTensor<2, 3> e =
+                  L.scene.small_strain_law ? symmetrize(H) : symmetrize(H) + 0.5 * symmetrize(transpose(H) * H);
+                double largest = 0;
+                for (const double e_i : eigenvalues(e))
+                  largest = std::max(largest, L.scene.small_strain_law ? std::abs(e_i)
+                                                                       : std::abs(std::sqrt(std::max(0.0, 1 + 2 * e_i)) - 1));
+                strain->largest = std::max(strain->largest, largest);
+                volume += dx;
+                if (largest > 0.1)
+                  strained_volume += dx;
+              }
             // The small-strain law is the same formulas with A = F^{-T} -> I and ln J -> tr H.
             double       lnJ   = tH;
             Tensor<2, 3> FinvT = unit_symmetric_tensor<3>();
@@ -190,6 +208,8 @@ namespace irdm::fem
         if (K)
           *K = L.condensed(*K);
       }
+    if (strain && volume > 0)
+      strain->strained_volume_fraction = strained_volume / volume;
     return ok;
   }
 
@@ -391,9 +411,12 @@ namespace irdm::fem
     L.init_result(out);
     const Vector<double> zero(n), no_lambda;
     L.record(u, zero, zero, f, no_lambda, t, out);
-    double W = 0;
-    impl_->assemble(u, f_int, nullptr, true, &W);
+    double              W = 0;
+    Impl::StrainMeasure strain;
+    impl_->assemble(u, f_int, nullptr, true, &W, &strain);
     out.strain_energy.back() = W;
+    out.largest_strain.push_back(strain.largest);
+    out.strained_volume_fraction.push_back(strain.strained_volume_fraction);
     return out;
   }
 

@@ -27,9 +27,15 @@ namespace irdm::fem
     /// Internal force f_int(u) = int P : grad phi, and (if K) the tangent dP/dF. With
     /// `constrained`, the fixed DoFs are condensed out (rows and columns zero, diagonal kept,
     /// residual zero there). Returns false if some quadrature point has J <= 0 (inverted).
+    /// If `strain` is given, fills it with the strain measures of RunResult::largest_strain
+    /// and strained_volume_fraction at u.
+    struct StrainMeasure
+    {
+      double largest = 0, strained_volume_fraction = 0;
+    };
     bool
     assemble(const Vector<double> &u, Vector<double> &f_int, SparseMatrix<double> *K,
-             bool constrained, double *energy = nullptr) const;
+             bool constrained, double *energy = nullptr, StrainMeasure *strain = nullptr) const;
 
     /// Stiffness-proportional damping made objective (issue 14): the force int F S_d : grad phi
     /// with S_d = C0 : dE/dt, the reference elasticity tensor C0 on the rate of the

@@ -104,6 +104,12 @@ namespace irdm::fem
     std::vector<double> gravity_energy; // J, potential of gravity, -f_g . u
     std::vector<Vec3>   linear_momentum; // N s, sum of M v per axis
     std::vector<Vec3>   center_of_mass_displacement; // m, (1^T M u) / mass per axis (nonlinear)
+    // Nonlinear, per sample: how far the body is from small strain. The largest over the
+    // quadrature points of the principal stretches' departure from 1, max_i |lambda_i - 1|
+    // (the small-strain law: of eps's principal values), and the fraction of the body's
+    // volume where that exceeds 0.1. On a P1 mesh the largest is an element's, which at a
+    // sharp edge under contact grows as the mesh is refined.
+    std::vector<double> largest_strain, strained_volume_fraction;
     unsigned newton_iterations = 0, tangent_factorizations = 0;
     // Nonlinear: the steps of tau at which Newton failed and which were solved again in parts
     // (cut back), and the shortest part used (s; tau when none was cut).
