@@ -164,7 +164,8 @@ namespace irdm
     set_spin(const Eigen::Vector3d &omega);
     /// A free body's inertia tensor less the undeformed one (kg m^2, model frame, about the
     /// centre of mass), to first order in the deformation of the force loop's modes:
-    ///   dI = sum_i u_i (2 tr(C_i) I - C_i - C_i^T),  C_i[a][b] = phi_i^T M (e_a x_b)
+    ///   dI = sum_i u_i (2 tr(C_i) I - C_i - C_i^T),  C_i[a][b] = phi_i^T M w_ab, w_ab the field
+    ///   e_a (x_b - c_b) (c the centre of mass)
     /// (ModalModel::centrifugal_load). Its gradient in u_i is what makes the centrifugal load
     /// sum_ab S_ab C_i[a][b] = 1/2 omega^T (dI/du_i) omega the force of the spin's kinetic
     /// energy 1/2 L^T I^-1 L at fixed angular momentum: the two together exchange energy
