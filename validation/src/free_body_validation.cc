@@ -979,13 +979,13 @@ namespace irdm::validation
         // integrator's; with the centrifugal force alone the spin stretches the body, whose
         // strain energy is not taken from the spin (the gain it shows); with the deformed
         // inertia as well it is.
-        for (const bool centrifugal : {false, true})
+        for (const bool coupled : {false, true})
           {
-            if (centrifugal && !o.centrifugal && !o.deformed_inertia)
+            if (coupled && !o.centrifugal && !o.deformed_inertia)
               continue;
             FreeBodyOptions fo;
-            fo.centrifugal      = centrifugal && o.centrifugal;
-            fo.deformed_inertia = centrifugal && o.deformed_inertia;
+            fo.centrifugal      = coupled && o.centrifugal;
+            fo.deformed_inertia = coupled && o.deformed_inertia;
             FreeBodyInteraction irdm(models.back().model, fo);
             const Eigen::Vector3d v0(0.3, -0.2, 1.0), w0(3, 8, -5);
             irdm.rigid().set_velocity(v0, w0);
@@ -1004,12 +1004,12 @@ namespace irdm::validation
                 growth = std::max(growth, watch.growth());
               }
             const std::string what =
-              !centrifugal ? ""
+              !coupled ? ""
               : fo.centrifugal && fo.deformed_inertia ? ", with the centrifugal force and the deformed inertia"
               : fo.centrifugal ? ", with the centrifugal force"
                                : ", with the deformed inertia";
             stability << "| free flight, 10 s" << what << " | " << material_name(E) << " | "
-                      << (centrifugal ? models.back().method : std::string("either (no contact)"))
+                      << (coupled ? models.back().method : std::string("either (no contact)"))
                       << " | " << growth << " | | | 0 | |\n";
             free_flight_lines.push_back(
               material_name(E) + what + ": linear momentum within " + format_g(dp) +
