@@ -11,7 +11,9 @@
 // vertices lie within the candidate margin (5 mm) of it; it presses the deepest of them by the
 // rest of the margin. The wall moves in over 100 steps and is then held; the history window
 // fills (T steps) before timing, so the steps timed are the steady state of holding a wall,
-// with the contact set changing as the body rings.
+// with the contact set changing as the body rings. C counts the undeformed places; the modal
+// model's contact also takes a vertex the deformation carried within the margin
+// (irdm/vertex_contact.h), so its steps may have a few more rows.
 #include <irdm/modal_model.h>
 #include <irdm/point_interaction.h>
 #include <irdm_common/error.h>

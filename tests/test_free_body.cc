@@ -596,6 +596,50 @@ TEST(FreeBodyRuntime, FlatDropAgreesWithTheLinearFemOfTheFreeBody)
   EXPECT_LT(path_error, 0.01);
 }
 
+// The plane contact looks for candidates where the surface is, deformed, not where it would
+// be undeformed (irdm/vertex_contact.h). The soft free beam dropped tilted lands on one end
+// and slaps down: its far half bends toward the floor by more than a 1 mm margin (which still
+// exceeds one step's fall, 0.6 mm) while undeformed it is more than the margin above. Every
+// vertex must then stay on the rigid floor's side to the rigid step's second order, and the
+// deformed test must have added candidates; taken by their undeformed places alone (a reach
+// of 0) the bent vertices pass the floor unseen.
+TEST(FreeBodyRuntime, FloorMeetsTheSurfaceWhereTheDeformationCarriedIt)
+{
+  const irdm::ModalModel &m = free_beam_modal();
+  irdm::FreeBodyOptions   o;
+  o.contact.margin = 0.001;
+  irdm::FreeBodyInteraction body(m, o);
+  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.15, Eigen::Vector3d::UnitY()));
+  irdm::RigidBodyState     start = body.rigid().state();
+  start.orientation              = tilt;
+  body.rigid().set_state(start);
+  body.rigid().set_velocity(Eigen::Vector3d(0, 0, -0.3), Eigen::Vector3d::Zero());
+  const unsigned      nv = m.n_outputs / 3;
+  std::vector<double> x(m.n_outputs);
+  body.surface_positions(x.data());
+  double lowest = 1e300;
+  for (unsigned v = 0; v < nv; ++v)
+    lowest = std::min(lowest, x[3 * v + 2]);
+  irdm::PlaneTarget floor; // rigid
+  floor.point = {0, 0, lowest - 0.0005};
+  double   deepest = 0, largest_u = 0;
+  unsigned added   = 0;
+  for (unsigned step = 1; step <= 150; ++step)
+    {
+      ASSERT_TRUE(body.step(&floor, 1));
+      added += body.deformation().interaction().vertex_contact().deformed_candidates();
+      body.surface_positions(x.data());
+      for (unsigned v = 0; v < nv; ++v)
+        deepest = std::max(deepest, floor.point[2] - x[3 * v + 2]);
+      largest_u = std::max(largest_u, body.deformation().interaction().deformation_reach());
+    }
+  std::printf("tilted free beam on a rigid floor: deepest vertex %.3e m below it, %u candidates "
+              "added by the deformed test over 0.3 s, deformation bound up to %.3e m\n",
+              deepest, added, largest_u);
+  EXPECT_GT(added, 0u) << "the bending never carried a vertex past the margin: no test";
+  EXPECT_LT(deepest, 1e-5) << "a vertex passed the floor";
+}
+
 // The FEM's initial spin is the rigid field v + w x (X - c): at t = 0 its kinetic energy is the
 // rigid body's, 1/2 m v.v + 1/2 w.I w with the mesh's closed-form inertia (exact for P1: the
 // field is linear and the mass matrix consistent), and it strains nothing. A spin on a

@@ -279,9 +279,52 @@ TEST(Runtime, FreeBodyContactLeversAreAtTheDeformedPointsEveryStep)
         m, &floor, 1, [](unsigned, unsigned, const std::array<double, 3> &, int, bool) { return 0.0; },
         [](unsigned, unsigned) { return 0.0; },
         [&](const unsigned k, const double f) { force += k == 2 ? f : 0.0; }, &rigid,
-        [&](unsigned) { return Eigen::Vector3d(ux, 0, 0); });
+        [&](unsigned) { return Eigen::Vector3d(ux, 0, 0); }, 0.0,
+        [](unsigned, const std::array<double, 3> &, double, Eigen::Vector3d &) { return false; });
       ASSERT_TRUE(ok);
       const double lever = 0.05 + ux; // |(X + u - c) x n|
       EXPECT_NEAR(force, 0.001 / (1e-3 + 0.5 * lever * lever), 1e-12) << "u_x = " << ux;
     }
+}
+
+// A vertex 2 cm above the floor undeformed, 4 times the margin, that the deformation has
+// carried down through it: the contact takes it as a candidate by its deformed position when
+// told how far the deformation reaches, and pushes it with the force that meets the floor
+// (its lever at the deformed point). Told nothing (reach 0), or carried only half way, it is
+// not a candidate.
+TEST(Runtime, PlaneContactTakesAVertexTheDeformationCarriedPastTheMargin)
+{
+  irdm::ModelFrame m;
+  m.n_inputs = m.n_outputs = 3;
+  m.output_coordinates     = {{{0.05, 0.0, 0.02}}};
+  m.output_input_index     = {0};
+  m.input_output_index     = {0};
+  irdm::VertexContact contact;
+  contact.reset(m, irdm::VertexContactOptions{}); // margin 5 mm
+  irdm::RigidStepCompliance rigid;
+  rigid.tau2_over_mass       = 1e-3;
+  rigid.tau2_inverse_inertia = 0.5 * Eigen::Matrix3d::Identity();
+  irdm::PlaneTarget floor; // z = 0
+  for (const double uz : {-0.021, -0.01})
+    for (const double reach : {0.0, 0.03})
+      {
+        double     force = 0;
+        const bool ok    = contact.step(
+          m, &floor, 1,
+          [&](unsigned, unsigned, const std::array<double, 3> &n, int, bool) { return n[2] * uz; },
+          [](unsigned, unsigned) { return 0.0; },
+          [&](const unsigned k, const double f) { force += k == 2 ? f : 0.0; }, &rigid,
+          [&](unsigned) { return Eigen::Vector3d(0, 0, uz); }, reach,
+          [&](unsigned, const std::array<double, 3> &n, const double limit, Eigen::Vector3d &u) {
+            u = Eigen::Vector3d(0, 0, uz);
+            return n[2] * uz < limit;
+          });
+        ASSERT_TRUE(ok);
+        const bool seen = reach > 0 && uz < -0.015; // 0.02 + uz < margin
+        EXPECT_EQ(contact.candidates(), seen ? 1 : 0) << "u_z = " << uz << ", reach " << reach;
+        EXPECT_EQ(contact.deformed_candidates(), seen ? 1 : 0);
+        // 1 mm into the floor; lever |(X + u) x n| = 0.05.
+        EXPECT_NEAR(force, seen ? 0.001 / (1e-3 + 0.5 * 0.05 * 0.05) : 0.0, 1e-12)
+          << "u_z = " << uz << ", reach " << reach;
+      }
 }

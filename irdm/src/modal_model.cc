@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 
 #include "probe_step.h"
 #include "surface_product.h"
@@ -215,6 +217,54 @@ namespace irdm
     lever_set_.assign(model.n_inputs / 3, 0);
     lever_vertices_.reserve(model.n_inputs / 3);
     projected_.assign(static_cast<size_t>(planes.max_candidates) * N_, 0.0); // 8 MB at 512 x 2037
+    // The plane contact's bound on each input vertex's displacement: by Cauchy-Schwarz in the
+    // strain-energy norm, |u_v| <= sqrt(sum_i w_i^2 u_i^2) sqrt(sum_i |phi_i(v)|^2 / w_i^2),
+    // the second factor the vertex's flexibility, fixed; over the modes past reach_modes_ too,
+    // to bound what the first ones leave out. A model without positive frequencies for all
+    // its force-loop modes has no such bound: every vertex then takes the full test.
+    reach_modes_ = std::min(N_, reach_modes);
+    bounded_     = model.w2.size() >= N_;
+    for (unsigned i = 0; bounded_ && i < N_; ++i)
+      bounded_ = model.w2[i] > 0 && std::isfinite(model.w2[i]);
+    flexibility_all_.assign(model.n_inputs / 3, 0.0);
+    flexibility_tail_.assign(model.n_inputs / 3, 0.0);
+    test_shapes_.resize(static_cast<size_t>(model.n_inputs) * N_);
+    xu_test_.assign(N_, 0.0f);
+    for (unsigned v = 0; v < model.n_inputs / 3; ++v)
+      {
+        for (unsigned d = 0; d < 3; ++d)
+          for (unsigned i = 0; i < N_; ++i)
+            {
+              const double phi = model.input_shapes[(3 * v + d) * stride_ + i];
+              test_shapes_[(3 * v + d) * static_cast<size_t>(N_) + i] = static_cast<float>(phi);
+              if (!bounded_)
+                continue;
+              flexibility_all_[v] += phi * phi / model.w2[i];
+              if (i >= reach_modes_)
+                flexibility_tail_[v] += phi * phi / model.w2[i];
+            }
+        flexibility_all_[v]  = std::sqrt(flexibility_all_[v]);
+        flexibility_tail_[v] = std::sqrt(flexibility_tail_[v]);
+        largest_flexibility_ = std::max(largest_flexibility_, flexibility_all_[v]);
+      }
+  }
+
+  double
+  ModalInteraction::deformation_reach() const
+  {
+    return bounded_ ? largest_flexibility_ * strain_norm(0)
+                    : std::numeric_limits<double>::infinity();
+  }
+
+  double
+  ModalInteraction::strain_norm(const unsigned first) const
+  {
+    if (!bounded_)
+      return 0; // not used
+    double e = 0;
+    for (unsigned i = first; i < N_; ++i)
+      e += model_.w2[i] * xu_[i] * xu_[i];
+    return std::sqrt(e);
   }
 
   bool
@@ -402,6 +452,49 @@ namespace irdm
       for (unsigned d = 0; d < 3; ++d)
         if (applied_[a].force[d] != 0)
           push(3 * applied_[a].input_vertex + d, applied_[a].force[d]);
+    // A candidate's displacement at the step's start (the state is the step's start until
+    // end_step), kept as its lever.
+    const auto keep_lever = [&](const unsigned vi, const Eigen::Vector3d &u) {
+      for (unsigned d = 0; d < 3; ++d)
+        lever_u_[3 * vi + d] = u(d);
+      if (!lever_set_[vi])
+        lever_set_[vi] = 1, lever_vertices_.push_back(vi); // reserved: no allocation
+    };
+    // The deformed candidate test (vertex_contact.h), in three stages, each only for the
+    // vertices the last could not rule out: the vertex's bound (deformation_reach's, per
+    // vertex); the first reach_modes_ modes' displacement, less a bound on the rest's; the
+    // displacement of every force-loop mode. The last two in single precision from a compact
+    // copy of the input shapes (the full rows are scattered over a larger matrix: reading them
+    // cost more than the arithmetic), with a slack far above its rounding; a vertex that
+    // passes then takes its displacement in double, as every lever does.
+    constexpr double slack = 1e-6; // m
+    const unsigned   r           = reach_modes_;
+    const double     strain_all  = strain_norm(0);
+    const double     strain_tail = strain_norm(r);
+    for (unsigned i = 0; i < N_; ++i)
+      xu_test_[i] = static_cast<float>(xu_[i]);
+    const auto deformed = [&](const unsigned vi, const std::array<double, 3> &n,
+                              const double limit, Eigen::Vector3d &u) {
+      using VecF = Eigen::Map<const Eigen::VectorXf>;
+      if (bounded_ && -strain_all * flexibility_all_[vi] >= limit)
+        return false;
+      const float *row = &test_shapes_[static_cast<size_t>(3 * vi) * N_];
+      float        part[3];
+      double       along = 0;
+      for (unsigned d = 0; d < 3; ++d)
+        along += n[d] * (part[d] = VecF(row + d * N_, r).dot(VecF(xu_test_.data(), r)));
+      if (bounded_ && along - strain_tail * flexibility_tail_[vi] - slack >= limit)
+        return false;
+      along = 0;
+      for (unsigned d = 0; d < 3; ++d)
+        along += n[d] * (part[d] + VecF(row + d * N_ + r, N_ - r).dot(VecF(xu_test_.data() + r, N_ - r)));
+      if (along - slack >= limit)
+        return false;
+      for (unsigned d = 0; d < 3; ++d)
+        u(d) = input_displacement(3 * vi + d);
+      keep_lever(vi, u);
+      return true;
+    };
     // On failure the state is left as it was (the next step's begin_step clears the pushes).
     if (!vertex_contact_.step(
           model_, planes, n_planes,
@@ -410,14 +503,13 @@ namespace irdm
           [&](const unsigned k, const unsigned j) { return deformation_feed_through(k, j); },
           [&](const unsigned k, const double f) { push(k, f); }, rigid_,
           [&](const unsigned vi) {
-            // The state is the step's start until end_step.
             Eigen::Vector3d u;
             for (unsigned d = 0; d < 3; ++d)
-              u(d) = lever_u_[3 * vi + d] = input_displacement(3 * vi + d);
-            if (!lever_set_[vi])
-              lever_set_[vi] = 1, lever_vertices_.push_back(vi); // reserved: no allocation
+              u(d) = input_displacement(3 * vi + d);
+            keep_lever(vi, u);
             return u;
-          }))
+          },
+          deformation_reach(), deformed))
       return false;
     end_step();
     return true;

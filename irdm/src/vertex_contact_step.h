@@ -11,11 +11,12 @@
 
 namespace irdm
 {
-  template <class History, class FeedThrough, class Push, class Displacement>
+  template <class History, class FeedThrough, class Push, class Displacement, class Deformed>
   bool
   VertexContact::step(const ModelFrame &m, const PlaneTarget *planes, const int n_planes,
                       History &&history, FeedThrough &&h0, Push &&push,
-                      const RigidStepCompliance *rigid, Displacement &&displacement)
+                      const RigidStepCompliance *rigid, Displacement &&displacement,
+                      const double reach, Deformed &&deformed)
   {
     if (n_planes < 0 || n_planes > contact::max_planes)
       return false;
@@ -24,28 +25,45 @@ namespace irdm
     const auto     dot        = [](const std::array<double, 3> &a, const std::array<double, 3> &b) {
       return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     };
-    // Candidates, with the last step's contact set as the solver's first guess.
+    // Candidates, with the last step's contact set as the solver's first guess: within the
+    // margin undeformed, or as deformed (vertex_contact.h).
     int n = 0;
+    n_deformed_ = 0;
     for (int p = 0; p < n_planes; ++p)
       {
         results_[p]       = PlaneContactResult{};
-        const double at   = dot(planes[p].normal, planes[p].point);
+        const auto  &nn   = planes[p].normal;
+        const double at   = dot(nn, planes[p].point);
         for (unsigned v = 0; v < n_vertices; ++v)
-          if (m.output_input_index[v] >= 0 &&
-              dot(planes[p].normal, m.output_coordinates[v]) - at < options_.margin)
-            {
-              if (n == cap)
-                {
-                  n_candidates_ = n;
-                  return false; // more than max_candidates: no force applied
-                }
-              plane_[n]  = p;
-              vertex_[n] = v;
-              guess_[n]  = was_active_[static_cast<size_t>(p) * n_vertices + v];
-              q_[n]      = dot(planes[p].normal, m.output_coordinates[v]) - at;
-              ++results_[p].candidates;
-              ++n;
-            }
+          {
+            const int in = m.output_input_index[v];
+            if (in < 0)
+              continue;
+            const double    gap   = dot(nn, m.output_coordinates[v]) - at; // undeformed
+            bool            known = false;
+            Eigen::Vector3d u;
+            if (gap >= options_.margin)
+              {
+                if (gap >= options_.margin + reach ||
+                    !deformed(static_cast<unsigned>(in), nn, options_.margin - gap, u))
+                  continue;
+                known = true;
+              }
+            if (n == cap)
+              {
+                n_candidates_ = n;
+                return false; // more than max_candidates: no force applied
+              }
+            plane_[n]       = p;
+            vertex_[n]      = v;
+            guess_[n]       = was_active_[static_cast<size_t>(p) * n_vertices + v];
+            q_[n]           = gap;
+            start_known_[n] = known;
+            if (known)
+              start_u_[n] = u, ++n_deformed_;
+            ++results_[p].candidates;
+            ++n;
+          }
       }
     n_candidates_ = n;
     std::fill(was_active_.begin(), was_active_.end(), 0); // O(planes x vertices), cheap
@@ -100,7 +118,8 @@ namespace irdm
           const auto &nn = planes[plane_[c]].normal;
           const Eigen::Vector3d x =
             Eigen::Vector3d(X[0], X[1], X[2]) +
-            displacement(static_cast<unsigned>(m.output_input_index[vertex_[c]]));
+            (start_known_[c] ? start_u_[c]
+                             : displacement(static_cast<unsigned>(m.output_input_index[vertex_[c]])));
           lever_[c] = (x - rigid->center).cross(Eigen::Vector3d(nn[0], nn[1], nn[2]));
           turn_[c]  = rigid->tau2_inverse_inertia * lever_[c];
         }

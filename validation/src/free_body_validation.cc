@@ -470,7 +470,7 @@ namespace irdm::validation
     // The long runs' energy over time, every 0.1 s (stability.csv).
     std::ostringstream stability_csv;
     stability_csv << "material,method,time_s,energy_gain,elastic_energy_over_input,turned_deg,"
-                     "active_vertices\n";
+                     "active_vertices,deepest_below_floor_m\n";
     // The truth's own determination (--truth-check): the FEM at tau / 2M against the FEM at tau / M.
     std::ostringstream truth_csv, truth_md;
     truth_csv << "case,material,com_error,angle_error_deg,force_error,impulse_error,"
@@ -930,9 +930,14 @@ namespace irdm::validation
             watch.start(roll.height);
             const unsigned steps = static_cast<unsigned>(std::lround(o.stability_seconds / tau));
             const unsigned trace_every = std::max(1u, static_cast<unsigned>(std::lround(0.1 / tau)));
-            double growth = 0, turned = 0, seconds = 0;
+            double growth = 0, turned = 0, seconds = 0, deepest = 0;
             unsigned failed = 0;
             Eigen::Matrix3d R_prev = Eigen::Matrix3d::Identity();
+            // The surface (deformed, placed by the pose) at the trace's samples: how far its
+            // lowest vertex is below the floor (a contact that holds keeps it near the
+            // penalty's give).
+            const unsigned      nv = irdm.deformation().n_vertices();
+            std::vector<double> x(3 * static_cast<size_t>(nv));
             for (unsigned step = 1; step <= steps; ++step)
               {
                 const auto t0 = Clock::now();
@@ -946,16 +951,21 @@ namespace irdm::validation
                     int active = 0;
                     if constexpr (std::is_same_v<std::decay_t<decltype(irdm)>, FreeBodyInteraction>)
                       active = irdm.deformation().plane_result(0).active;
+                    irdm.surface_positions(x.data());
+                    double below = 0;
+                    for (unsigned v = 0; v < nv; ++v)
+                      below = std::max(below, floor.point[2] - x[3 * v + 2]);
+                    deepest = std::max(deepest, below);
                     stability_csv << material_name(E) << ',' << method << ',' << step * tau << ','
                                   << watch.growth() << ','
                                   << irdm.deformation().elastic_energy() / watch.e_in << ','
-                                  << turned << ',' << active << '\n';
+                                  << turned << ',' << active << ',' << below << '\n';
                   }
               }
             stability << "| rolling, " << o.stability_seconds << " s | " << material_name(E) << " | "
                       << method << " | " << growth << " | " << turned << " | "
-                      << watch.growth() << " | " << failed << " | " << 1e6 * seconds / steps
-                      << " |\n";
+                      << watch.growth() << " | " << failed << " | " << 1e3 * deepest << " | "
+                      << 1e6 * seconds / steps << " |\n";
             log << "validate-free: " << o.stability_seconds << " s rolling, " << method
                 << ": largest energy gain " << growth << " of the energy brought in, turned "
                 << turned << " deg, " << failed << " failed steps" << std::endl;
@@ -1010,7 +1020,7 @@ namespace irdm::validation
                                : ", with the deformed inertia";
             stability << "| free flight, 10 s" << what << " | " << material_name(E) << " | "
                       << (coupled ? models.back().method : std::string("either (no contact)"))
-                      << " | " << growth << " | | | 0 | |\n";
+                      << " | " << growth << " | | | 0 | | |\n";
             free_flight_lines.push_back(
               material_name(E) + what + ": linear momentum within " + format_g(dp) +
               " of p0 + m g t (relative to |p0|), angular momentum within " + format_g(dL) +
@@ -1380,9 +1390,11 @@ namespace irdm::validation
           "over the energy brought in; final: at the end. `stability.csv` traces the rolls every "
           "0.1 s: energy gain, the deformation's energy over the energy brought in (0 for the "
           "virtual DOFs, whose energy is not known), turned angle, vertices the floor pushes (0 "
-          "for the virtual DOFs).\n\n"
+          "for the virtual DOFs), and how far the surface's lowest vertex (deformed, placed by "
+          "the pose) is below the floor; `below floor` is the deepest of those samples (a "
+          "contact that holds keeps it near the penalty's give).\n\n"
           "| run | material | method | largest energy gain | turned (deg) | final | failed steps "
-          "| us/step |\n|---|---|---|---|---|---|---|---|\n"
+          "| below floor (mm) | us/step |\n|---|---|---|---|---|---|---|---|---|\n"
        << stability.str() << "\n"
        << (charts ? "![energy gain over time](stability.png)\n\n" : "") << "Free flight:\n\n";
     for (const auto &line : free_flight_lines)

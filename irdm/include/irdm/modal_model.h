@@ -184,6 +184,13 @@ namespace irdm
     }
     void
     surface_displacement(double *u) const;
+    /// A bound on the length of every input vertex's displacement after the latest step (m):
+    /// sqrt(2 x strain energy) of the force-loop modes times the largest vertex flexibility
+    /// sqrt(sum_i |phi_i(v)|^2 / w_i^2). The plane contact takes the vertices within its
+    /// margin of a plane as deformed (vertex_contact.h); this bounds which ones it has to look
+    /// at. Infinite for a model without a positive w_i^2 for every force-loop mode. O(modes).
+    double
+    deformation_reach() const;
     /// Reads what the next step reads if it touches the inputs the last step touched (the step
     /// matrices, the state, those inputs' shapes and feed-through), so that it finds them in
     /// this core's cache. For a force thread that waits for its tick: called at the start of
@@ -218,6 +225,20 @@ namespace irdm
     std::vector<double>        lever_u_;
     std::vector<char>          lever_set_;
     std::vector<unsigned>      lever_vertices_;
+    // The plane contact's deformed candidate test: a vertex's displacement is estimated from
+    // this many of the first modes (the slow ones, which move the surface most), the rest
+    // bounded. [input vertex] sqrt(sum_i |phi_i(v)|^2 / w_i^2) over the force-loop modes and
+    // over those past the first reach_modes_ (m per sqrt(J)).
+    static constexpr unsigned reach_modes = 32;
+    unsigned                  reach_modes_ = 0;
+    std::vector<double>       flexibility_all_, flexibility_tail_;
+    std::vector<float>        test_shapes_; // [input DoF][force-loop mode], single precision
+    std::vector<float>        xu_test_;     // [force-loop mode] xu_ in single precision
+    double                    largest_flexibility_ = 0;
+    bool                      bounded_ = false; // every force-loop mode has w_i^2 > 0
+    // sqrt(sum_{i >= first} w_i^2 u_i^2) over the force-loop modes (sqrt(J)).
+    double
+    strain_norm(unsigned first) const;
     const AppliedForce        *applied_ = nullptr; // during a step with known forces
     int                        n_applied_ = 0;
 

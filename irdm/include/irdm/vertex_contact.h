@@ -4,9 +4,15 @@
 // the caller prescribes. Units SI. Frictionless: a plane pushes only along its normal.
 //
 // Each step, with the planes where they are at the end of the step:
-//   candidates  c = (plane p, vertex v) with n_p . (X_v - x_p) < margin (X_v undeformed): the
-//               rows that may touch; the rest are assumed far enough not to reach the plane
-//               within the step (the margin must exceed the surface's motion toward it);
+//   candidates  c = (plane p, vertex v) with n_p . (X_v - x_p) < margin (X_v undeformed), or,
+//               given a bound `reach` on how far the deformation has moved any vertex and a
+//               test `deformed` (the modal kind's), with n_p . (X_v + u_v - x_p) < margin, u_v
+//               the vertex's displacement at the step's start (asked only of the vertices
+//               within margin + reach): the rows that may touch; the rest are assumed far
+//               enough not to reach the plane within the step (the margin must exceed the
+//               surface's motion toward it within one step). Without the deformed test a
+//               vertex the deformation carries more than the margin toward a plane passes it
+//               unseen, then meets it deep (the soft free cat gained energy so: reports/free);
 //   history     h_c = n_p . u_hist(v), u_hist = sum_{s>=1} H[s] f[n - s] at the candidate rows
 //               only (O(modes x candidates) from the modal model, which keeps each row's
 //               projection n_p^T Phi_v in a slot while the row stays a candidate: one dot
@@ -113,10 +119,13 @@ namespace irdm
       W_rigid_.assign(cap * cap, 0.0);
       lever_.assign(cap, Eigen::Vector3d::Zero());
       turn_.assign(cap, Eigen::Vector3d::Zero());
+      start_u_.assign(cap, Eigen::Vector3d::Zero());
+      start_known_.assign(cap, 0);
       was_active_.assign(contact::max_planes * n_vertices, 0);
       vertex_area_ = lumped_vertex_areas(m);
       n_candidates_ = 0;
       rounds_       = 0;
+      n_deformed_   = 0;
       previous_.plane.assign(cap, 0);
       previous_.vertex.assign(cap, 0);
       previous_.slot.assign(cap, 0);
@@ -155,21 +164,34 @@ namespace irdm
     // rigid (a free body's step, irdm/free_body.h): the rigid body's step compliance joins W.
     // It is rank 6, so it is added as mu n_c . n_b + r_c . T r_b with r_c = (X_c + u_c - C) x n_c
     // (one lever per row) rather than entry by entry.
-    // displacement(in_vertex) (with rigid): the candidate's displacement at the step's start
-    // (m, model frame), so that its lever is taken at the deformed point X + u, where the
-    // free body's torque acts (FreeBody::step).
-    template <class History, class FeedThrough, class Push, class Displacement>
+    // displacement(in_vertex) (with rigid): the vertex's displacement at the step's start (m,
+    // model frame), so that a candidate's lever is taken at the deformed point X + u, where
+    // the free body's torque acts (FreeBody::step).
+    // reach (m): no vertex's displacement at the step's start is longer; 0: the deformed test
+    // is not made. deformed(in_vertex, normal, limit, u) -> bool: whether normal . u < limit
+    // for the vertex's displacement u at the step's start, which it sets when true (and may
+    // leave unset when false: a runtime may rule a vertex out by a cheaper bound).
+    template <class History, class FeedThrough, class Push, class Displacement, class Deformed>
     bool
     step(const ModelFrame &m, const PlaneTarget *planes, int n_planes, History &&history,
          FeedThrough &&h0, Push &&push, const RigidStepCompliance *rigid,
-         Displacement &&displacement);
+         Displacement &&displacement, double reach, Deformed &&deformed);
     template <class History, class FeedThrough, class Push>
     bool
     step(const ModelFrame &m, const PlaneTarget *planes, int n_planes, History &&history,
          FeedThrough &&h0, Push &&push)
     {
-      return step(m, planes, n_planes, history, h0, push, nullptr,
-                  [](unsigned) { return Eigen::Vector3d::Zero().eval(); });
+      return step(
+        m, planes, n_planes, history, h0, push, nullptr,
+        [](unsigned) { return Eigen::Vector3d::Zero().eval(); }, 0.0,
+        [](unsigned, const std::array<double, 3> &, double, Eigen::Vector3d &) { return false; });
+    }
+    /// Candidates the deformed test added at the latest step (vertices within the margin of
+    /// a plane only as deformed).
+    int
+    deformed_candidates() const
+    {
+      return n_deformed_;
     }
 
   private:
@@ -185,6 +207,10 @@ namespace irdm
     std::vector<double>                                   W_rigid_;
     // [candidate] a free body's lever r_c = (X_c + u_c - C) x n_c and T r_c (T: tau^2/4 I^-1).
     std::vector<Eigen::Vector3d>                          lever_, turn_;
+    // [candidate] its displacement at the step's start, where the deformed test took it
+    // (start_known_), so that its lever does not ask for it again.
+    std::vector<Eigen::Vector3d>                          start_u_;
+    std::vector<char>                                     start_known_;
     std::vector<char>                                     guess_;
     std::vector<char> was_active_; // [plane][output vertex]: in contact at the last step
     std::vector<double> vertex_area_; // [output vertex] m^2, for a plane's penalty
@@ -194,7 +220,7 @@ namespace irdm
     {
       return p.penalty > 0 ? p.penalty * vertex_area_[vertex_[c]] : p.stiffness;
     }
-    int               n_candidates_ = 0, rounds_ = 0;
+    int               n_candidates_ = 0, rounds_ = 0, n_deformed_ = 0;
     // The last step's rows and W: W does not change while the rows and the planes' normals and
     // stiffnesses do not (H[0] is constant), so the entries of rows kept are copied, not
     // gathered again from H[0] (9 scattered reads each).
