@@ -258,18 +258,36 @@ TEST(Planes, ComplementaritySolverMeetsTheConditionsExactly)
 // FreeBody's torque acts), anew at every step: also for a row kept from the last step, whose
 // deformation part of W is reused. One vertex 5 cm from the centre, 1 mm into a rigid floor,
 // no deformation compliance: W = tau^2/4m + r . T r and the force is 1 mm / W.
+namespace
+{
+  // One input vertex at X, and a rigid body's step compliance tau^2/4m = 1e-3 m/N,
+  // tau^2/4 I^-1 = 0.5 / (N m).
+  irdm::ModelFrame
+  one_vertex(const std::array<double, 3> &X)
+  {
+    irdm::ModelFrame m;
+    m.n_inputs = m.n_outputs = 3;
+    m.output_coordinates     = {X};
+    m.output_input_index     = {0};
+    m.input_output_index     = {0};
+    return m;
+  }
+  irdm::RigidStepCompliance
+  unit_rigid_compliance()
+  {
+    irdm::RigidStepCompliance rigid;
+    rigid.tau2_over_mass       = 1e-3;
+    rigid.tau2_inverse_inertia = 0.5 * Eigen::Matrix3d::Identity();
+    return rigid;
+  }
+} // namespace
+
 TEST(Runtime, FreeBodyContactLeversAreAtTheDeformedPointsEveryStep)
 {
-  irdm::ModelFrame m;
-  m.n_inputs = m.n_outputs = 3;
-  m.output_coordinates     = {{{0.05, 0.0, 0.0}}};
-  m.output_input_index     = {0};
-  m.input_output_index     = {0};
-  irdm::VertexContact contact;
+  const irdm::ModelFrame m = one_vertex({0.05, 0.0, 0.0});
+  irdm::VertexContact    contact;
   contact.reset(m, irdm::VertexContactOptions{});
-  irdm::RigidStepCompliance rigid;
-  rigid.tau2_over_mass       = 1e-3;                                // m/N
-  rigid.tau2_inverse_inertia = 0.5 * Eigen::Matrix3d::Identity();   // 1/(N m)
+  irdm::RigidStepCompliance rigid = unit_rigid_compliance();
   irdm::PlaneTarget floor;
   floor.point = {0, 0, 0.001}; // the vertex is 1 mm below it
   for (const double ux : {0.0, 0.05, -0.02, 0.05})
@@ -294,16 +312,10 @@ TEST(Runtime, FreeBodyContactLeversAreAtTheDeformedPointsEveryStep)
 // not a candidate.
 TEST(Runtime, PlaneContactTakesAVertexTheDeformationCarriedPastTheMargin)
 {
-  irdm::ModelFrame m;
-  m.n_inputs = m.n_outputs = 3;
-  m.output_coordinates     = {{{0.05, 0.0, 0.02}}};
-  m.output_input_index     = {0};
-  m.input_output_index     = {0};
-  irdm::VertexContact contact;
+  const irdm::ModelFrame m = one_vertex({0.05, 0.0, 0.02});
+  irdm::VertexContact    contact;
   contact.reset(m, irdm::VertexContactOptions{}); // margin 5 mm
-  irdm::RigidStepCompliance rigid;
-  rigid.tau2_over_mass       = 1e-3;
-  rigid.tau2_inverse_inertia = 0.5 * Eigen::Matrix3d::Identity();
+  irdm::RigidStepCompliance rigid = unit_rigid_compliance();
   irdm::PlaneTarget floor; // z = 0
   for (const double uz : {-0.021, -0.01})
     for (const double reach : {0.0, 0.03})

@@ -236,7 +236,12 @@ namespace irdm
           for (unsigned i = 0; i < N_; ++i)
             {
               const double phi = model.input_shapes[(3 * v + d) * stride_ + i];
-              test_shapes_[(3 * v + d) * static_cast<size_t>(N_) + i] = static_cast<float>(phi);
+              // [vertex][the first reach_modes_ of x, y, z][the rest of x, y, z]: each stage
+              // reads one contiguous block.
+              const size_t at = static_cast<size_t>(3 * v) * N_ +
+                                (i < reach_modes_ ? d * reach_modes_ + i
+                                                  : 3 * reach_modes_ + d * (N_ - reach_modes_) + i - reach_modes_);
+              test_shapes_[at] = static_cast<float>(phi);
               if (!bounded_)
                 continue;
               flexibility_all_[v] += phi * phi / model.w2[i];
@@ -478,16 +483,16 @@ namespace irdm
       using VecF = Eigen::Map<const Eigen::VectorXf>;
       if (bounded_ && -strain_all * flexibility_all_[vi] >= limit)
         return false;
-      const float *row = &test_shapes_[static_cast<size_t>(3 * vi) * N_];
+      const float *first = &test_shapes_[static_cast<size_t>(3 * vi) * N_], *rest = first + 3 * r;
       float        part[3];
       double       along = 0;
       for (unsigned d = 0; d < 3; ++d)
-        along += n[d] * (part[d] = VecF(row + d * N_, r).dot(VecF(xu_test_.data(), r)));
+        along += n[d] * (part[d] = VecF(first + d * r, r).dot(VecF(xu_test_.data(), r)));
       if (bounded_ && along - strain_tail * flexibility_tail_[vi] - slack >= limit)
         return false;
       along = 0;
       for (unsigned d = 0; d < 3; ++d)
-        along += n[d] * (part[d] + VecF(row + d * N_ + r, N_ - r).dot(VecF(xu_test_.data() + r, N_ - r)));
+        along += n[d] * (part[d] + VecF(rest + d * (N_ - r), N_ - r).dot(VecF(xu_test_.data() + r, N_ - r)));
       if (along - slack >= limit)
         return false;
       for (unsigned d = 0; d < 3; ++d)

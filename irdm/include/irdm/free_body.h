@@ -47,8 +47,15 @@
 // the mapped virtual DOF's band centroid (PlaneInteraction::contact_point). One force at one
 // body-fixed point per plane cannot carry a resting contact's moment (a flat face rests as if
 // balanced on that point) and a wall that stops the body within a step bounces it off faster
-// than it came: reports/free measures where this fails. The deformation's energy is not known from the responses: energy() is the
-// rigid body's alone for this kind.
+// than it came: reports/free measures where this fails. Nor can a band stand in for the body
+// behind it: the cat's ear tips and the top of its head are bands of a few vertices, which
+// the precompute hit with 0.03 to 0.2 N and which give 0.01 to 0.15 m per newton held (50
+// kPa); landed on its head, the cat's band recedes with the floor and the body sinks through
+// it (25 cm by 1.2 s into the 50 kPa roll), until the mapping turns to a stiff band that meets
+// the floor that deep and throws the body off 13 J richer (it started with 0.13 J of motion):
+// the 60 s roll's energy gain, and `below floor` in reports/free's stability table. The
+// deformation's energy is not known from the responses: energy() is the rigid body's alone
+// for this kind.
 //
 // Probes: known point forces (PointForce, world frame) join the contact forces in the net
 // force and torque and, turned into the model frame by R', the deformation's force history;

@@ -232,7 +232,9 @@ namespace irdm
     static constexpr unsigned reach_modes = 32;
     unsigned                  reach_modes_ = 0;
     std::vector<double>       flexibility_all_, flexibility_tail_;
-    std::vector<float>        test_shapes_; // [input DoF][force-loop mode], single precision
+    // The input shapes of the force-loop modes in single precision, per input vertex its
+    // first reach_modes_ (x, y, z) and then the rest (x, y, z): the test's two stages.
+    std::vector<float>        test_shapes_;
     std::vector<float>        xu_test_;     // [force-loop mode] xu_ in single precision
     double                    largest_flexibility_ = 0;
     bool                      bounded_ = false; // every force-loop mode has w_i^2 > 0

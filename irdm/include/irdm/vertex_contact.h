@@ -12,7 +12,9 @@
 //               enough not to reach the plane within the step (the margin must exceed the
 //               surface's motion toward it within one step). Without the deformed test a
 //               vertex the deformation carries more than the margin toward a plane passes it
-//               unseen, then meets it deep (the soft free cat gained energy so: reports/free);
+//               unseen, then meets it deep (the soft free cat gained energy so: reports/free).
+//               The direct kind (PointInteraction) has no cheap displacement and takes the
+//               undeformed test alone: keep its deformation toward a plane within the margin;
 //   history     h_c = n_p . u_hist(v), u_hist = sum_{s>=1} H[s] f[n - s] at the candidate rows
 //               only (O(modes x candidates) from the modal model, which keeps each row's
 //               projection n_p^T Phi_v in a slot while the row stays a candidate: one dot
