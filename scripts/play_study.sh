@@ -60,10 +60,14 @@ play tap_k100_1khz         2 0   --trajectory $T/tap_back.csv --rate-hz 1000 --f
 play tap_coupled_k100_1khz 3 0   --trajectory $T/tap_back.csv --rate-hz 1000 --force-modes 100 $coupled
 # shellcheck disable=SC2086
 play tap_coupled_all_500hz 2 0   --trajectory $T/tap_back.csv $coupled
+# Each file on disk before its rename (sync FILE fsyncs it), and the renames with the folder.
+sync "$csv"
 mv "$csv" "$out/study.csv"
 gzip -n -c "$samples" > "$out/samples.csv.gz.part"
+sync "$out/samples.csv.gz.part"
 rm "$samples"
 mv "$out/samples.csv.gz.part" "$out/samples.csv.gz"
+sync "$out"
 /usr/bin/python3 validation/summarize_play.py "$out/study.csv" "$out/study.md" "$out/samples.csv.gz"
 /usr/bin/python3 validation/plot_frame_strip.py "$out/press_k100_1khz/surface" "$out/press_k100_1khz/frames.png"
 echo "play_study: wrote $out/study.md"
