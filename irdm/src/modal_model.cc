@@ -238,9 +238,9 @@ namespace irdm
               const double phi = model.input_shapes[(3 * v + d) * stride_ + i];
               // [vertex][the first reach_modes_ of x, y, z][the rest of x, y, z]: each stage
               // reads one contiguous block.
-              const size_t at = static_cast<size_t>(3 * v) * N_ +
-                                (i < reach_modes_ ? d * reach_modes_ + i
-                                                  : 3 * reach_modes_ + d * (N_ - reach_modes_) + i - reach_modes_);
+              const unsigned r  = reach_modes_;
+              const size_t   at = static_cast<size_t>(3 * v) * N_ +
+                                (i < r ? d * r + i : 3 * r + d * (N_ - r) + (i - r));
               test_shapes_[at] = static_cast<float>(phi);
               if (!bounded_)
                 continue;
@@ -492,7 +492,8 @@ namespace irdm
         return false;
       along = 0;
       for (unsigned d = 0; d < 3; ++d)
-        along += n[d] * (part[d] + VecF(rest + d * (N_ - r), N_ - r).dot(VecF(xu_test_.data() + r, N_ - r)));
+        along += n[d] * (part[d] + VecF(rest + d * (N_ - r), N_ - r)
+                                     .dot(VecF(xu_test_.data() + r, N_ - r)));
       if (along - slack >= limit)
         return false;
       for (unsigned d = 0; d < 3; ++d)
