@@ -956,14 +956,18 @@ namespace
                      "90 % of the period; 0: sleep to the tick)")
       ->check(CLI::Range(0.0, 1e6));
     play->add_option("--warm-us", po.warm_us,
-                     "the deformation thread wakes this long before each frame, reads the surface "
-                     "shapes into its cache and spins to the frame, us (0: it sleeps to the "
-                     "frame and the update streams the shapes from memory)")
+                     "the deformation thread wakes this long before each frame and reads the "
+                     "surface shapes into its cache until the frame (once, then a spin, with "
+                     "--warm-once), us (0: it sleeps to the frame and the update streams the "
+                     "shapes from memory)")
       ->check(CLI::Range(0.0, 1e6))
       ->capture_default_str();
     play->add_flag("!--no-warm-step", po.warm_step,
                    "the force thread does not read the step's data into its cache at the start "
                    "of its spin (ModalInteraction::warm_step)");
+    play->add_flag("!--warm-once", po.keep_warm,
+                   "each warm-up runs once at the start of its spin (default: it repeats until "
+                   "the tick, so that what a long interruption evicted is read back)");
     play->add_flag("!--no-baseline", po.baseline,
                    "skip the baseline (the same force loop with no work, run first for as long: "
                    "the machine's own stalls)");

@@ -27,11 +27,16 @@ namespace irdm::play
     // The force thread reads the next step's data into its cache when it starts to spin
     // (ModalInteraction::warm_step): the step then finds it there.
     bool warm_step = true;
-    // The deformation thread wakes this long before each frame, reads the surface shapes into
-    // its cache (warm_surface) and spins to the frame (us; 0: it sleeps to the frame, no
-    // warm-up). It spins rather than sleeps after the warm-up: a vCPU that halts can resume on
-    // another host core, with the shapes no longer in its cache (reports/play/README.md).
+    // The deformation thread wakes this long before each frame and reads the surface shapes
+    // into its cache (warm_surface) up to the frame (us; 0: it sleeps to the frame, no
+    // warm-up). It stays busy rather than sleeps after the warm-up: a vCPU that halts can
+    // resume on another host core, with the shapes no longer in its cache
+    // (reports/play/README.md).
     double warm_us = 500;
+    // Both warm-ups repeat until the tick (each pass read again before the work) rather than
+    // run once at the start of the spin: a long interruption by the host evicts what one
+    // warm-up read (reports/play/README.md). false: one pass, then the spin (--warm-once).
+    bool keep_warm = true;
     bool        quiet         = false;
     bool        baseline      = true; // first the same loop with no work: the machine's stalls
     // Virtual coupling (contact::Coupling): the device pulls the probed vertex through a spring

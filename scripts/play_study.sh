@@ -47,7 +47,8 @@ play() { # NAME REPETITIONS FRAMES [irdm play options]
 }
 T=examples/trajectories
 coupled="--coupling-stiffness 300 --coupling-damping 0.5"
-play press_k100_1khz       5 100 --trajectory $T/press_back.csv --rate-hz 1000 --force-modes 100
+play press_k100_1khz       10 100 --trajectory $T/press_back.csv --rate-hz 1000 --force-modes 100
+play press_k100_1khz_warmonce 3 0 --trajectory $T/press_back.csv --rate-hz 1000 --force-modes 100 --warm-once
 play press_k100_1khz_nowarm 3 0  --trajectory $T/press_back.csv --rate-hz 1000 --force-modes 100 --warm-us 0
 play press_k100_1khz_nowarmstep 3 0 --trajectory $T/press_back.csv --rate-hz 1000 --force-modes 100 --no-warm-step
 play press_k100_1khz_sleep 5 0   --trajectory $T/press_back.csv --rate-hz 1000 --force-modes 100 --spin-us 0

@@ -342,6 +342,8 @@ TEST(Cli, PlayRunsBothLoopsAndMatchesTheOfflineReplay)
   EXPECT_GE(v["force_error"], 0);
   EXPECT_LT(v["force_error"], 1e-12);
   EXPECT_GT(v["surface_updates"], 0);
+  EXPECT_EQ(v["keep_warm"], 1); // both warm-ups repeat up to the tick unless --warm-once
+  EXPECT_EQ(v["warm_step"], 1);
   EXPECT_TRUE(fs::exists(fs::path(dir) / "forces.csv"));
   EXPECT_TRUE(fs::exists(fs::path(dir) / "surface" / "surface.pvd"));
   // One row per surface update, each with the force step it showed: in order, none past the last.

@@ -7,6 +7,7 @@
 // (scripts/tsan.sh), which checks that the exchange has no data race.
 #include <irdm/modal_model.h>
 #include <irdm/surface_exchange.h>
+#include <irdm_common/error.h>
 
 #include <gtest/gtest.h>
 
@@ -110,9 +111,11 @@ TEST(TwoLoops, DeformationThreadSeesWholeStatesInOrderAndTheLast)
   seen_steps.reserve(capacity);
   std::thread deformation([&] {
     std::vector<double> u(nout);
-    for (;;)
+    for (size_t part = 0;; part = (part + 1) % 4)
       {
-        warm_surface(model); // reads the model only, while the force thread runs
+        // Reads the model only, while the force thread runs; a piece at a time, as irdm
+        // play's deformation thread keeps the shapes warm until its frame.
+        warm_surface(model, part, 4);
         const bool finished = done.load(std::memory_order_acquire);
         if (exchange.update())
           {
@@ -150,4 +153,13 @@ TEST(TwoLoops, DeformationThreadSeesWholeStatesInOrderAndTheLast)
   EXPECT_EQ(checked, seen_steps.size());
   EXPECT_GT(std::abs(u[11]), 0.0) << "the probe must move the surface";
   std::printf("deformation thread saw %zu of %lld states\n", seen_steps.size(), n_steps);
+}
+
+TEST(TwoLoops, SurfaceWarmUpRefusesAPieceOutsideItsParts)
+{
+  const ModalModel model = synthetic_model();
+  EXPECT_NO_THROW(warm_surface(model, 0, 1));
+  EXPECT_NO_THROW(warm_surface(model, 5, 6));
+  EXPECT_THROW(warm_surface(model, 6, 6), InputError);
+  EXPECT_THROW(warm_surface(model, 0, 0), InputError);
 }

@@ -639,11 +639,21 @@ namespace irdm
   void
   warm_surface(const ModalModel &model)
   {
+    warm_surface(model, 0, 1);
+  }
+
+  void
+  warm_surface(const ModalModel &model, const size_t part, const size_t parts)
+  {
+    if (parts == 0 || part >= parts)
+      throw InputError("warm_surface: part " + std::to_string(part) + " of " +
+                       std::to_string(parts));
     // One float per 64-byte line; the sum goes to a volatile so that the loads stay.
-    constexpr size_t line = 64 / sizeof(float);
-    float            sum  = 0;
-    for (size_t x = 0; x < model.shapes.size(); x += line)
-      sum += model.shapes[x];
+    constexpr size_t line  = 64 / sizeof(float);
+    const size_t     lines = (model.shapes.size() + line - 1) / line;
+    float            sum   = 0;
+    for (size_t l = lines * part / parts; l < lines * (part + 1) / parts; ++l)
+      sum += model.shapes[l * line];
     volatile float sink = sum;
     (void)sink;
   }

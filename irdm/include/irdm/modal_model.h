@@ -95,6 +95,11 @@ namespace irdm
   void
   warm_surface(const ModalModel &model);
 
+  /// Part `part` (0 to parts - 1) of warm_surface: the shapes in `parts` contiguous pieces,
+  /// so that a thread that keeps them warm while it waits can read its clock between pieces.
+  void
+  warm_surface(const ModalModel &model, size_t part, size_t parts);
+
   /// A known force on an input vertex during one step (N, model frame): a probe's or a
   /// device's, given rather than solved for.
   struct AppliedForce
