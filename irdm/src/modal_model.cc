@@ -262,12 +262,12 @@ namespace irdm
   }
 
   double
-  ModalInteraction::strain_norm(const unsigned first) const
+  ModalInteraction::strain_norm(const unsigned first, const unsigned end) const
   {
     if (!bounded_)
       return 0; // not used
     double e = 0;
-    for (unsigned i = first; i < N_; ++i)
+    for (unsigned i = first; i < std::min(end, N_); ++i)
       e += model_.w2[i] * xu_[i] * xu_[i];
     return std::sqrt(e);
   }
@@ -474,8 +474,10 @@ namespace irdm
     // passes then takes its displacement in double, as every lever does.
     constexpr double slack = 1e-6; // m
     const unsigned   r           = reach_modes_;
-    const double     strain_all  = strain_norm(0);
     const double     strain_tail = strain_norm(r);
+    const double     strain_all  = std::sqrt(strain_tail * strain_tail + std::pow(strain_norm(0, r), 2));
+    const double     reach       = bounded_ ? largest_flexibility_ * strain_all // deformation_reach()
+                                            : std::numeric_limits<double>::infinity();
     for (unsigned i = 0; i < N_; ++i)
       xu_test_[i] = static_cast<float>(xu_[i]);
     const auto deformed = [&](const unsigned vi, const std::array<double, 3> &n,
@@ -515,7 +517,7 @@ namespace irdm
             keep_lever(vi, u);
             return u;
           },
-          deformation_reach(), deformed))
+          reach, deformed))
       return false;
     end_step();
     return true;

@@ -15,6 +15,7 @@
 #include <irdm/rigid_body.h>
 
 #include <array>
+#include <climits>
 #include <vector>
 
 namespace irdm
@@ -243,9 +244,9 @@ namespace irdm
     std::vector<float>        xu_test_;     // [force-loop mode] xu_ in single precision
     double                    largest_flexibility_ = 0;
     bool                      bounded_ = false; // every force-loop mode has w_i^2 > 0
-    // sqrt(sum_{i >= first} w_i^2 u_i^2) over the force-loop modes (sqrt(J)).
+    // sqrt(sum_{first <= i < end} w_i^2 u_i^2) over the force-loop modes (sqrt(J)).
     double
-    strain_norm(unsigned first) const;
+    strain_norm(unsigned first, unsigned end = UINT_MAX) const;
     const AppliedForce        *applied_ = nullptr; // during a step with known forces
     int                        n_applied_ = 0;
 
