@@ -92,8 +92,7 @@ namespace irdm::play
         while (last < until)
           {
             const std::int64_t t = now_ns();
-            if (t - last > 2000 && count < gap_us.size())
-              gap_us[count++] = 1e-3 * static_cast<double>(t - last);
+            seen(t - last);
             last = t;
           }
         spun_ns += last - from;
@@ -103,9 +102,15 @@ namespace irdm::play
       void
       passed(const std::int64_t pass_ns, const std::int64_t fastest_ns)
       {
-        if (pass_ns - fastest_ns > 2000 && count < gap_us.size())
-          gap_us[count++] = 1e-3 * static_cast<double>(pass_ns - fastest_ns);
+        seen(pass_ns - fastest_ns);
         spun_ns += pass_ns;
+      }
+      // Time the thread may not have run (ns): a gap if over 2 us, kept while there is room.
+      void
+      seen(const std::int64_t ns)
+      {
+        if (ns > 2000 && count < gap_us.size())
+          gap_us[count++] = 1e-3 * static_cast<double>(ns);
       }
       double
       per_second() const

@@ -257,19 +257,24 @@ namespace irdm
   double
   ModalInteraction::deformation_reach() const
   {
-    return bounded_ ? largest_flexibility_ * strain_norm(0)
-                    : std::numeric_limits<double>::infinity();
+    return reach_of(std::sqrt(strain_sum(0, N_)));
   }
 
   double
-  ModalInteraction::strain_norm(const unsigned first, const unsigned end) const
+  ModalInteraction::reach_of(const double strain_all) const
+  {
+    return bounded_ ? largest_flexibility_ * strain_all : std::numeric_limits<double>::infinity();
+  }
+
+  double
+  ModalInteraction::strain_sum(const unsigned first, const unsigned end) const
   {
     if (!bounded_)
       return 0; // not used
     double e = 0;
-    for (unsigned i = first; i < std::min(end, N_); ++i)
+    for (unsigned i = first; i < end; ++i)
       e += model_.w2[i] * xu_[i] * xu_[i];
-    return std::sqrt(e);
+    return e;
   }
 
   bool
@@ -474,10 +479,9 @@ namespace irdm
     // passes then takes its displacement in double, as every lever does.
     constexpr double slack = 1e-6; // m
     const unsigned   r           = reach_modes_;
-    const double     strain_tail = strain_norm(r);
-    const double     strain_all  = std::sqrt(strain_tail * strain_tail + std::pow(strain_norm(0, r), 2));
-    const double     reach       = bounded_ ? largest_flexibility_ * strain_all // deformation_reach()
-                                            : std::numeric_limits<double>::infinity();
+    const double     tail        = strain_sum(r, N_);
+    const double     strain_tail = std::sqrt(tail);
+    const double     strain_all  = std::sqrt(strain_sum(0, r) + tail);
     for (unsigned i = 0; i < N_; ++i)
       xu_test_[i] = static_cast<float>(xu_[i]);
     const auto deformed = [&](const unsigned vi, const std::array<double, 3> &n,
@@ -517,7 +521,7 @@ namespace irdm
             keep_lever(vi, u);
             return u;
           },
-          reach, deformed))
+          reach_of(strain_all), deformed))
       return false;
     end_step();
     return true;

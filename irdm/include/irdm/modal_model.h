@@ -15,7 +15,6 @@
 #include <irdm/rigid_body.h>
 
 #include <array>
-#include <climits>
 #include <vector>
 
 namespace irdm
@@ -244,9 +243,12 @@ namespace irdm
     std::vector<float>        xu_test_;     // [force-loop mode] xu_ in single precision
     double                    largest_flexibility_ = 0;
     bool                      bounded_ = false; // every force-loop mode has w_i^2 > 0
-    // sqrt(sum_{first <= i < end} w_i^2 u_i^2) over the force-loop modes (sqrt(J)).
+    // sum_{first <= i < end} w_i^2 u_i^2 over force-loop modes (J; its root the strain norm).
     double
-    strain_norm(unsigned first, unsigned end = UINT_MAX) const;
+    strain_sum(unsigned first, unsigned end) const;
+    // deformation_reach for a strain norm sqrt(strain_sum(0, N_)) already taken.
+    double
+    reach_of(double strain_all) const;
     const AppliedForce        *applied_ = nullptr; // during a step with known forces
     int                        n_applied_ = 0;
 
