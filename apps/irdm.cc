@@ -765,8 +765,8 @@ namespace
       "virtual DOFs take no probe); then the runtime alone rolls "
       "for --stability seconds and flies free for 10 s. Writes DIR/free/free.csv (one row per "
       "case, material and method), first_contact.csv (the same measures over the first "
-      "contact alone), truth_strain.csv (the truth's largest strain), truth.csv (with --truth-check), linearization.csv (the small-strain "
-      "FEM against the truth, the runtime against the small-strain FEM), series.csv (forces, heights, angles and "
+      "contact alone), truth_strain.csv (the truth's largest strain), truth.csv (with --truth-check), linearization.csv (the linear "
+      "FEM against the truth, the runtime against the linear FEM), series.csv (forces, heights, angles and "
       "deformation against time), "
       "frames.csv and triangles.csv (surfaces of the rolling cat), fig6.png, frames.png and "
       "report.md. Units SI.");
@@ -837,10 +837,17 @@ namespace
                             "the FEM at tau / M by the same measures (truth.csv): how well the "
                             "truth itself is determined; triples the FEM's time");
     validate_free->add_flag("--small-strain,!--no-small-strain", vfb.small_strain,
-                            "also run the FEM with the small-strain law and report linear "
+                            "also run the FEM with a linear law (--linear-law) and report linear "
                             "elasticity's own error (it against the truth) and the method's (the "
                             "runtime against it) apart (linearization.csv); on by default")
       ->capture_default_str();
+    validate_free->add_option_function<std::string>(
+        "--linear-law",
+        [&vfb](const std::string &law) { vfb.body_frame = law == "linear_body_frame"; },
+        "that linear FEM's law: linear_body_frame (the default: the small-strain law in the "
+        "body's best-fit frame, run fem_linear_body_frame) or linear (the plain small-strain "
+        "law, which a rigid turn strains; run fem_small_strain, not for spin_roll)")
+      ->check(CLI::IsMember({"linear_body_frame", "linear"}));
     validate_free->add_flag("--centrifugal", vfb.centrifugal,
                             "the modal routes take the spin's centrifugal force into the "
                             "deformation (the model's /modes/centrifugal_load); free flight "

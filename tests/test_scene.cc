@@ -146,6 +146,10 @@ TEST(Scene, CouplingAndMaterialLawAreChecked)
   expect_error(scene(R"(, "kinematics": "nonlinear")" + plate), "linear kinematics");
   const std::string m = R"("youngs_modulus_Pa": 2e5, "poisson_ratio": 0.4, "density_kg_m3": 1100, "law": )";
   EXPECT_TRUE(parse_scene(scene(R"(, "kinematics": "nonlinear")", m + R"("linear")"), ".").small_strain_law);
+  EXPECT_FALSE(parse_scene(scene(R"(, "kinematics": "nonlinear")", m + R"("linear")"), ".").body_frame_law);
+  const irdm::fem::Scene body = parse_scene(scene(R"(, "kinematics": "nonlinear")", m + R"("linear_body_frame")"), ".");
+  EXPECT_TRUE(body.small_strain_law && body.body_frame_law);
+  expect_error(scene("", m + R"("linear_body_frame")"), "material.law");
   expect_error(scene("", m + R"("linear")"), "material.law");
   expect_error(scene(R"(, "kinematics": "nonlinear")", m + R"("hookean")"), "neo_hookean");
 }

@@ -147,11 +147,15 @@ def impact(folder):
             key = (row["material"], row["method"], row["reference"])
             lines[key].append((float(row["speed_over_wave_speed"]),
                                float(row["first_deformation_error"])))
+    # The linear FEM is the body-frame one (fem_linear_body_frame) or, with
+    # --linear-law linear, the plain small-strain one (fem_small_strain).
+    linear = "fem_small_strain" if any(r == "fem_small_strain" for _, _, r in lines) else "fem_linear_body_frame"
+    name = {"fem_small_strain": "small-strain FEM", "fem_linear_body_frame": "linear FEM (body frame)"}[linear]
     styles = {("route2_modal", "fem_neo_hookean"): ("o-", "IRDM route 2 against the nonlinear FEM"),
               ("route1_rigid_fit", "fem_neo_hookean"): ("s--", "IRDM route 1 against the nonlinear FEM"),
-              ("fem_small_strain", "fem_neo_hookean"): ("^-", "small-strain FEM against the nonlinear FEM"),
-              ("route2_modal", "fem_small_strain"): ("x:", "IRDM route 2 against the small-strain FEM"),
-              ("route2_modal_s100", "fem_small_strain"): ("+-.", "IRDM route 2, 100 surface modes, against the small-strain FEM")}
+              (linear, "fem_neo_hookean"): ("^-", f"{name} against the nonlinear FEM"),
+              ("route2_modal", linear): ("x:", f"IRDM route 2 against the {name}"),
+              ("route2_modal_s100", linear): ("+-.", f"IRDM route 2, 100 surface modes, against the {name}")}
     materials = sorted({m for m, _, _ in lines}, key=material_key)
     fig, ax = plt.subplots(figsize=(8, 6.5))
     for i, material in enumerate(materials):

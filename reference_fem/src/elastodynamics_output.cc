@@ -194,9 +194,12 @@ namespace irdm::fem
           w.attribute("/", "rho_inf", scene.rho_inf);
           w.attribute("/", "time_step_s", scene.time_step);
           w.attribute("/", "kinematics",
-                      std::string(scene.kinematics == Kinematics::nonlinear
-                                    ? "nonlinear (Total Lagrangian neo-Hookean)"
-                                    : "linear"));
+                      std::string(scene.kinematics == Kinematics::linear ? "linear"
+                                  : scene.body_frame_law
+                                    ? "nonlinear (Total Lagrangian, small-strain law in the body frame)"
+                                  : scene.small_strain_law
+                                    ? "nonlinear (Total Lagrangian, small-strain law)"
+                                    : "nonlinear (Total Lagrangian neo-Hookean)"));
           dataset("/time", {N});
           w.create_group("/energy");
           dataset("/energy/kinetic", {N});

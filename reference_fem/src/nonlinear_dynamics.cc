@@ -187,7 +187,8 @@ namespace irdm::fem
       // f + f_c + K_0 u - f_int(u) makes them the nonlinear balance M a + C v + f_int - f - f_c.
       double                               W = 0;
       NonlinearElasticity::Impl::StrainMeasure strain;
-      I.assemble(u, f_int, nullptr, false, &W, &strain);
+      I.assemble(u, f_int, nullptr, false, &W, &strain,
+                 sc.body_frame_law ? I.body_rotation(u) : I.identity());
       out.largest_strain.push_back(strain.largest);
       out.strained_volume_fraction.push_back(strain.strained_volume_fraction);
       Vector<double> balance(n);
@@ -226,6 +227,10 @@ namespace irdm::fem
     };
     record(0.0, contact);
 
+    // Scene::body_frame_law: the body frame's rotation, held over a step (the law is then
+    // linear in u within it), taken at the alpha level of the step's constant-velocity
+    // predictor, u + (1 - alpha_f) h v: the turn within the step is then off by O((w h)^2).
+    Tensor<2, 3> frame = I.identity();
     // The residual of the step to t1 at the trial u_new = x (a_new, v_new follow from x by
     // Newmark). With `T`, also the tangent dR/dx, condensed. Returns false if an element
     // inverted; `scale` gets a force scale for the convergence test.
@@ -245,7 +250,7 @@ namespace irdm::fem
       v_new = v;
       v_new.add(h * (1 - c.gamma), a, h * c.gamma, a_new);
       combine(u_alpha, 1 - af, x, af, u); // u at the alpha level
-      const bool ok = I.assemble(u_alpha, f_int, T ? &K_T : nullptr, false);
+      const bool ok = I.assemble(u_alpha, f_int, T ? &K_T : nullptr, false, nullptr, nullptr, frame);
       cs            = I.plane_contact(x, t1, f_c_new, T ? &K_T : nullptr);
       combine(w, 1 - am, a_new, am, a);
       L.mass.vmult(res, w);
@@ -256,7 +261,7 @@ namespace irdm::fem
       if (sc.rayleigh_beta != 0)
         {
           // Objective: no damping of rigid motion however far the body has turned.
-          I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr, T ? &K_Du : nullptr);
+          I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr, T ? &K_Du : nullptr, frame);
           res.add(sc.rayleigh_beta, tmp);
         }
       res += f_int;
@@ -292,6 +297,12 @@ namespace irdm::fem
       L.external_force(t1, f_new);
       // Constant-velocity predictor: the acceleration of a body in penalty contact changes
       // sign from step to step, so extrapolating it overshoots.
+      if (sc.body_frame_law)
+        {
+          u_alpha = u;
+          u_alpha.add((1 - af) * h, v);
+          frame = I.body_rotation(u_alpha);
+        }
       u_new = u;
       u_new.add(h, v);
       L.constraints.set_zero(u_new);

@@ -49,6 +49,18 @@ namespace irdm::fem
             free_boundary_vertices.push_back(v);
         }
     const double h = edge_sum / std::max(1u, n_edges);
+    const auto  &X = linear.mesh.vertices;
+    vertex_volume.assign(X.size(), 0.0);
+    for (const auto &t : linear.mesh.tets)
+      {
+        Tensor<2, 3> edges;
+        for (unsigned e = 0; e < 3; ++e)
+          for (unsigned d = 0; d < 3; ++d)
+            edges[e][d] = X[t[e + 1]][d] - X[t[0]][d];
+        const double share = std::abs(determinant(edges)) / 24; // a quarter of volume det / 6
+        for (const unsigned v : t)
+          vertex_volume[v] += share;
+      }
     for (const auto &p : scene.planes)
       penalty.push_back(p.penalty > 0 ? p.penalty : 100 * E / h);
 
@@ -92,10 +104,43 @@ namespace irdm::fem
     return G;
   }
 
+  Tensor<2, 3>
+  NonlinearElasticity::Impl::body_rotation(const Vector<double> &u) const
+  {
+    const auto &X = linear.mesh.vertices;
+    const auto &dv = linear.dofs_of_vertex;
+    Tensor<1, 3> c, C;
+    double       m = 0;
+    for (unsigned v = 0; v < X.size(); ++v)
+      for (unsigned d = 0; d < 3; ++d)
+        C[d] += vertex_volume[v] * X[v][d], c[d] += vertex_volume[v] * (X[v][d] + u(dv[v][d]));
+    for (const double w : vertex_volume)
+      m += w;
+    c /= m, C /= m;
+    Tensor<2, 3> A; // sum_v m_v (x_v - c)(X_v - C)^T
+    for (unsigned v = 0; v < X.size(); ++v)
+      for (unsigned a = 0; a < 3; ++a)
+        for (unsigned b = 0; b < 3; ++b)
+          A[a][b] += vertex_volume[v] * (X[v][a] + u(dv[v][a]) - c[a]) * (X[v][b] - C[b]);
+    // The polar factor by Newton's iteration R <- (R + R^-T) / 2 (quadratic; A is close to
+    // a rotation times a positive definite matrix, the body's second moment, so det A > 0).
+    Tensor<2, 3> R = A / std::cbrt(determinant(A));
+    for (unsigned it = 0; it < 100; ++it)
+      {
+        const Tensor<2, 3> next = 0.5 * (R + transpose(invert(R)));
+        const double       change = (next - R).norm();
+        R                         = next;
+        if (change <= 1e-15)
+          break;
+      }
+    return R;
+  }
+
   bool
   NonlinearElasticity::Impl::assemble(const Vector<double> &u, Vector<double> &f_int,
                                        SparseMatrix<double> *K, const bool constrained,
-                                       double *energy, StrainMeasure *strain) const
+                                       double *energy, StrainMeasure *strain,
+                                       const Tensor<2, 3> &frame) const
   {
     const auto &L = linear;
     const auto    &R      = reference;
@@ -126,7 +171,12 @@ namespace irdm::fem
           {
             // Written in H = grad u so that small strains lose no digits to cancellation:
             // J - 1 = tr H + (tr(H)^2 - tr(H^2)) / 2 + det H, F - F^{-T} = H + H^T F^{-T}.
-            const Tensor<2, 3>  H  = R.gradient(u, c, q);
+            // The small-strain law takes the displacement gradient in the body frame,
+            // R^T F - I = R^T H + (R^T - I) (H itself when R = I, Scene::body_frame_law off).
+            const Tensor<2, 3>  H  = L.scene.small_strain_law
+                                       ? transpose(frame) * R.gradient(u, c, q) +
+                                           (transpose(frame) - identity())
+                                       : R.gradient(u, c, q);
             const double        tH = trace(H);
             const double        dx = R.JxW[c * n_q + q];
             if (strain)
@@ -150,7 +200,10 @@ namespace irdm::fem
             Tensor<2, 3> P;
             if (L.scene.small_strain_law)
               {
-                P = mu * (H + transpose(H)) + lambda * tH * FinvT;
+                // P = R S(eps): the first Piola stress of the body-frame law, whose tangent
+                // is the formulas below with A = R (R's rows are orthonormal).
+                FinvT = frame;
+                P     = frame * (mu * (H + transpose(H)) + lambda * tH * identity());
                 if (energy)
                   *energy += dx * (0.25 * mu * scalar_product(H + transpose(H), H + transpose(H)) +
                                    0.5 * lambda * tH * tH);
@@ -216,7 +269,8 @@ namespace irdm::fem
   void
   NonlinearElasticity::Impl::damping_force(const Vector<double> &u, const Vector<double> &v,
                                            Vector<double> &f_d, SparseMatrix<double> *D,
-                                           SparseMatrix<double> *D_u) const
+                                           SparseMatrix<double> *D_u,
+                                           const Tensor<2, 3> &frame) const
   {
     if (linear.scene.small_strain_law && D_u)
       {
@@ -252,9 +306,7 @@ namespace irdm::fem
         cell_f = 0;
         for (unsigned q = 0; q < n_q; ++q)
           {
-            const Tensor<2, 3> F = L.scene.small_strain_law
-                                     ? Tensor<2, 3>(unit_symmetric_tensor<3>())
-                                     : Tensor<2, 3>(unit_symmetric_tensor<3>()) + grad_u[q];
+            const Tensor<2, 3> F = L.scene.small_strain_law ? frame : identity() + grad_u[q];
             const Tensor<2, 3> FtG   = transpose(F) * grad_v[q];
             const Tensor<2, 3> E_dot = 0.5 * (FtG + transpose(FtG));
             const Tensor<2, 3> S = lambda * trace(E_dot) * Tensor<2, 3>(unit_symmetric_tensor<3>()) +
@@ -320,6 +372,9 @@ namespace irdm::fem
     const auto &L = impl_->linear;
     if (L.constraints.n_constraints() == 0)
       throw InputError("static equilibrium needs at least one fixed surface");
+    if (L.scene.body_frame_law)
+      throw InputError("material.law 'linear_body_frame' is for a free body's dynamics (its "
+                       "frame follows the body's motion); statics takes 'linear'");
     if (!L.scene.probes.empty() || !L.scene.prescribed.empty())
       throw InputError("nonlinear statics takes loads only (no probes, no prescribed vertices)");
     if (increments < 1)
@@ -440,13 +495,15 @@ namespace irdm::fem
     for (unsigned i = 0; i < n; ++i)
       d(i) = uniform(rng) * amplitude;
     SparseMatrix<double> K(L.sparsity);
-    impl_->assemble(u, f_int, &K, false);
+    // The body-frame law's frame is held within a step: check its tangent in a turned frame.
+    const Tensor<2, 3> R = L.scene.body_frame_law ? impl_->body_rotation(u) : Impl::identity();
+    impl_->assemble(u, f_int, &K, false, nullptr, nullptr, R);
     K.vmult(Kd, d);
     Vector<double> up = u, um = u;
     up.add(h, d);
     um.add(-h, d);
-    impl_->assemble(up, f_plus, nullptr, false);
-    impl_->assemble(um, f_minus, nullptr, false);
+    impl_->assemble(up, f_plus, nullptr, false, nullptr, nullptr, R);
+    impl_->assemble(um, f_minus, nullptr, false, nullptr, nullptr, R);
     f_plus -= f_minus;
     f_plus /= 2 * h;
     f_plus -= Kd;

@@ -33,9 +33,24 @@ namespace irdm::fem
     {
       double largest = 0, strained_volume_fraction = 0;
     };
+    /// `frame`: the body frame's rotation R for Scene::body_frame_law (the small-strain law
+    /// of R^T F; the identity otherwise, where it changes nothing).
     bool
     assemble(const Vector<double> &u, Vector<double> &f_int, SparseMatrix<double> *K,
-             bool constrained, double *energy = nullptr, StrainMeasure *strain = nullptr) const;
+             bool constrained, double *energy = nullptr, StrainMeasure *strain = nullptr,
+             const Tensor<2, 3> &frame = identity()) const;
+
+    /// The rotation of the body's best rigid fit at displacement u: the polar factor of
+    /// sum_v m_v (x_v - c)(X_v - C)^T over the mesh vertices, m_v their lumped volume (each
+    /// cell's volume shared equally among its vertices), c and C the weighted centres.
+    Tensor<2, 3>
+    body_rotation(const Vector<double> &u) const;
+
+    static Tensor<2, 3>
+    identity()
+    {
+      return Tensor<2, 3>(unit_symmetric_tensor<3>());
+    }
 
     /// Stiffness-proportional damping made objective (issue 14): the force int F S_d : grad phi
     /// with S_d = C0 : dE/dt, the reference elasticity tensor C0 on the rate of the
@@ -46,9 +61,12 @@ namespace irdm::fem
     /// of d f_d / d u (the full one is not symmetric, and the direct solver is; Newton keeps
     /// its quadratic rate only to the extent the skew part is small). The small-strain law
     /// keeps K0 v exactly (F = I, no dependence on u).
+    /// Scene::body_frame_law: F = R (`frame`) in place of I, so that the body's spin as a
+    /// whole is not damped either.
     void
     damping_force(const Vector<double> &u, const Vector<double> &v, Vector<double> &f_d,
-                  SparseMatrix<double> *D, SparseMatrix<double> *D_u = nullptr) const;
+                  SparseMatrix<double> *D, SparseMatrix<double> *D_u = nullptr,
+                  const Tensor<2, 3> &frame = identity()) const;
 
     /// Penalty contact of the scene's planes at time t on the body displaced by u: sets f_c
     /// (force on the body) and, if K is given, adds the penalty tangent
@@ -71,6 +89,7 @@ namespace irdm::fem
     // three directions, for contact.
     std::vector<std::pair<DoFHandler<3>::active_cell_iterator, unsigned>> boundary_faces;
     std::vector<unsigned> free_boundary_vertices;
+    std::vector<double>   vertex_volume; // m^3, per mesh vertex: its lumped share (body_rotation)
 
     /// The reference configuration's geometry per cell and quadrature point, computed once:
     /// a Total Lagrangian formulation integrates over the undeformed body, so JxW and the

@@ -467,10 +467,11 @@ namespace irdm::fem
       if (m.has("law"))
         {
           const std::string law = m.at("law").string();
-          if (law == "linear")
+          if (law == "linear" || law == "linear_body_frame")
             s.small_strain_law = true;
           else if (law != "neo_hookean")
-            fail(m.where + ".law", "must be 'neo_hookean' or 'linear'");
+            fail(m.where + ".law", "must be 'neo_hookean', 'linear' or 'linear_body_frame'");
+          s.body_frame_law = law == "linear_body_frame";
         }
     }
     if (top.has("damping"))

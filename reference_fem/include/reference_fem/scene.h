@@ -196,6 +196,13 @@ namespace irdm::fem
     // linear solver's) in place of neo-Hookean, the penalty plane contact kept. Separates what
     // geometric and material nonlinearity cost from what the contact discretization costs.
     bool       small_strain_law = false;
+    // With small_strain_law (material.law "linear_body_frame"): that law in the body's own
+    // frame, P = R (lambda tr(e) I + 2 mu e) with e = sym(R^T F) - I and R the rotation of the
+    // body's best rigid fit (its mesh vertices weighed by their lumped volume), taken from the
+    // step's predicted motion. Linear elasticity in a floating frame, what a free body's IRDM
+    // linearizes (irdm/free_body.h): unlike the plain small-strain law it strains nothing when
+    // the body turns as a whole. Nonlinear dynamics only.
+    bool       body_frame_law = false;
     Vec3       initial_velocity = {0, 0, 0}; // m/s, of the centre of mass (a thrown or dropped body)
     // rad/s, world: a spin about the centre of mass, v(X) = initial_velocity + w x (X - c)
     // (a rigid velocity field: it strains nothing). Free bodies only.
