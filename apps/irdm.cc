@@ -846,7 +846,8 @@ namespace
         [&vfb](const std::string &law) { vfb.body_frame = law == "linear_body_frame"; },
         "that linear FEM's law: linear_body_frame (the default: the small-strain law in the "
         "body's best-fit frame, run fem_linear_body_frame) or linear (the plain small-strain "
-        "law, which a rigid turn strains; run fem_small_strain, not for spin_roll)")
+        "law, not objective: a spin swells its body instead of turning it; run fem_small_strain, "
+        "not for spin_roll)")
       ->check(CLI::IsMember({"linear_body_frame", "linear"}));
     validate_free->add_flag("--centrifugal", vfb.centrifugal,
                             "the modal routes take the spin's centrifugal force into the "

@@ -4,6 +4,7 @@
 #include <deal.II/lac/sparse_direct.h>
 
 #include <irdm_common/error.h>
+#include <irdm_common/rigid_fit.h>
 
 #include <cmath>
 #include <random>
@@ -107,33 +108,31 @@ namespace irdm::fem
   Tensor<2, 3>
   NonlinearElasticity::Impl::body_rotation(const Vector<double> &u) const
   {
-    const auto &X = linear.mesh.vertices;
-    const auto &dv = linear.dofs_of_vertex;
-    Tensor<1, 3> c, C;
-    double       m = 0;
+    const auto     &X  = linear.mesh.vertices;
+    const auto     &dv = linear.dofs_of_vertex;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero(), C = Eigen::Vector3d::Zero();
+    double          m = 0;
     for (unsigned v = 0; v < X.size(); ++v)
-      for (unsigned d = 0; d < 3; ++d)
-        C[d] += vertex_volume[v] * X[v][d], c[d] += vertex_volume[v] * (X[v][d] + u(dv[v][d]));
-    for (const double w : vertex_volume)
-      m += w;
-    c /= m, C /= m;
-    Tensor<2, 3> A; // sum_v m_v (x_v - c)(X_v - C)^T
-    for (unsigned v = 0; v < X.size(); ++v)
-      for (unsigned a = 0; a < 3; ++a)
-        for (unsigned b = 0; b < 3; ++b)
-          A[a][b] += vertex_volume[v] * (X[v][a] + u(dv[v][a]) - c[a]) * (X[v][b] - C[b]);
-    // The polar factor by Newton's iteration R <- (R + R^-T) / 2 (quadratic; A is close to
-    // a rotation times a positive definite matrix, the body's second moment, so det A > 0).
-    Tensor<2, 3> R = A / std::cbrt(determinant(A));
-    for (unsigned it = 0; it < 100; ++it)
       {
-        const Tensor<2, 3> next = 0.5 * (R + transpose(invert(R)));
-        const double       change = (next - R).norm();
-        R                         = next;
-        if (change <= 1e-15)
-          break;
+        const Eigen::Vector3d Xv(X[v][0], X[v][1], X[v][2]);
+        C += vertex_volume[v] * Xv;
+        c += vertex_volume[v] * (Xv + Eigen::Vector3d(u(dv[v][0]), u(dv[v][1]), u(dv[v][2])));
+        m += vertex_volume[v];
       }
-    return R;
+    c /= m, C /= m;
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero(); // sum_v m_v (X_v - C)(x_v - c)^T
+    for (unsigned v = 0; v < X.size(); ++v)
+      {
+        const Eigen::Vector3d Xv(X[v][0], X[v][1], X[v][2]);
+        const Eigen::Vector3d xv = Xv + Eigen::Vector3d(u(dv[v][0]), u(dv[v][1]), u(dv[v][2]));
+        H += vertex_volume[v] * (Xv - C) * (xv - c).transpose();
+      }
+    const Eigen::Matrix3d R = kabsch_rotation(H);
+    Tensor<2, 3>          out;
+    for (unsigned a = 0; a < 3; ++a)
+      for (unsigned b = 0; b < 3; ++b)
+        out[a][b] = R(a, b);
+    return out;
   }
 
   bool
@@ -161,6 +160,8 @@ namespace irdm::fem
       *strain = StrainMeasure();
     double       strained_volume = 0, volume = 0;
     bool         ok      = true;
+    // The small-strain law's body frame (Scene::body_frame_law): R^T and R^T - I, once.
+    const Tensor<2, 3> Rt = transpose(frame), Rt_minus_I = Rt - identity();
     const size_t n_cells = R.dofs.size() / n_dofs;
     for (size_t c = 0; c < n_cells; ++c)
       {
@@ -174,8 +175,7 @@ namespace irdm::fem
             // The small-strain law takes the displacement gradient in the body frame,
             // R^T F - I = R^T H + (R^T - I) (H itself when R = I, Scene::body_frame_law off).
             const Tensor<2, 3>  H  = L.scene.small_strain_law
-                                       ? transpose(frame) * R.gradient(u, c, q) +
-                                           (transpose(frame) - identity())
+                                       ? Rt * R.gradient(u, c, q) + Rt_minus_I
                                        : R.gradient(u, c, q);
             const double        tH = trace(H);
             const double        dx = R.JxW[c * n_q + q];

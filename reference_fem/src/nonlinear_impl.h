@@ -40,9 +40,9 @@ namespace irdm::fem
              bool constrained, double *energy = nullptr, StrainMeasure *strain = nullptr,
              const Tensor<2, 3> &frame = identity()) const;
 
-    /// The rotation of the body's best rigid fit at displacement u: the polar factor of
-    /// sum_v m_v (x_v - c)(X_v - C)^T over the mesh vertices, m_v their lumped volume (each
-    /// cell's volume shared equally among its vertices), c and C the weighted centres.
+    /// The rotation of the body's best rigid fit at displacement u: Kabsch's over the mesh
+    /// vertices (irdm_common/rigid_fit.h), each weighed by its lumped volume (each cell's
+    /// volume shared equally among its vertices), about the weighted centres.
     Tensor<2, 3>
     body_rotation(const Vector<double> &u) const;
 

@@ -735,8 +735,8 @@ namespace irdm::validation
             // method inherits it); the runtime against it is the method's own error. The
             // body-frame law (material.law "linear_body_frame") is linear elasticity in the
             // body's best-fit frame, what the free routes linearize; the plain small-strain law
-            // ("linear") is not objective (a rigid turn by theta strains it by 1 - cos theta),
-            // so with it a body that starts spinning is left out. Each row states how far the
+            // ("linear") is not objective (a finite turn strains it, and a spin swells the body
+            // instead of turning it), so with it a body that starts spinning is left out. Each row states how far the
             // truth had turned.
             std::optional<Samples> small_strain;
             double window_rotation = 0; // the truth's largest rotation before the window's end

@@ -23,6 +23,18 @@ namespace irdm
     std::vector<Eigen::Vector3d> deformation;
   };
 
+  /// Kabsch's rotation from the cross-covariance H = sum_i w_i (X_i - X0)(x_i - x0)^T (any
+  /// weights w_i >= 0): the rotation R (rest -> deformed) that minimizes
+  /// sum_i w_i |R (X_i - X0) - (x_i - x0)|^2.
+  inline Eigen::Matrix3d
+  kabsch_rotation(const Eigen::Matrix3d &H)
+  {
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    D(2, 2)           = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+    return svd.matrixV() * D * svd.matrixU().transpose();
+  }
+
   /// With `centers` (rest, deformed) given, the translation is theirs instead of the
   /// centroids' (a free body's centre of mass, known from the FEM: mass weights for the
   /// translation) and the rotation is the best about them.
@@ -42,10 +54,7 @@ namespace irdm
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     for (size_t i = 0; i < n; ++i)
       H += (rest[i] - f.rest_centroid) * (x[i] - f.centroid).transpose();
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-    D(2, 2)           = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
-    f.rotation        = svd.matrixV() * D * svd.matrixU().transpose();
+    f.rotation = kabsch_rotation(H);
     f.deformation.resize(n);
     for (size_t i = 0; i < n; ++i)
       f.deformation[i] = f.rotation.transpose() * (x[i] - f.centroid) - (rest[i] - f.rest_centroid);

@@ -49,7 +49,8 @@ namespace irdm::validation
     // That linear FEM's law: true, the small-strain law in the body's frame (material.law
     // "linear_body_frame", run `fem_linear_body_frame`: linear elasticity as a free body's IRDM
     // linearizes it); false, the plain small-strain law ("linear", run `fem_small_strain`),
-    // which a rigid turn strains, so not run for a case that starts spinning.
+    // which is not objective (a spin swells its body instead of turning it), so not run for a
+    // case that starts spinning.
     bool     body_frame = true;
     // The modal routes take the spin's centrifugal force into the deformation
     // (FreeBodyOptions::centrifugal); false: left out, as the virtual DOFs leave it. Off by
