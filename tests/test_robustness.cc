@@ -1,12 +1,15 @@
 // Robustness of everything that reads a file or writes one, without deal.II so that CI runs it
 // under AddressSanitizer and UndefinedBehaviorSanitizer (scripts/sanitize.sh):
 //  - loaders against hostile files: a seed corpus the tests make (a small impulse-response
-//    model, its compressed form, a gmsh mesh), every dataset and attribute mutated in turn in
-//    every way that broke a loader before, then random mutations for a fixed time. A loaded
-//    mutant is then run by the runtime: only a model or an InputError may come out, never a
+//    model, its compressed form, a virtual-DOF model, a gmsh mesh), every dataset and
+//    attribute mutated in turn in every way that broke a loader before, and stored anew in
+//    every HDF5 type class and dataspace (EveryStorage), then random mutations for a fixed
+//    time. A loaded mutant is checked for consistency and run by the runtime; a refused one
+//    must be an InputError naming the file (and the field, where its kind changed). Never a
 //    crash, a sanitizer report or another exception;
 //  - writers against a failing disk (RLIMIT_FSIZE: writes past the limit fail with EFBIG, as on
-//    a full disk): an IoError, and nothing under the final name;
+//    a full disk), at limits swept over each output's length, each run in a child process:
+//    an IoError naming the file, and nothing under the final name, no part file, no lock;
 //  - output locks and output-path checks.
 #include <irdm/modal_model.h>
 #include <irdm/model.h>
@@ -37,6 +40,7 @@
 
 #include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace
@@ -365,21 +369,471 @@ namespace
     H5Fclose(f);
   }
 
+  // ---- every HDF5 type class and every dataspace ----
+
+  // A field (attribute or dataset) stored anew with another type and dataspace. What it
+  // holds, as written: the field's own values (its text for a string, its numbers otherwise),
+  // converted by HDF5 where the new type is a number, repeated or cut to the new extent.
+  enum class Extent
+  {
+    natural,      // an attribute's one value, a dataset's own shape
+    one_element,  // simple, (1)
+    two_elements, // simple, (2)
+    empty,        // simple, (0)
+    null,         // H5S_NULL
+    scalar        // H5S_SCALAR
+  };
+
+  enum class Class
+  {
+    fixed_string,
+    variable_string,
+    number,
+    compound,
+    enumeration,
+    opaque,
+    reference,
+    bitfield,
+    array,
+    sequence
+  };
+
+  struct Storage
+  {
+    std::string name;
+    Class       kind;
+    Extent      extent = Extent::natural;
+    hid_t       base   = -1; // number: its HDF5 type; fixed string: unused
+    H5T_str_t   pad    = H5T_STR_NULLTERM;
+    H5T_cset_t  cset   = H5T_CSET_ASCII;
+  };
+
+  void
+  PrintTo(const Storage &k, std::ostream *os)
+  {
+    *os << k.name;
+  }
+
+  // An IEEE-like float of 16 bits (1 sign, 5 exponent, 10 mantissa bits): a float class HDF5
+  // converts, but no float this program reads.
+  hid_t
+  half_float()
+  {
+    const hid_t t = H5Tcopy(H5T_IEEE_F32LE);
+    H5Tset_fields(t, 15, 10, 5, 0, 10);
+    H5Tset_offset(t, 0);
+    H5Tset_precision(t, 16);
+    H5Tset_size(t, 2);
+    H5Tset_ebias(t, 15);
+    return t;
+  }
+
+  // Every kind of storage a field is turned into: each HDF5 type class, strings of every kind,
+  // padding and set, numbers of every width, then every dataspace.
+  std::vector<Storage>
+  storage_kinds()
+  {
+    std::vector<Storage> k = {
+      {"fixed_string_nullterm", Class::fixed_string},
+      {"fixed_string_spacepad", Class::fixed_string, Extent::natural, -1, H5T_STR_SPACEPAD},
+      {"fixed_string_utf8", Class::fixed_string, Extent::natural, -1, H5T_STR_NULLTERM,
+       H5T_CSET_UTF8},
+      {"variable_string", Class::variable_string},
+      {"variable_string_utf8", Class::variable_string, Extent::natural, -1, H5T_STR_NULLTERM,
+       H5T_CSET_UTF8},
+      {"int8", Class::number, Extent::natural, H5T_STD_I8LE},
+      {"uint8", Class::number, Extent::natural, H5T_STD_U8LE},
+      {"int16", Class::number, Extent::natural, H5T_STD_I16LE},
+      {"uint16", Class::number, Extent::natural, H5T_STD_U16LE},
+      {"int32_big_endian", Class::number, Extent::natural, H5T_STD_I32BE},
+      {"uint32", Class::number, Extent::natural, H5T_STD_U32LE},
+      {"int64", Class::number, Extent::natural, H5T_STD_I64LE},
+      {"uint64", Class::number, Extent::natural, H5T_STD_U64LE},
+      {"float32", Class::number, Extent::natural, H5T_IEEE_F32LE},
+      {"float64_big_endian", Class::number, Extent::natural, H5T_IEEE_F64BE},
+      {"float16", Class::number, Extent::natural, -2},
+      {"compound", Class::compound},
+      {"enum", Class::enumeration},
+      {"opaque", Class::opaque},
+      {"object_reference", Class::reference},
+      {"bitfield", Class::bitfield},
+      {"array_type", Class::array},
+      {"sequence", Class::sequence},
+    };
+    for (const auto &[name, extent] :
+         std::vector<std::pair<std::string, Extent>>{{"one_element", Extent::one_element},
+                                                     {"two_elements", Extent::two_elements},
+                                                     {"empty", Extent::empty},
+                                                     {"null", Extent::null},
+                                                     {"scalar", Extent::scalar}})
+      {
+        // Each dataspace with the field's own kind of value: a fixed string or a double (a
+        // scalar string is what the seeds' string attributes are already).
+        if (extent != Extent::scalar)
+          k.push_back({name + "_of_strings", Class::fixed_string, extent});
+        k.push_back({name + "_of_numbers", Class::number, extent, H5T_IEEE_F64LE});
+      }
+    return k;
+  }
+
+  // What a field held in the seed: its text if a string, its numbers otherwise, and its shape.
+  struct FieldValues
+  {
+    bool                 is_string = false;
+    std::string          text;
+    std::vector<double>  numbers;
+    std::vector<hsize_t> dims; // empty: a scalar
+  };
+
+  // Opens the field (attribute or dataset) of item in f; out: its type and space.
+  hid_t
+  open_field(const hid_t f, const Item &item, hid_t &type, hid_t &space)
+  {
+    if (item.attribute.empty())
+      {
+        const hid_t set = H5Dopen2(f, item.object.c_str(), H5P_DEFAULT);
+        type            = H5Dget_type(set);
+        space           = H5Dget_space(set);
+        return set;
+      }
+    const hid_t attr = H5Aopen_by_name(f, item.object.c_str(), item.attribute.c_str(),
+                                       H5P_DEFAULT, H5P_DEFAULT);
+    type  = H5Aget_type(attr);
+    space = H5Aget_space(attr);
+    return attr;
+  }
+
+  void
+  close_field(const Item &item, const hid_t id, const hid_t type, const hid_t space)
+  {
+    H5Tclose(type);
+    H5Sclose(space);
+    item.attribute.empty() ? H5Dclose(id) : H5Aclose(id);
+  }
+
+  herr_t
+  read_field(const Item &item, const hid_t id, const hid_t mem, void *buffer)
+  {
+    return item.attribute.empty() ? H5Dread(id, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer)
+                                  : H5Aread(id, mem, buffer);
+  }
+
+  // The seed's field, read by HDF5 itself (the seeds hold fixed strings and numbers only).
+  FieldValues
+  field_values(const std::string &path, const Item &item)
+  {
+    const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    hid_t       type, space;
+    const hid_t id = open_field(f, item, type, space);
+    FieldValues v;
+    const int   rank = H5Sget_simple_extent_ndims(space);
+    v.dims.resize(std::max(rank, 0));
+    if (rank > 0)
+      H5Sget_simple_extent_dims(space, v.dims.data(), nullptr);
+    v.is_string = H5Tget_class(type) == H5T_STRING;
+    if (v.is_string)
+      {
+        v.text.assign(H5Tget_size(type), '\0');
+        read_field(item, id, type, v.text.data());
+        v.text.resize(std::min(v.text.size(), v.text.find('\0')));
+      }
+    else
+      {
+        v.numbers.resize(static_cast<size_t>(std::max<hssize_t>(1, H5Sget_simple_extent_npoints(space))));
+        read_field(item, id, H5T_NATIVE_DOUBLE, v.numbers.data());
+      }
+    close_field(item, id, type, space);
+    H5Fclose(f);
+    return v;
+  }
+
+  // The mutant's type for kind k (owned by the caller); for a fixed string, `bytes` long.
+  hid_t
+  make_type(const Storage &k, const std::size_t bytes)
+  {
+    hid_t t = -1;
+    switch (k.kind)
+      {
+        case Class::fixed_string:
+        case Class::variable_string:
+          t = H5Tcopy(H5T_C_S1);
+          H5Tset_size(t, k.kind == Class::variable_string ? H5T_VARIABLE : bytes);
+          H5Tset_strpad(t, k.pad);
+          H5Tset_cset(t, k.cset);
+          return t;
+        case Class::number:
+          return k.base == -2 ? half_float() : H5Tcopy(k.base);
+        case Class::compound:
+          t = H5Tcreate(H5T_COMPOUND, 16);
+          H5Tinsert(t, "a", 0, H5T_NATIVE_DOUBLE);
+          H5Tinsert(t, "b", 8, H5T_NATIVE_DOUBLE);
+          return t;
+        case Class::enumeration: {
+          t           = H5Tenum_create(H5T_NATIVE_INT);
+          const int a = 0, b = 1;
+          H5Tenum_insert(t, "a", &a);
+          H5Tenum_insert(t, "b", &b);
+          return t;
+        }
+        case Class::opaque:
+          t = H5Tcreate(H5T_OPAQUE, 8);
+          H5Tset_tag(t, "eight bytes");
+          return t;
+        case Class::reference:
+          return H5Tcopy(H5T_STD_REF_OBJ);
+        case Class::bitfield:
+          return H5Tcopy(H5T_STD_B8LE);
+        case Class::array: {
+          const hsize_t two = 2;
+          return H5Tarray_create2(H5T_NATIVE_DOUBLE, 1, &two);
+        }
+        case Class::sequence:
+          return H5Tvlen_create(H5T_NATIVE_DOUBLE);
+      }
+    return t;
+  }
+
+  // The shape a field of shape `natural` takes with extent e (empty: a scalar; (0) for null).
+  std::vector<hsize_t>
+  dims_of(const Extent e, const std::vector<hsize_t> &natural)
+  {
+    switch (e)
+      {
+        case Extent::natural:
+          return natural;
+        case Extent::one_element:
+          return {1};
+        case Extent::two_elements:
+          return {2};
+        case Extent::scalar:
+          return {};
+        default:
+          return {0};
+      }
+  }
+
+  // Stores item anew in path with storage k. Returns true if the stored values are the seed's
+  // (the same text in another string kind; the same numbers, exactly, in another width or byte
+  // order; one value in a one-element array): a loader must then load the seed's model.
+  bool
+  restore_as(const std::string &path, const Item &item, const Storage &k)
+  {
+    const FieldValues v = field_values(path, item);
+    const hid_t       f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    const bool is_attribute = !item.attribute.empty();
+    if (is_attribute)
+      H5Adelete_by_name(f, item.object.c_str(), item.attribute.c_str(), H5P_DEFAULT);
+    else
+      H5Ldelete(f, item.object.c_str(), H5P_DEFAULT);
+
+    const std::vector<hsize_t> dims  = dims_of(k.extent, v.dims);
+    const hid_t                space = k.extent == Extent::null ? H5Screate(H5S_NULL)
+                                       : dims.empty()
+                                         ? H5Screate(H5S_SCALAR)
+                                         : H5Screate_simple(static_cast<int>(dims.size()),
+                                                            dims.data(), nullptr);
+    size_t n = 1;
+    for (const auto d : dims)
+      n *= d;
+    const std::vector<double> numbers =
+      v.is_string ? std::vector<double>{std::atof(v.text.c_str())} : v.numbers;
+    std::string text = v.text;
+    if (!v.is_string)
+      {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%.17g", v.numbers.empty() ? 0.0 : v.numbers[0]);
+        text = buf;
+      }
+    // Room to spare: the padding shows (NULs, or spaces that a reader must strip).
+    const std::size_t string_bytes = text.size() + 4;
+    const hid_t       type = make_type(k, std::max<std::size_t>(1, string_bytes));
+    const hid_t id = is_attribute ? H5Acreate_by_name(f, item.object.c_str(), item.attribute.c_str(),
+                                                      type, space, H5P_DEFAULT, H5P_DEFAULT,
+                                                      H5P_DEFAULT)
+                                  : H5Dcreate2(f, item.object.c_str(), type, space, H5P_DEFAULT,
+                                               H5P_DEFAULT, H5P_DEFAULT);
+    const auto write = [&](const hid_t mem, const void *data) {
+      if (n > 0 && k.extent != Extent::null)
+        is_attribute ? H5Awrite(id, mem, data)
+                     : H5Dwrite(id, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+    };
+    std::vector<double> values(n);
+    for (size_t i = 0; i < n; ++i)
+      values[i] = numbers.empty() ? 0 : numbers[i % numbers.size()];
+    switch (k.kind)
+      {
+        case Class::fixed_string: {
+          std::string padded(type >= 0 ? H5Tget_size(type) : 1, k.pad == H5T_STR_SPACEPAD ? ' ' : '\0');
+          padded.replace(0, std::min(text.size(), padded.size()), text.substr(0, padded.size()));
+          std::string all;
+          for (size_t i = 0; i < n; ++i)
+            all += padded;
+          write(type, all.data());
+          break;
+        }
+        case Class::variable_string: {
+          std::vector<const char *> p(n, text.c_str());
+          write(type, p.data());
+          break;
+        }
+        case Class::number:
+          write(H5T_NATIVE_DOUBLE, values.data());
+          break;
+        case Class::compound:
+        case Class::array: {
+          std::vector<double> pairs;
+          for (const double x : values)
+            pairs.insert(pairs.end(), {x, x});
+          write(type, pairs.data());
+          break;
+        }
+        case Class::enumeration: {
+          std::vector<int> e(n, 1);
+          write(type, e.data());
+          break;
+        }
+        case Class::opaque:
+        case Class::bitfield: {
+          std::vector<unsigned char> bytes(n * H5Tget_size(type), 0x5a);
+          write(type, bytes.data());
+          break;
+        }
+        case Class::reference: {
+          std::vector<hobj_ref_t> refs(n);
+          for (auto &r : refs)
+            H5Rcreate(&r, f, "/", H5R_OBJECT, -1);
+          write(type, refs.data());
+          break;
+        }
+        case Class::sequence: {
+          std::vector<hvl_t> seq(n);
+          for (size_t i = 0; i < n; ++i)
+            seq[i] = {1, &values[i]};
+          write(type, seq.data());
+          break;
+        }
+      }
+    close_field(item, id, type, space);
+
+    // The same values? Read back by HDF5 itself (numbers), or by construction (text).
+    // A 16-bit float is no float this program reads (h5.h), whatever it holds.
+    bool same = k.base != -2 && (k.extent == Extent::natural ||
+                (is_attribute && (k.extent == Extent::one_element || k.extent == Extent::scalar)));
+    if (k.kind == Class::fixed_string || k.kind == Class::variable_string)
+      same = same && v.is_string;
+    else if (k.kind == Class::number && !v.is_string && same)
+      {
+        hid_t       t2, s2;
+        const hid_t again = open_field(f, item, t2, s2);
+        std::vector<double> back(n);
+        same = read_field(item, again, H5T_NATIVE_DOUBLE, back.data()) >= 0 &&
+               back.size() == v.numbers.size();
+        for (size_t i = 0; same && i < back.size(); ++i)
+          same = back[i] == v.numbers[i] || (std::isnan(back[i]) && std::isnan(v.numbers[i]));
+        close_field(item, again, t2, s2);
+      }
+    else
+      same = false;
+    H5Fclose(f);
+    return same;
+  }
+
   // ---- what each loader must survive ----
 
-  // Loads the file and, if it loads, runs the runtime on it: true if it loaded. Only an
-  // InputError may escape the loader; anything else fails the test.
-  using Loader = std::function<bool(const std::string &)>;
+  // What a loader made of a file: loaded or refused (with the InputError's message), and, if
+  // loaded, a fingerprint of the model (its strings, and the runtime's surface after a press)
+  // that two loads of the same content share.
+  struct Outcome
+  {
+    bool        loaded = false;
+    std::string fingerprint, error;
+  };
 
-  // Loads with load_fn and, if that succeeds, drives Interaction for 3 T steps with a probe
-  // pressing triangle 0 (lifted if it cannot touch there), then updates the surface.
+  using Loader = std::function<Outcome(const std::string &)>;
+
+  std::string
+  fingerprint_of(const ModelFrame &m, const std::vector<double> &surface)
+  {
+    std::ostringstream s;
+    s << m.integrator << '|' << m.mesh_hash << '|' << m.storage_on_disk << '|' << m.time_step
+      << '|' << m.length << '|';
+    for (const auto &n : m.surface_names)
+      s << n << ',';
+    s.precision(17);
+    for (const double x : surface)
+      s << x << ' ';
+    return s.str();
+  }
+
+  // Independent of the loaders' own checks: every index in range, every size as the counts
+  // say, every number finite where the runtime computes with it.
+  void
+  expect_consistent(const ModelFrame &m)
+  {
+    const size_t nv = m.output_node_tags.size(), ni = m.input_node_tags.size();
+    EXPECT_TRUE(m.time_step > 0 && std::isfinite(m.time_step));
+    EXPECT_GE(m.length, 1u);
+    EXPECT_EQ(m.n_outputs, 3 * nv);
+    EXPECT_EQ(m.n_inputs, 3 * ni);
+    EXPECT_EQ(m.output_coordinates.size(), nv);
+    EXPECT_EQ(m.input_output_index.size(), ni);
+    for (const auto i : m.input_output_index)
+      EXPECT_LT(i, nv);
+    EXPECT_EQ(m.output_input_index.size(), nv);
+    for (const int i : m.output_input_index)
+      EXPECT_TRUE(i == -1 || (i >= 0 && static_cast<size_t>(i) < ni));
+    EXPECT_EQ(m.triangle_surface.size(), m.triangles.size());
+    for (const auto &t : m.triangles)
+      for (const auto v : t)
+        EXPECT_LT(v, nv);
+    for (const int s : m.triangle_surface)
+      EXPECT_TRUE(s >= 0 && static_cast<size_t>(s) < m.surface_names.size());
+    if (m.free_body)
+      EXPECT_TRUE(m.mass > 0 && std::isfinite(m.mass));
+  }
+
+  void
+  expect_consistent(const ImpulseResponseModel &m)
+  {
+    expect_consistent(static_cast<const ModelFrame &>(m));
+    const size_t h = static_cast<size_t>(m.n_inputs) * m.length * m.n_outputs;
+    EXPECT_EQ(m.double_storage ? m.h_double.size() : m.h_float.size(), h);
+    if (m.modes.n_modes > 0)
+      {
+        EXPECT_EQ(m.modes.shapes.size(), static_cast<size_t>(m.n_outputs) * m.modes.n_modes);
+        EXPECT_EQ(m.modes.step.size(), 15u * m.modes.n_modes);
+        EXPECT_EQ(m.modes.frequency_hz.size(), m.modes.n_modes);
+      }
+  }
+
+  void
+  expect_consistent(const RepresentativeModel &m)
+  {
+    expect_consistent(static_cast<const ModelFrame &>(m));
+    ASSERT_EQ(m.first_representative.size(), m.n_inputs + 1u);
+    EXPECT_EQ(m.representatives.size(),
+              static_cast<size_t>(m.first_representative.back()) * m.length);
+    const size_t terms = static_cast<size_t>(m.n_inputs) * m.n_outputs * m.blend;
+    EXPECT_EQ(m.term_representative.size(), terms);
+    EXPECT_EQ(m.term_delay.size(), terms);
+    EXPECT_EQ(m.term_amplitude.size(), terms);
+    for (const auto d : m.term_delay)
+      EXPECT_LE(d, m.delay_span);
+    EXPECT_LT(m.delay_span, m.length);
+  }
+
+  // Loads with load_fn and, if that succeeds, checks the model and drives Interaction for 3 T
+  // steps with a probe pressing triangle 0 (lifted if it cannot touch there), then updates
+  // the surface. Only an InputError may escape the loader; anything else fails the test.
   template <typename Interaction, typename LoadFn>
-  bool
+  Outcome
   load_and_run(const std::string &path, const LoadFn &load_fn)
   {
+    Outcome out;
     try
       {
-        const auto  m = load_fn(path);
+        const auto m = load_fn(path);
+        expect_consistent(m);
         Interaction run(m);
         ProbeTarget p;
         p.triangle = 0;
@@ -392,35 +846,38 @@ namespace
           }
         std::vector<double> u(m.n_outputs);
         run.surface_displacement(u.data());
-        return true;
+        out.loaded      = true;
+        out.fingerprint = fingerprint_of(m, u);
       }
-    catch (const InputError &)
+    catch (const InputError &e)
       {
-        return false;
+        out.error = e.what();
       }
+    return out;
   }
 
   // The uncompressed model runs twice: by direct convolution, and (if the file holds a modal
   // realization) as the modal model made from it.
-  bool
+  Outcome
   load_and_run_model(const std::string &path)
   {
-    const bool direct =
+    Outcome direct =
       load_and_run<PointInteraction>(path, [](const std::string &f) { return load_model(f); });
-    if (direct)
+    if (direct.loaded)
       {
         const ImpulseResponseModel m = load_model(path);
         if (m.modes.n_modes > 0)
-          load_and_run<ModalInteraction>(path, [&](const std::string &) {
-            ModalModelOptions o;
-            o.surface_modes = m.modes.n_modes;
-            return make_modal_model(m, o);
-          });
+          direct.fingerprint +=
+            "|modal " + load_and_run<ModalInteraction>(path, [&](const std::string &) {
+                          ModalModelOptions o;
+                          o.surface_modes = m.modes.n_modes;
+                          return make_modal_model(m, o);
+                        }).fingerprint;
       }
     return direct;
   }
 
-  bool
+  Outcome
   load_and_run_compressed(const std::string &path)
   {
     return load_and_run<RepresentativeInteraction>(
@@ -428,26 +885,45 @@ namespace
   }
 
   // A wall along a direction between the dome's, pressing in and out, with both mappings.
-  bool
+  Outcome
   load_and_run_virtual_dofs(const std::string &path)
   {
+    Outcome out;
     try
       {
         const VirtualDofModel m = load_virtual_dof_model(path);
+        const size_t          K = m.n_orientations, T = m.length, n = m.n_surface;
+        EXPECT_EQ(m.directions.size(), K);
+        EXPECT_EQ(m.surface_response.size(), K * T * 3 * n);
+        EXPECT_EQ(m.dof_response.size(), K * T * K);
+        EXPECT_EQ(m.coordinates.size(), n);
+        EXPECT_EQ(m.fixed.size(), n);
+        for (const auto &t : m.dome_triangles)
+          for (const auto k : t)
+            EXPECT_LT(k, K);
+        for (const auto &t : m.triangles)
+          for (const auto v : t)
+            EXPECT_LT(v, n);
+        std::ostringstream print;
+        print.precision(17);
+        print << m.integrator << '|' << m.mesh_hash << '|' << m.time_step << '|' << m.band << '|';
         for (const auto mapping : {OrientationMapping::nearest, OrientationMapping::interpolated})
           {
             PlaneInteraction             wall(m, mapping);
             const std::array<double, 3> d = {0.48, 0.6, -0.64};
             for (int s = 0; s < 3 * static_cast<int>(m.length); ++s)
-              wall.step(d, 0.01 * std::sin(0.3 * s));
-            wall.update_surface();
+              print << wall.step(d, 0.01 * std::sin(0.3 * s)) << ' ';
+            for (const double x : wall.update_surface())
+              print << x << ' ';
           }
-        return true;
+        out.loaded      = true;
+        out.fingerprint = print.str();
       }
-    catch (const InputError &)
+    catch (const InputError &e)
       {
-        return false;
+        out.error = e.what();
       }
+    return out;
   }
 
   struct Tally
@@ -461,9 +937,13 @@ namespace
   {
     Tally      tally;
     const auto mutant = tmp("mutant.h5");
-    const auto count  = [&](const bool loaded) {
+    // A refusal names the file (the field is named where the field's kind was changed:
+    // EveryStorage below).
+    const auto count = [&](const Outcome &o) {
       ++tally.mutants;
-      (loaded ? tally.loaded : tally.refused) += 1;
+      (o.loaded ? tally.loaded : tally.refused) += 1;
+      if (!o.loaded)
+        EXPECT_NE(o.error.find(mutant), std::string::npos) << "no file named: " << o.error;
     };
     for (const auto &item : items_of(seed))
       {
@@ -513,6 +993,7 @@ namespace
     Tally                     tally;
     std::mt19937              rng(20261122);
     const auto                items  = items_of(seed);
+    const auto                kinds  = storage_kinds();
     const auto                mutant = tmp("random_mutant.h5");
     const auto                t0     = std::chrono::steady_clock::now();
     while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < seconds)
@@ -527,6 +1008,11 @@ namespace
                                                         static_cast<int>(rng() % 80) - 40);
             if (!fs::exists(mutant))
               break;
+            if (c == 0 && rng() % 4 == 0) // a field of the seed stored in another kind
+              {
+                restore_as(mutant, item, kinds[rng() % kinds.size()]);
+                continue;
+              }
             if (item.attribute.empty())
               {
                 const auto h5 = H5Fopen(mutant.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
@@ -551,11 +1037,77 @@ namespace
                                    value);
               }
           }
-        const bool loaded = load(mutant);
+        const Outcome o = load(mutant);
         ++tally.mutants;
-        (loaded ? tally.loaded : tally.refused) += 1;
+        (o.loaded ? tally.loaded : tally.refused) += 1;
+        if (!o.loaded)
+          EXPECT_NE(o.error.find(mutant), std::string::npos) << "no file named: " << o.error;
       }
     return tally;
+  }
+
+  // Every field of the seed stored as kind k, one at a time. A field that keeps its values
+  // (restore_as) loads the seed's model. A field that matters (without it the file is refused
+  // or loads another model) stored as another class of value (a number for a string, a
+  // compound for a number, ...) or with another extent is refused, and the message names the
+  // file and the field. Anything else loads a consistent model or is refused.
+  void
+  expect_every_field_survives(const Storage &k, const std::string &seed, const Loader &load)
+  {
+    const Outcome original = load(seed);
+    ASSERT_TRUE(original.loaded) << original.error;
+    const auto mutant = tmp("restored.h5");
+    int        kept = 0, refused = 0, loaded = 0;
+    for (const auto &item : items_of(seed))
+      {
+        const std::string field = item.attribute.empty()
+                                    ? item.object.substr(item.object.rfind('/') + 1)
+                                    : item.attribute;
+        SCOPED_TRACE(item.object + (item.attribute.empty() ? "" : " @" + item.attribute) +
+                     " as " + k.name);
+        fs::copy_file(seed, mutant, fs::copy_options::overwrite_existing);
+        if (item.attribute.empty())
+          mutate_dataset(mutant, item.object, DataMutation::remove, 0, 0);
+        else
+          mutate_attribute(mutant, item, AttributeMutation::remove, 0);
+        const Outcome without = load(mutant);
+        const bool    matters = !without.loaded || without.fingerprint != original.fingerprint;
+
+        fs::copy_file(seed, mutant, fs::copy_options::overwrite_existing);
+        const FieldValues v    = field_values(mutant, item);
+        const bool        same = restore_as(mutant, item, k);
+        const bool is_string   = k.kind == Class::fixed_string || k.kind == Class::variable_string;
+        const bool same_class  = is_string ? v.is_string : k.kind == Class::number && !v.is_string;
+        const auto dims        = dims_of(k.extent, v.dims);
+        const auto one_value   = [](const std::vector<hsize_t> &d) {
+          return d.empty() || d == std::vector<hsize_t>{1};
+        };
+        const bool same_extent = k.extent != Extent::null &&
+                                 (dims == v.dims || (!item.attribute.empty() && one_value(dims) &&
+                                                     one_value(v.dims)));
+        const Outcome o = load(mutant);
+        if (same)
+          {
+            ++kept;
+            EXPECT_TRUE(o.loaded) << "the same values stored another way were refused: "
+                                  << o.error;
+            EXPECT_EQ(o.fingerprint, original.fingerprint) << "the same values loaded otherwise";
+          }
+        else if (o.loaded)
+          {
+            ++loaded;
+            EXPECT_FALSE(matters && !(same_class && same_extent))
+              << "a field the loader reads, stored as something else, loaded";
+          }
+        else
+          {
+            ++refused;
+            EXPECT_NE(o.error.find(mutant), std::string::npos) << "no file named: " << o.error;
+            EXPECT_NE(o.error.find(field), std::string::npos) << "no field named: " << o.error;
+          }
+      }
+    std::printf("%s: %d fields kept their values, %d loaded otherwise, %d refused\n",
+                k.name.c_str(), kept, loaded, refused);
   }
 
   double
@@ -569,7 +1121,7 @@ namespace
   void
   expect_structured_mutations_survive(const char *what, const std::string &seed, const Loader &load)
   {
-    ASSERT_TRUE(load(seed)) << "the seed itself does not load";
+    ASSERT_TRUE(load(seed).loaded) << "the seed itself does not load";
     const Tally t = structured_mutations(seed, load);
     std::printf("%s: %d structured mutants, %d loaded and ran, %d refused\n", what, t.mutants,
                 t.loaded, t.refused);
@@ -629,6 +1181,36 @@ TEST(VirtualDofLoaderFuzz, RandomMutationsForAFixedTime)
   write_seed_virtual_dofs(seed);
   expect_random_mutations_survive("virtual-DOF loader", seed, load_and_run_virtual_dofs);
 }
+
+// Every field of every file kind stored in every HDF5 type class and dataspace, one kind of
+// storage per test (a failing kind is named by its test).
+class EveryStorage : public ::testing::TestWithParam<Storage>
+{};
+
+TEST_P(EveryStorage, ModelLoaderReadsTheSameValuesOrRefusesNamingTheField)
+{
+  const auto seed = tmp("seed_model.h5");
+  write_seed_model(seed);
+  expect_every_field_survives(GetParam(), seed, load_and_run_model);
+}
+
+TEST_P(EveryStorage, CompressedLoaderReadsTheSameValuesOrRefusesNamingTheField)
+{
+  const auto model = tmp("seed_model.h5"), seed = tmp("seed_compressed.h5");
+  write_seed_model(model);
+  write_seed_compressed(model, seed);
+  expect_every_field_survives(GetParam(), seed, load_and_run_compressed);
+}
+
+TEST_P(EveryStorage, VirtualDofLoaderReadsTheSameValuesOrRefusesNamingTheField)
+{
+  const auto seed = tmp("seed_vdof.h5");
+  write_seed_virtual_dofs(seed);
+  expect_every_field_survives(GetParam(), seed, load_and_run_virtual_dofs);
+}
+
+INSTANTIATE_TEST_SUITE_P(Kinds, EveryStorage, ::testing::ValuesIn(storage_kinds()),
+                         [](const ::testing::TestParamInfo<Storage> &i) { return i.param.name; });
 
 // The regressions named in the issue, each on its own.
 
@@ -827,57 +1409,155 @@ namespace
   };
 } // namespace
 
-TEST(Writers, AFailedWriteIsAnIoErrorAndLeavesNothingUnderTheFinalName)
+namespace
 {
-  const std::vector<double> big(200000, 1.0); // 1.6 MB
-  // A large dataset fails in the write itself; many small ones only when HDF5 flushes its
-  // cache at commit; a chunked one written in rows (the precompute's H) in write_rows or flush,
-  // through HDF5 or directly (raw chunks).
-  // Each must be an IoError, with neither the final name nor a part left.
-  for (const int how : {0, 1, 2, 3})
-    {
-      const auto path = tmp("full_disk_" + std::to_string(how) + ".h5");
-      fs::remove(path);
-      bool io_error = false;
-      try
-        {
-          FileSizeLimit limit(64 * 1024);
-          h5::Writer    w(path);
-          if (how == 0)
-            w.write("/d", {big.size()}, big.data());
-          else if (how == 1)
-            for (int i = 0; i < 40; ++i)
-              w.write("/d" + std::to_string(i), {500}, big.data());
-          else
-            {
-              // 3: raw chunks, written directly (past the page cache) where the disk allows.
-              w.create_dataset("/H", {400, 1000}, true, 10, how == 3); // 80 kB chunks
-              for (hsize_t row = 0; row < 400; row += 10)
-                {
-                  w.write_rows("/H", row, 10, big.data());
-                  w.flush();
-                }
-            }
-          w.commit();
-        }
-      catch (const IoError &)
-        {
-          io_error = true;
-        }
-      EXPECT_TRUE(io_error) << how;
-      EXPECT_FALSE(fs::exists(path)) << how;
-      EXPECT_FALSE(fs::exists(path + ".part")) << how;
-      EXPECT_FALSE(fs::exists(path + ".lock")) << how;
-    }
-  const auto csv = tmp("full_disk.csv");
-  fs::remove(csv);
+  // Runs `write` in a child process whose files may grow to `limit` bytes. The child's exit
+  // status: 0 written, 4 an IoError naming `path`, 5 an IoError naming no file, 2 an
+  // InputError, 1 anything else; a signal is 128 + its number.
+  int
+  write_in_child(const rlim_t limit, const std::string &path, const std::function<void()> &write)
   {
-    FileSizeLimit limit(64 * 1024);
-    EXPECT_THROW(write_csv(csv, {"a"}, {big}), IoError);
-    EXPECT_THROW(write_text_file(csv, std::string(100000, 'x')), IoError);
+    std::fflush(nullptr);
+    const pid_t pid = ::fork();
+    if (pid == 0)
+      {
+        int code = 0;
+        {
+          FileSizeLimit l(limit);
+          try
+            {
+              write();
+            }
+          catch (const IoError &e)
+            {
+              code = std::string(e.what()).find(path) != std::string::npos ? 4 : 5;
+            }
+          catch (const InputError &)
+            {
+              code = 2;
+            }
+          catch (...)
+            {
+              code = 1;
+            }
+        }
+        std::_Exit(code); // no exit handlers: the parent's HDF5 and gtest state stay its own
+      }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   }
-  EXPECT_FALSE(fs::exists(csv));
-  EXPECT_FALSE(fs::exists(csv + ".part"));
+
+  // Writes `path` with `write` under file-size limits swept from 0 to the whole file's
+  // length (every 512 bytes, at most 300 limits): each run ends written whole (the same size
+  // as without a limit) or with an IoError naming the file, and then leaves neither the final
+  // name, nor its part file, nor its lock.
+  void
+  expect_every_failure_point_is_an_io_error(const std::string &path,
+                                            const std::function<void()> &write)
+  {
+    const auto clear = [&] {
+      for (const auto &f : {path, path + ".part", path + ".lock"})
+        fs::remove(f);
+    };
+    clear();
+    ASSERT_EQ(write_in_child(RLIM_INFINITY, path, write), 0);
+    const auto size = fs::file_size(path);
+    const auto step = std::max<std::uintmax_t>(512, size / 300);
+    int        failed = 0, whole = 0;
+    for (std::uintmax_t limit = 0; limit < size; limit += step)
+      {
+        SCOPED_TRACE("file-size limit " + std::to_string(limit) + " of " + std::to_string(size));
+        clear();
+        const int status = write_in_child(limit, path, write);
+        EXPECT_TRUE(status == 4 || status == 0) << "exit status " << status;
+        if (status == 0)
+          {
+            ++whole;
+            EXPECT_EQ(fs::file_size(path), size);
+          }
+        else
+          {
+            ++failed;
+            EXPECT_FALSE(fs::exists(path));
+          }
+        EXPECT_FALSE(fs::exists(path + ".part"));
+        EXPECT_FALSE(fs::exists(path + ".lock"));
+      }
+    std::printf("%s: %ju bytes; %d limits failed the write (exit 4), %d let it finish\n",
+                fs::path(path).filename().c_str(), size, failed, whole);
+    EXPECT_GT(failed, 0);
+    clear(); // and once more with room, for the caller to read
+    EXPECT_EQ(write_in_child(RLIM_INFINITY, path, write), 0);
+  }
+} // namespace
+
+// Every operation of the HDF5 writer, in one file: groups, attributes of each kind (and one
+// replaced), datasets of each type, small and large, rows through HDF5 and raw chunks written
+// directly, a flush, a checked copy of another file's groups and root attributes, the commit.
+TEST(Writers, EveryWriterOperationFailsCleanlyAtEveryPointTheDiskCanFill)
+{
+  const auto seed = tmp("seed_model.h5"), path = tmp("every_operation.h5");
+  write_seed_model(seed);
+  std::vector<double> big(30000);
+  for (size_t i = 0; i < big.size(); ++i)
+    big[i] = std::sin(0.1 * i);
+  const std::vector<float>          f(big.begin(), big.end());
+  const std::vector<long long>      ll(1000, 7);
+  const std::vector<int>            in(1000, 3);
+  const std::vector<unsigned short> us(1000, 2);
+  expect_every_failure_point_is_an_io_error(path, [&] {
+    h5::Writer w(path);
+    w.attribute("/", "format", std::string("test"));
+    w.attribute("/", "format", std::string("test, replaced"));
+    w.attribute("/", "number", 1.5);
+    w.attribute("/", "count", 3LL);
+    w.create_group("/g");
+    w.write("/g/big", {big.size()}, big.data());
+    w.write("/g/float", {f.size()}, f.data());
+    w.write("/g/ll", {ll.size()}, ll.data());
+    w.write("/g/int", {in.size()}, in.data());
+    w.write("/g/ushort", {us.size()}, us.data());
+    for (const bool raw : {false, true})
+      {
+        const std::string name = raw ? "/rows_raw" : "/rows";
+        w.create_dataset(name, {30, 1000}, true, 3, raw); // 24 kB chunks
+        for (hsize_t row = 0; row < 30; row += 3)
+          w.write_rows(name, row, 3, big.data() + row * 1000);
+      }
+    w.flush();
+    const h5::Reader source(seed);
+    w.copy_root_attributes(source, {"format"});
+    for (const char *g : {"/outputs", "/inputs", "/surface", "/modes", "/impulse_response"})
+      w.copy_from(source, g);
+    w.commit();
+  });
+}
+
+TEST(Writers, CompressFailsCleanlyAtEveryPointTheDiskCanFill)
+{
+  const auto model = tmp("seed_model.h5"), path = tmp("compressed.h5");
+  write_seed_model(model);
+  CompressionOptions o;
+  o.theta   = 0.5;
+  o.blend   = 2;
+  o.threads = 1;
+  const RepresentativeModel c = compress(load_model(model), o);
+  expect_every_failure_point_is_an_io_error(path,
+                                            [&] { save_representative_model(c, model, path); });
+  // The copy of the source's groups went through the checked reads: the model loads.
+  EXPECT_EQ(load_representative_model(path).n_outputs, c.n_outputs);
+}
+
+TEST(Writers, CsvAndTextFailCleanlyAtEveryPointTheDiskCanFill)
+{
+  std::vector<double> column(20000);
+  for (size_t i = 0; i < column.size(); ++i)
+    column[i] = 1.0 / (1 + i);
+  const auto csv = tmp("table.csv"), text = tmp("report.md");
+  expect_every_failure_point_is_an_io_error(csv, [&] { write_csv(csv, {"a"}, {column}); });
+  expect_every_failure_point_is_an_io_error(
+    text, [&] { write_text_file(text, std::string(100000, 'x')); });
 }
 
 // Raw chunks (create_dataset(..., raw_chunks), the precompute's H): write_rows writes whole

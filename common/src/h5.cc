@@ -2,6 +2,8 @@
 #include <irdm_common/files.h>
 #include <irdm_common/h5.h>
 
+#include "h5_internal.h"
+
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
@@ -16,6 +18,9 @@
 
 namespace irdm::h5
 {
+  using detail::dims_to_string;
+  using detail::silence_hdf5;
+
   namespace
   {
     std::atomic<bool> close_failed{false};
@@ -29,19 +34,6 @@ namespace irdm::h5
 
   namespace
   {
-    // HDF5 prints its own error stack by default; we report errors ourselves.
-    void
-    silence_hdf5()
-    {
-      // A file whose close failed (disk full) stays in HDF5's tables, and HDF5 1.10's at-exit
-      // cleanup then crashes closing it again (seen under AddressSanitizer: SEGV in
-      // H5F__close_cb). Every file of ours is closed by RAII before exit, so that cleanup has
-      // nothing to do: turn it off (it must precede the library's initialisation).
-      static const bool no_atexit = (H5dont_atexit(), true);
-      (void)no_atexit;
-      H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-    }
-
     // Objects of 64 KiB or more start on a 4096-byte boundary (a page, and a sector on any
     // disk; at most 6 % of such an object's size is lost to it): the raw chunks of
     // create_dataset(..., raw_chunks) can then be written with O_DIRECT. Smaller chunks go
@@ -71,43 +63,10 @@ namespace irdm::h5
       return file;
     }
 
-    std::string
-    dims_to_string(const std::vector<hsize_t> &dims)
-    {
-      std::ostringstream s;
-      s << '(';
-      for (std::size_t i = 0; i < dims.size(); ++i)
-        s << (i ? ", " : "") << dims[i];
-      s << ')';
-      return s.str();
-    }
-
     hid_t
     open_object(hid_t file, const std::string &object)
     {
       return H5Oopen(file, object.c_str(), H5P_DEFAULT);
-    }
-
-    // A fixed-length string attribute that exists on obj ("" if it is not a string).
-    std::string
-    read_string_attribute(hid_t obj, const std::string &name)
-    {
-      const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
-      const hid_t ftype = H5Aget_type(attr);
-      std::string value;
-      if (H5Tget_class(ftype) == H5T_STRING && !H5Tis_variable_str(ftype))
-        {
-          value.resize(H5Tget_size(ftype));
-          const hid_t mtype = H5Tcopy(H5T_C_S1);
-          H5Tset_size(mtype, value.size());
-          H5Tset_strpad(mtype, H5T_STR_NULLPAD); // else the last character makes room for a NUL
-          H5Aread(attr, mtype, value.data());
-          H5Tclose(mtype);
-          value.resize(value.find('\0') == std::string::npos ? value.size() : value.find('\0'));
-        }
-      H5Tclose(ftype);
-      H5Aclose(attr);
-      return value;
     }
   } // namespace
 
@@ -134,7 +93,13 @@ namespace irdm::h5
         }
     file_ = open_part_file(part_path_, true);
     if (file_ < 0)
-      throw InputError("cannot create HDF5 file '" + part_path_ + "'");
+      {
+        // Made but not written (its first write failed): the disk. Not made: the folder.
+        const bool made = std::remove(part_path_.c_str()) == 0;
+        if (made)
+          throw IoError("cannot write HDF5 file '" + part_path_ + "' (disk full?)");
+        throw InputError("cannot create HDF5 file '" + part_path_ + "'");
+      }
   }
 
   void
@@ -147,7 +112,10 @@ namespace irdm::h5
     resumed_ = false;
     file_    = open_part_file(part_path_, true);
     if (file_ < 0)
-      throw IoError("cannot create HDF5 file '" + part_path_ + "'");
+      {
+        std::remove(part_path_.c_str());
+        throw IoError("cannot create HDF5 file '" + part_path_ + "' (disk full?)");
+      }
   }
 
   Writer::~Writer()
@@ -382,30 +350,20 @@ namespace irdm::h5
   std::vector<long long>
   Writer::read_int(const std::string &name) const
   {
-    const hid_t set = H5Dopen2(file_, name.c_str(), H5P_DEFAULT);
-    if (set < 0)
-      throw InputError("no dataset '" + name + "' in '" + part_path_ + "'");
-    const hid_t space = H5Dget_space(set);
-    const hssize_t n  = H5Sget_simple_extent_npoints(space);
-    std::vector<long long> out(n > 0 ? n : 0);
-    const bool ok = H5Dread(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) >= 0;
-    H5Sclose(space);
-    H5Dclose(set);
-    if (!ok)
-      throw InputError("cannot read '" + name + "' from '" + part_path_ + "'");
-    return out;
+    const auto dims = detail::dataset_shape(file_, part_path_, name);
+    return detail::read_numeric_dataset<long long>(file_, part_path_, name, dims,
+                                                   H5T_NATIVE_LLONG);
   }
 
   std::string
   Writer::string_attribute(const std::string &object, const std::string &name) const
   {
-    const hid_t obj = open_object(file_, object);
-    if (obj < 0)
+    if (object != "/" && !detail::exists(file_, part_path_, object))
       return "";
-    const std::string value =
-      H5Aexists(obj, name.c_str()) > 0 ? read_string_attribute(obj, name) : std::string();
-    H5Oclose(obj);
-    return value;
+    const detail::Handle obj(open_object(file_, object), H5Oclose);
+    if (!obj.ok() || H5Aexists(obj, name.c_str()) <= 0)
+      return "";
+    return detail::read_string_attribute(file_, part_path_, object, name);
   }
 
   void
@@ -494,56 +452,59 @@ namespace irdm::h5
   }
 
   void
-  Writer::copy_from(const std::string &source_file, const std::string &object)
+  Writer::copy_attributes(const Reader &source, const std::string &object,
+                          const std::vector<std::string> &except)
   {
-    const hid_t src = H5Fopen(source_file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (src < 0)
-      throw InputError("cannot open HDF5 file '" + source_file + "'");
-    const bool ok = H5Ocopy(src, object.c_str(), file_, object.c_str(), H5P_DEFAULT,
-                            H5P_DEFAULT) >= 0;
-    H5Fclose(src); // read-only
-    if (!ok)
-      throw IoError("cannot copy '" + object + "' from '" + source_file + "' to '" + path_ + "'");
+    for (const auto &name : source.attribute_names(object))
+      {
+        if (std::find(except.begin(), except.end(), name) != except.end())
+          continue;
+        const AttributeValue v = source.attribute(object, name);
+        switch (v.kind)
+          {
+            case AttributeValue::Kind::text:
+              attribute(object, name, v.text);
+              break;
+            case AttributeValue::Kind::whole:
+              attribute(object, name, v.whole);
+              break;
+            case AttributeValue::Kind::real:
+              attribute(object, name, v.real);
+          }
+      }
   }
 
   void
-  Writer::copy_root_attributes(const std::string &source_file,
-                               const std::vector<std::string> &except)
+  Writer::copy_from(const Reader &source, const std::string &object)
   {
-    const hid_t src = H5Fopen(source_file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (src < 0)
-      throw InputError("cannot open HDF5 file '" + source_file + "'");
-    const hid_t from = H5Gopen2(src, "/", H5P_DEFAULT), to = H5Gopen2(file_, "/", H5P_DEFAULT);
-    H5O_info_t info;
-    H5Oget_info2(from, &info, H5O_INFO_NUM_ATTRS);
-    bool ok = true;
-    for (hsize_t i = 0; i < info.num_attrs && ok; ++i)
+    if (source.is_group(object))
       {
-        const hid_t attr = H5Aopen_by_idx(from, ".", H5_INDEX_NAME, H5_ITER_INC, i, H5P_DEFAULT,
-                                          H5P_DEFAULT);
-        std::string name(static_cast<size_t>(H5Aget_name(attr, 0, nullptr)), '\0');
-        H5Aget_name(attr, name.size() + 1, name.data());
-        if (std::find(except.begin(), except.end(), name) == except.end())
-          {
-            const hid_t type = H5Aget_type(attr), space = H5Aget_space(attr);
-            std::vector<char> buffer(H5Aget_storage_size(attr) + H5Tget_size(type));
-            ok = H5Aread(attr, type, buffer.data()) >= 0;
-            if (H5Aexists(to, name.c_str()) > 0)
-              H5Adelete(to, name.c_str());
-            const hid_t copy = H5Acreate2(to, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
-            ok = ok && copy >= 0 && H5Awrite(copy, type, buffer.data()) >= 0;
-            ok = (copy < 0 || H5Aclose(copy) >= 0) && ok;
-            ok = H5Sclose(space) >= 0 && ok;
-            ok = H5Tclose(type) >= 0 && ok;
-          }
-        ok = H5Aclose(attr) >= 0 && ok;
+        if (object != "/")
+          create_group(object);
+        copy_attributes(source, object, {});
+        for (const auto &member : source.members(object))
+          copy_from(source, (object == "/" ? "" : object) + "/" + member);
+        return;
       }
-    ok = H5Gclose(from) >= 0 && ok;
-    ok = H5Gclose(to) >= 0 && ok;
-    H5Fclose(src); // read-only
-    if (!ok)
-      throw IoError("cannot copy the root attributes of '" + source_file + "' to '" +
-                    part_path_ + "'");
+    const auto dims = source.shape(object);
+    switch (source.number_kind(object))
+      {
+        case NumberKind::integer:
+          write(object, dims, source.read_int(object, dims).data());
+          break;
+        case NumberKind::single_precision:
+          write(object, dims, source.read_float(object, dims).data());
+          break;
+        case NumberKind::double_precision:
+          write(object, dims, source.read_double(object, dims).data());
+      }
+    copy_attributes(source, object, {});
+  }
+
+  void
+  Writer::copy_root_attributes(const Reader &source, const std::vector<std::string> &except)
+  {
+    copy_attributes(source, "/", except);
   }
 
   namespace
@@ -559,6 +520,13 @@ namespace irdm::h5
       const hid_t obj = open_object(file, object);
       if (obj < 0)
         throw InputError("no object '" + object + "' in '" + path + "'");
+      const htri_t there = H5Aexists(obj, name.c_str());
+      if (there < 0 || (there > 0 && H5Adelete(obj, name.c_str()) < 0))
+        {
+          H5Oclose(obj);
+          throw IoError("cannot replace attribute '" + name + "' on '" + object + "' in '" +
+                        path + "'");
+        }
       const hid_t space = H5Screate(H5S_SCALAR);
       const hid_t attr =
         H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
@@ -627,222 +595,5 @@ namespace irdm::h5
                       "' failed (disk full?); nothing was written under the final name");
       }
     commit_part_file(part_path_, path_); // fsync, rename, fsync the folder
-  }
-
-  Reader::Reader(const std::string &path)
-    : path_(path)
-  {
-    silence_hdf5();
-    if (FILE *f = std::fopen(path.c_str(), "rb"))
-      std::fclose(f);
-    else
-      throw InputError("cannot open '" + path + "': no such file or not readable");
-    file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (file_ < 0)
-      throw InputError("'" + path + "' is not an HDF5 file (or it is being written by another "
-                       "run)");
-  }
-
-  Reader::~Reader()
-  {
-    if (file_ >= 0)
-      H5Fclose(file_);
-  }
-
-  bool
-  Reader::exists(const std::string &name) const
-  {
-    // Walk the path so that a missing intermediate group is not an HDF5 error.
-    std::string partial;
-    std::istringstream parts(name);
-    std::string part;
-    while (std::getline(parts, part, '/'))
-      {
-        if (part.empty())
-          continue;
-        partial += "/" + part;
-        if (H5Lexists(file_, partial.c_str(), H5P_DEFAULT) <= 0)
-          return false;
-      }
-    return true;
-  }
-
-  std::vector<hsize_t>
-  Reader::shape(const std::string &name) const
-  {
-    if (!exists(name))
-      throw InputError("'" + path_ + "' has no dataset '" + name + "'");
-    const hid_t set = H5Dopen2(file_, name.c_str(), H5P_DEFAULT);
-    if (set < 0)
-      throw InputError("'" + name + "' in '" + path_ + "' is not a dataset");
-    const hid_t space = H5Dget_space(set);
-    const int   rank  = space >= 0 ? H5Sget_simple_extent_ndims(space) : -1;
-    std::vector<hsize_t> dims(rank > 0 ? rank : 0);
-    const bool ok = rank >= 0 && (rank == 0 || H5Sget_simple_extent_dims(space, dims.data(),
-                                                                          nullptr) >= 0);
-    if (space >= 0)
-      H5Sclose(space);
-    H5Dclose(set);
-    if (!ok)
-      throw InputError("dataset '" + name + "' in '" + path_ + "' has no simple shape");
-    return dims;
-  }
-
-  namespace
-  {
-    // Reads a whole dataset after checking, against the file itself, that it is what it claims:
-    // its shape, a numeric type, and (for datasets stored without filters) that the file
-    // really holds all of its elements. Only then is memory allocated.
-    template <typename T>
-    std::vector<T>
-    read_any(hid_t file,
-             const Reader &reader,
-             const std::string &path,
-             const std::string &name,
-             const std::vector<hsize_t> &expected,
-             hid_t mem_type)
-    {
-      const auto dims = reader.shape(name);
-      if (dims != expected)
-        throw InputError("dataset '" + name + "' in '" + path + "' has shape " +
-                         dims_to_string(dims) + ", expected " +
-                         dims_to_string(expected));
-      double n = 1;
-      for (const auto d : dims)
-        n *= static_cast<double>(d);
-      const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
-      if (set < 0)
-        throw InputError("cannot open dataset '" + name + "' in '" + path + "'");
-      const hid_t       type  = H5Dget_type(set);
-      const H5T_class_t klass = type >= 0 ? H5Tget_class(type) : H5T_NO_CLASS;
-      const double      bytes_on_disk = n * (type >= 0 ? static_cast<double>(H5Tget_size(type)) : 0);
-      if (type >= 0)
-        H5Tclose(type);
-      const hid_t plist    = H5Dget_create_plist(set);
-      const int   nfilters = plist >= 0 ? H5Pget_nfilters(plist) : -1;
-      if (plist >= 0)
-        H5Pclose(plist);
-      const double stored = static_cast<double>(H5Dget_storage_size(set));
-      std::string  problem;
-      if (klass != H5T_INTEGER && klass != H5T_FLOAT)
-        problem = "is not numeric";
-      else if (nfilters == 0 && n > 0 && stored < bytes_on_disk)
-        problem = "is incomplete: the file holds " + std::to_string(static_cast<long long>(stored)) +
-                  " of its " + std::to_string(static_cast<long long>(bytes_on_disk)) + " bytes";
-      else if (n * sizeof(T) > 1e12)
-        problem = "is larger than any model this program reads";
-      if (!problem.empty())
-        {
-          H5Dclose(set);
-          throw InputError("dataset '" + name + "' in '" + path + "' " + problem);
-        }
-      std::vector<T> data(static_cast<std::size_t>(n));
-      const bool ok = H5Dread(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) >= 0;
-      H5Dclose(set);
-      if (!ok)
-        throw InputError("cannot read dataset '" + name + "' from '" + path +
-                         "' (wrong type or a damaged file)");
-      return data;
-    }
-  } // namespace
-
-  std::vector<double>
-  Reader::read_double(const std::string &name,
-                      const std::vector<hsize_t> &expected_dims) const
-  {
-    return read_any<double>(file_, *this, path_, name, expected_dims,
-                            H5T_NATIVE_DOUBLE);
-  }
-
-  std::vector<long long>
-  Reader::read_int(const std::string &name,
-                   const std::vector<hsize_t> &expected_dims) const
-  {
-    return read_any<long long>(file_, *this, path_, name, expected_dims,
-                               H5T_NATIVE_LLONG);
-  }
-
-  std::vector<float>
-  Reader::read_float(const std::string &name, const std::vector<hsize_t> &expected_dims) const
-  {
-    return read_any<float>(file_, *this, path_, name, expected_dims, H5T_NATIVE_FLOAT);
-  }
-
-  bool
-  Reader::is_double(const std::string &name) const
-  {
-    shape(name); // checks existence
-    const hid_t set  = H5Dopen2(file_, name.c_str(), H5P_DEFAULT);
-    const hid_t type = H5Dget_type(set);
-    const bool  r    = H5Tget_class(type) == H5T_FLOAT && H5Tget_size(type) == 8;
-    H5Tclose(type);
-    H5Dclose(set);
-    return r;
-  }
-
-  bool
-  Reader::has_attribute(const std::string &object, const std::string &name) const
-  {
-    if (object != "/" && !exists(object))
-      return false;
-    const hid_t obj = open_object(file_, object);
-    if (obj < 0)
-      return false;
-    const bool r = H5Aexists(obj, name.c_str()) > 0;
-    H5Oclose(obj);
-    return r;
-  }
-
-  std::string
-  Reader::string_attribute(const std::string &object,
-                           const std::string &name) const
-  {
-    if (!has_attribute(object, name))
-      throw InputError("'" + path_ + "' has no attribute '" + name + "' on '" + object + "'");
-    const hid_t       obj   = open_object(file_, object);
-    const std::string value = read_string_attribute(obj, name);
-    H5Oclose(obj);
-    return value;
-  }
-
-  double
-  Reader::double_attribute(const std::string &object,
-                           const std::string &name) const
-  {
-    if (!has_attribute(object, name))
-      throw InputError("'" + path_ + "' has no attribute '" + name + "' on '" + object + "'");
-    const hid_t obj   = open_object(file_, object);
-    const hid_t attr  = H5Aopen(obj, name.c_str(), H5P_DEFAULT);
-    const hid_t space = attr >= 0 ? H5Aget_space(attr) : -1;
-    const hid_t type  = attr >= 0 ? H5Aget_type(attr) : -1;
-    // One number, never an array: reading an array into one double would overrun it.
-    const bool one = space >= 0 && H5Sget_simple_extent_npoints(space) == 1;
-    const H5T_class_t klass = type >= 0 ? H5Tget_class(type) : H5T_NO_CLASS;
-    double value = 0;
-    const bool ok = one && (klass == H5T_INTEGER || klass == H5T_FLOAT) &&
-                    H5Aread(attr, H5T_NATIVE_DOUBLE, &value) >= 0;
-    if (type >= 0)
-      H5Tclose(type);
-    if (space >= 0)
-      H5Sclose(space);
-    if (attr >= 0)
-      H5Aclose(attr);
-    H5Oclose(obj);
-    if (!ok)
-      throw InputError("attribute '" + name + "' on '" + object + "' in '" + path_ +
-                       "' is not a single number");
-    return value;
-  }
-
-  long long
-  Reader::count_attribute(const std::string &object, const std::string &name,
-                          const long long lo, const long long hi) const
-  {
-    const double v = double_attribute(object, name);
-    if (!(v >= static_cast<double>(lo) && v <= static_cast<double>(hi)) || v != std::floor(v))
-      throw InputError("attribute '" + name + "' on '" + object + "' in '" + path_ + "' is " +
-                       std::to_string(v) + "; it must be a whole number in [" +
-                       std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    return static_cast<long long>(v);
   }
 } // namespace irdm::h5

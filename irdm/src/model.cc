@@ -76,7 +76,8 @@ namespace irdm
               }
           }
         if (!finite)
-          fail("rigid_body: the mass must be positive and every value finite");
+          fail("rigid_body/mass_kg must be positive, rigid_body/center_of_mass_m and "
+               "rigid_body/inertia_kg_m2 finite");
         m.mass = mass[0];
         // The inertia must be one a body can have (symmetric, triangle inequality).
         RigidBodyInertia check;
@@ -90,7 +91,7 @@ namespace irdm
           }
         catch (const InputError &e)
           {
-            fail(e.what());
+            fail(std::string("rigid_body/inertia_kg_m2: ") + e.what());
           }
       }
 
@@ -104,7 +105,8 @@ namespace irdm
     if (n_out_v.size() != 1 || n_in_v.size() != 1)
       fail("node_tags must be one-dimensional");
     if (n_out_v[0] < 1 || n_out_v[0] > 100000000 / 3 || n_in_v[0] > n_out_v[0])
-      fail("it needs 1 to 33 million output vertices and no more inputs than outputs");
+      fail("outputs/node_tags must name 1 to 33 million output vertices, inputs/node_tags no "
+           "more inputs than outputs");
     m.output_node_tags = r.read_int("/outputs/node_tags", n_out_v);
     const auto xyz     = r.read_double("/outputs/coordinates", {n_out_v[0], 3});
     for (const double x : xyz)
@@ -124,6 +126,8 @@ namespace irdm
     m.n_outputs       = 3 * n_out_v[0];
     m.n_inputs        = 3 * n_in_v[0];
     m.output_input_index.assign(n_out_v[0], -1);
+    if (r.shape("/inputs/output_index") != n_in_v)
+      fail("inputs/output_index must have as many entries as inputs/node_tags");
     const auto io = r.read_int("/inputs/output_index", n_in_v);
     for (size_t k = 0; k < io.size(); ++k)
       {

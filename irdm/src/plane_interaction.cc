@@ -5,9 +5,53 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 namespace irdm
 {
+  namespace
+  {
+    // The runtime finds every wall direction's dome triangle (orientation_weights): the dome
+    // must tile the sphere. Each edge is shared by exactly two triangles, and the triangles'
+    // solid angles (Van Oosterom and Strackee 1983) add up to 4 pi: a dome with a gap, a
+    // fold or a degenerate triangle is refused here rather than in a step.
+    void
+    check_dome_covers_the_sphere(const VirtualDofModel &m, const std::string &path)
+    {
+      const auto fail = [&](const std::string &what) {
+        throw InputError("'" + path + "': virtual_dofs/dome_triangles " + what);
+      };
+      std::map<std::pair<unsigned, unsigned>, int> edges;
+      double                                       solid_angle = 0;
+      for (const auto &t : m.dome_triangles)
+        {
+          const auto &a = m.directions[t[0]], &b = m.directions[t[1]], &c = m.directions[t[2]];
+          const auto  dot = [](const std::array<double, 3> &x, const std::array<double, 3> &y) {
+            return x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+          };
+          const double triple = a[0] * (b[1] * c[2] - b[2] * c[1]) -
+                                a[1] * (b[0] * c[2] - b[2] * c[0]) +
+                                a[2] * (b[0] * c[1] - b[1] * c[0]);
+          if (!(std::abs(triple) > 1e-12))
+            fail("holds a degenerate triangle");
+          solid_angle += 2 * std::atan2(std::abs(triple), 1 + dot(a, b) + dot(b, c) + dot(c, a));
+          for (int e = 0; e < 3; ++e)
+            ++edges[std::minmax(t[e], t[(e + 1) % 3])];
+        }
+      for (const auto &[edge, count] : edges)
+        if (count != 2)
+          fail("must close: edge " + std::to_string(edge.first) + "-" +
+               std::to_string(edge.second) + " belongs to " + std::to_string(count) +
+               " triangles, not 2");
+      // Within the round-off of directions stored as float (unit to 1e-6); a gap or a fold
+      // changes the sum by a whole triangle's angle, about 4 pi / 5120 on the finest dome.
+      if (!(std::abs(solid_angle - 4 * M_PI) < 1e-6 * 4 * M_PI))
+        fail("over virtual_dofs/directions must cover the sphere once: their solid angles add "
+             "up to " +
+               std::to_string(solid_angle) + ", not 4 pi");
+    }
+  } // namespace
+
   VirtualDofModel
   load_virtual_dof_model(const std::string &path, const double expected_time_step)
   {
@@ -60,6 +104,7 @@ namespace irdm
         m.dome_triangles.push_back({static_cast<unsigned>(dome[t]), static_cast<unsigned>(dome[t + 1]),
                                     static_cast<unsigned>(dome[t + 2])});
       }
+    check_dome_covers_the_sphere(m, path);
     if (!r.exists("/virtual_dofs/rest_position") || !r.exists("/outputs/fixed"))
       throw InputError("'" + path + "' has no /virtual_dofs/rest_position or /outputs/fixed (format 1); "
                        "make it again with irdm precompute-vdof");

@@ -306,8 +306,11 @@ namespace irdm
   save_representative_model(const RepresentativeModel &m, const std::string &source_file,
                             const std::string &path, OutputLock lock)
   {
-    h5::Writer f(path, h5::Writer::Mode::create, std::move(lock));
-    f.copy_root_attributes(source_file, {"format", "format_version"});
+    // What the source model says of itself is copied through the checked reads: the source
+    // is as untrusted as any input.
+    const h5::Reader source(source_file);
+    h5::Writer       f(path, h5::Writer::Mode::create, std::move(lock));
+    f.copy_root_attributes(source, {"format", "format_version"});
     f.attribute("/", "format", std::string("irdm-representative-model"));
     f.attribute("/", "format_version", 1LL);
     f.attribute("/", "source_file", source_file);
@@ -327,9 +330,10 @@ namespace irdm
     f.attribute("/", "compression_seconds", m.compression_seconds);
     f.attribute("/", "compressed_bytes", m.bytes());
     for (const char *g : {"/outputs", "/inputs", "/surface", "/modes"})
-      f.copy_from(source_file, g);
+      if (source.exists(g)) // the modes are optional; the loader required the rest
+        f.copy_from(source, g);
     if (m.free_body)
-      f.copy_from(source_file, "/rigid_body");
+      f.copy_from(source, "/rigid_body");
     f.create_group("/representatives");
     f.write("/representatives/waveforms", {m.n_representative(), m.length},
             m.representatives.data());

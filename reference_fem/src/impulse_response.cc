@@ -773,10 +773,23 @@ namespace irdm::fem
         if (w->discarded_unreadable_part())
           log("the partial file " + options.output + ".part was unreadable (a run that failed "
               "mid-write): starting over");
-        if (w->resumed() && w->string_attribute("/", "spec_id") == spec_id &&
-            w->exists("/progress/chunk_done"))
+        // A part file whose spec or progress does not fit this run's chunks (or cannot be read)
+        // is another run's: it is started over below, never indexed past its end.
+        std::vector<long long> progress;
+        if (w->resumed())
+          try
+            {
+              if (w->string_attribute("/", "spec_id") == spec_id &&
+                  w->exists("/progress/chunk_done"))
+                progress = w->read_int("/progress/chunk_done");
+            }
+          catch (const InputError &)
+            {
+              progress.clear();
+            }
+        if (!progress.empty() && progress.size() == n_chunks)
           {
-            done = w->read_int("/progress/chunk_done");
+            done = progress;
             for (const auto x : done)
               rep.chunks_resumed += x != 0;
             log("resuming " + options.output + ".part: " + std::to_string(rep.chunks_resumed) +

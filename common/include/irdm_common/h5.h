@@ -22,6 +22,8 @@ namespace irdm::h5
   bool
   a_close_failed();
 
+  class Reader;
+
   /// An HDF5 file being written; becomes visible under its final name on commit().
   class Writer
   {
@@ -114,14 +116,16 @@ namespace irdm::h5
     void
     write(const std::string &name, const std::vector<hsize_t> &dims,
           const unsigned short *data);
-    /// Copies object (a group with everything in it) from another HDF5 file to the same path.
+    /// Copies object (a group with everything in it, or a dataset) from another file to the
+    /// same path, through the source's checked reads: numeric datasets and attributes that
+    /// hold one number or one string. Anything else in it is refused (InputError).
     void
-    copy_from(const std::string &source_file, const std::string &object);
+    copy_from(const Reader &source, const std::string &object);
     /// Copies every attribute of the source file's root to this file's root, except those
-    /// named in `except`.
+    /// named in `except`, as copy_from does.
     void
-    copy_root_attributes(const std::string &source_file, const std::vector<std::string> &except);
-    /// Attribute on an object ("/" for the file root).
+    copy_root_attributes(const Reader &source, const std::vector<std::string> &except);
+    /// Attribute on an object ("/" for the file root); replaces one of the same name.
     void
     attribute(const std::string &object,
               const std::string &name,
@@ -155,9 +159,40 @@ namespace irdm::h5
                           std::size_t element_size);
     bool
     close_direct(); // false if a descriptor failed to close
+    void
+    copy_attributes(const Reader &source, const std::string &object,
+                    const std::vector<std::string> &except);
   };
 
-  /// Read access with shape checks; every failure is an InputError naming file and dataset.
+  /// How a numeric dataset is stored.
+  enum class NumberKind
+  {
+    integer,
+    single_precision,
+    double_precision
+  };
+
+  /// What an attribute holds: one string or one number.
+  struct AttributeValue
+  {
+    enum class Kind
+    {
+      text,
+      whole,
+      real
+    };
+    Kind        kind = Kind::text;
+    std::string text;
+    long long   whole = 0;
+    double      real  = 0;
+  };
+
+  /// Read access to a file nobody vouches for. Every attribute and dataset is read through one
+  /// checked read of its kind (a number, a string, a numeric array): before anything is
+  /// copied, the HDF5 type class (for a string: fixed or variable length, size, padding,
+  /// character set) and the dataspace (kind, rank, extent) must be what that read expects,
+  /// the data must be stored in the file itself (no external or soft links, no external or
+  /// virtual storage); anything else is an InputError naming the file and the field.
   class Reader
   {
   public:
@@ -169,6 +204,12 @@ namespace irdm::h5
 
     bool
     exists(const std::string &name) const;
+    bool
+    is_group(const std::string &name) const;
+    /// The names of a group's members.
+    std::vector<std::string>
+    members(const std::string &group) const;
+    /// The shape of a numeric array dataset.
     std::vector<hsize_t>
     shape(const std::string &name) const;
     std::vector<double>
@@ -179,11 +220,18 @@ namespace irdm::h5
              const std::vector<hsize_t> &expected_dims) const;
     std::vector<float>
     read_float(const std::string &name, const std::vector<hsize_t> &expected_dims) const;
+    NumberKind
+    number_kind(const std::string &name) const;
     /// True if the dataset is stored as 8-byte floating point.
     bool
     is_double(const std::string &name) const;
     bool
     has_attribute(const std::string &object, const std::string &name) const;
+    std::vector<std::string>
+    attribute_names(const std::string &object) const;
+    /// One string or one number, whichever the attribute holds.
+    AttributeValue
+    attribute(const std::string &object, const std::string &name) const;
     std::string
     string_attribute(const std::string &object, const std::string &name) const;
     /// A single number (an array attribute is refused, never read into one double).
