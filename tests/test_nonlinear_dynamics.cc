@@ -251,6 +251,28 @@ TEST(NonlinearDynamics, PlaneOnTheFixedSurfaceOnlyPushesNothing)
             EXPECT_EQ(u, 0) << "P" << degree;
         }
     }
+  // The control, without which contact switched off would pass the above: the same plane
+  // 13 mm in reaches the free vertices at x = 12.5 mm (P1), pushes the body along +x and
+  // moves its surface.
+  const Scene s = parse_scene(
+    beam_scene_json(IRDM_MESH_DIR "/beam_2.msh", 1, BeamModel(),
+                    R"(, "kinematics": "nonlinear", "time": {"step_s": 0.002, "duration_s": 0.006},
+           "planes": [{"name": "wall", "normal": [1, 0, 0],
+                       "position": {"times_s": [0], "points_m": [[0.013, 0, 0]]}}],
+           "outputs": {"surface": true})"),
+    ".");
+  const auto r          = NonlinearElasticity(s).run();
+  double     push       = 0, moved = 0, energy = 0;
+  for (std::size_t k = 0; k < r.time.size(); ++k)
+    {
+      push   = std::max(push, r.plane_force.at("wall")[k][0]);
+      energy = std::max(energy, r.contact_energy[k]);
+      for (const double u : r.surface_displacement[k])
+        moved = std::max(moved, std::abs(u));
+    }
+  EXPECT_GT(push, 0);
+  EXPECT_GT(energy, 0);
+  EXPECT_GT(moved, 1e-6);
 }
 
 TEST(NonlinearDynamics, TurningFloorPushesAlongItsNormalAtEachTime)

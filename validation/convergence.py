@@ -10,13 +10,13 @@ scaling); otherwise the quantity is reported as not in the asymptotic range.
 Usage: convergence.py convergence.csv out.md out.png
 """
 import csv
-import os
 import sys
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from report_files import save_figure, write_text  # noqa: E402
 
 QUANTITIES = [
     ("f1_Hz", "first frequency (Hz)"),
@@ -114,11 +114,7 @@ def main():
                 p, q_inf = f
                 err = (float(sel[-1][key]) - q_inf) / abs(q_inf)
                 lines.append(f"| {label} | {deg} | {names} | {p:.2f} | {q_inf:.5g} | {100 * err:+.1f} % |")
-    with open(out_md + ".part", "w") as fh:
-        fh.write("\n".join(lines) + "\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(out_md + ".part", out_md)
+    write_text(out_md, "\n".join(lines) + "\n")
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
     for ax, keys in ((axes[0], ["f1_Hz", "f2_Hz", "f3_Hz"]), (axes[1], ["stiffness_radius_N_m"])):
@@ -149,8 +145,7 @@ def main():
         ax.legend(fontsize=7)
     fig.suptitle("Grounded cat (E = 2 kPa, nu = 0.4): mesh convergence")
     fig.tight_layout()
-    fig.savefig(out_png + ".part.png", dpi=110)
-    os.replace(out_png + ".part.png", out_png)
+    save_figure(fig, out_png, dpi=110)
 
 
 if __name__ == "__main__":

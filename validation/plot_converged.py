@@ -11,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from report_files import save_figure  # noqa: E402
 
 
 def main():
@@ -44,7 +45,7 @@ def main():
     axes[-1, 0].set_xlabel("time (s)")
     axes[0, 0].legend(fontsize=8, loc="best")
     fig.tight_layout()
-    fig.savefig(sys.argv[2], dpi=110)
+    save_figure(fig, sys.argv[2], dpi=110)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from report_files import save_figure  # noqa: E402
 import numpy as np  # noqa: E402
 
 
@@ -20,7 +21,7 @@ def load(path):
 
 def save(fig, path):
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
 
 

@@ -9,7 +9,6 @@ with the largest displacement and frames evenly spaced in time around it, each c
 |u| in mm on one colour scale, viewed from the same camera. Units: m in the files, mm on the
 colour bar; times from surface.pvd (s).
 """
-import os
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -18,6 +17,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from report_files import save_figure  # noqa: E402
 import numpy as np  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
@@ -77,10 +77,7 @@ def main():
         ax.set_title(f"t = {t:.3f} s\nmax |u| = {mag.max():.2f} mm", fontsize=8)
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0, scale))
     fig.colorbar(sm, ax=fig.axes, shrink=0.6, label="|u| (mm)")
-    # Written under a part name, then renamed: a failed run leaves no half-written picture.
-    part = out.with_name(out.name + ".part.png")
-    fig.savefig(part, dpi=110, bbox_inches="tight")
-    os.replace(part, out)
+    save_figure(fig, out, dpi=110, bbox_inches="tight")
     return 0
 
 

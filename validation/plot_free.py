@@ -19,7 +19,6 @@ triangles.csv (a, b, c: surface triangles, vertex indices). Writes:
               material (symlog: the soft runs grow by orders).
 """
 import csv
-import os
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -28,6 +27,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from report_files import save_figure  # noqa: E402
 import numpy as np  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
@@ -37,11 +37,7 @@ LABELS = {"fem": "nonlinear FEM", "route1_rigid_fit": "IRDM route 1 (rigid fit)"
 
 
 def save(fig, path, dpi):
-    """Written under a part name, then renamed: a failed run leaves no half-written picture."""
-    part = path.with_name(path.name + ".part.png")
-    fig.savefig(part, dpi=dpi)
-    plt.close(fig)
-    os.replace(part, path)
+    save_figure(fig, path, dpi=dpi)
 
 
 def material_key(name):

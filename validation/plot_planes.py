@@ -8,6 +8,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from report_files import save_figure  # noqa: E402
 
 d = sys.argv[1]
 cases = {x["case"]: x for x in csv.DictReader(open(d + "/cases.csv"))}
@@ -40,7 +41,7 @@ ax[1].set_ylabel("relative error (%)")
 ax[1].set_title("Wall impact from the side")
 ax[1].legend(fontsize=7)
 fig.tight_layout()
-fig.savefig(d + "/planes.png", dpi=110)
+save_figure(fig, d + "/planes.png", dpi=110)
 
 # Compliant walls: error against the wall stiffness (stiffness.csv), rigid at the right.
 import os
@@ -72,4 +73,4 @@ if os.path.exists(d + "/stiffness.csv"):
         ax[a].set_title(f"Compliant wall: {key} error vs nonlinear FEM")
     ax[0].legend(fontsize=6)
     fig.tight_layout()
-    fig.savefig(d + "/stiffness.png", dpi=110)
+    save_figure(fig, d + "/stiffness.png", dpi=110)

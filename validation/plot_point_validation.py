@@ -5,6 +5,7 @@ import numpy as np
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from report_files import save_figure  # noqa: E402
 
 d = sys.argv[1]
 s = np.genfromtxt(os.path.join(d, "series.csv"), delimiter=",", names=True)
@@ -19,7 +20,7 @@ for p in probes:
     ax.plot(t, f, "-", lw=2.5, alpha=0.5, label=f"{p}: FEM")
     ax.plot(t, g, "k--", lw=1, label=f"{p}: IRDM")
 ax.set_xlabel("time (s)"); ax.set_ylabel("|contact force| (N)"); ax.legend(fontsize=8)
-ax.grid(alpha=0.3); fig.tight_layout(); fig.savefig(os.path.join(d, "force.png"), dpi=80)
+ax.grid(alpha=0.3); fig.tight_layout(); save_figure(fig, os.path.join(d, "force.png"), dpi=80)
 
 fig, ax = plt.subplots(figsize=(7, 3.6))
 eps = 1e-18
@@ -28,7 +29,7 @@ ax.semilogy(t, s["disp_rms_error_rel"] + eps, label="surface RMS, double, untrun
 ax.semilogy(t, s["disp_rms_error_rel_float"] + eps, label="surface RMS, float")
 ax.semilogy(t, s["force_error_rel_T500"] + eps, label="force, T = 500")
 ax.set_xlabel("time (s)"); ax.set_ylabel("error / peak"); ax.legend(fontsize=8)
-ax.grid(alpha=0.3); fig.tight_layout(); fig.savefig(os.path.join(d, "error.png"), dpi=80)
+ax.grid(alpha=0.3); fig.tight_layout(); save_figure(fig, os.path.join(d, "error.png"), dpi=80)
 
 tr = np.genfromtxt(os.path.join(d, "truncation.csv"), delimiter=",", names=True)
 fig, ax = plt.subplots(figsize=(5, 3.6))
@@ -36,7 +37,7 @@ ax.loglog(tr["T_steps"], tr["force_rel_l2"] + eps, "o-", label="force rel. L2")
 ax.loglog(tr["T_steps"], tr["disp_rms_rel"] + eps, "s-", label="surface RMS / peak")
 ax.loglog(tr["T_steps"], tr["disp_max_rel"] + eps, "^-", label="surface max / peak")
 ax.set_xlabel("T (steps of 2 ms)"); ax.set_ylabel("error"); ax.legend(fontsize=8)
-ax.grid(alpha=0.3, which="both"); fig.tight_layout(); fig.savefig(os.path.join(d, "truncation.png"), dpi=80)
+ax.grid(alpha=0.3, which="both"); fig.tight_layout(); save_figure(fig, os.path.join(d, "truncation.png"), dpi=80)
 
 ts = np.genfromtxt(os.path.join(d, "timestep.csv"), delimiter=",", names=True)
 fig, ax = plt.subplots(figsize=(7, 3.6))
@@ -45,7 +46,7 @@ for p in probes:
     ax.plot(ts["time_s"], ts[f"{p}_irdm_force_N"], "k--", lw=1, label=f"{p}: IRDM, tau")
 ax.set_xlabel("time (s)"); ax.set_ylabel("|contact force| (N)"); ax.legend(fontsize=8)
 ax.set_title("contact phase, bilateral probes"); ax.grid(alpha=0.3); fig.tight_layout()
-fig.savefig(os.path.join(d, "timestep.png"), dpi=80)
+save_figure(fig, os.path.join(d, "timestep.png"), dpi=80)
 
 # Compression study (section (e)): speed against accuracy and memory against accuracy.
 import csv
@@ -82,7 +83,7 @@ if os.path.exists(path):
         ax.set_xlabel(xlabel); ax.set_ylabel(ylabel); ax.grid(alpha=0.3, which="both")
     axes[0].legend(fontsize=7)
     fig.suptitle("speed against accuracy (red x: unstable in closed loop; dotted: goal)")
-    fig.tight_layout(); fig.savefig(os.path.join(d, "speed_accuracy.png"), dpi=80)
+    fig.tight_layout(); save_figure(fig, os.path.join(d, "speed_accuracy.png"), dpi=80)
 
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for method, (color, marker) in style.items():
@@ -101,4 +102,4 @@ if os.path.exists(path):
     ax.axhline(0.01, color="gray", ls=":", lw=1)
     ax.set_xlabel("memory (% of the model's H as float)"); ax.set_ylabel("error")
     ax.legend(fontsize=6); ax.grid(alpha=0.3, which="both"); fig.tight_layout()
-    fig.savefig(os.path.join(d, "memory_accuracy.png"), dpi=80)
+    save_figure(fig, os.path.join(d, "memory_accuracy.png"), dpi=80)

@@ -7,6 +7,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from report_files import save_figure, write_text  # noqa: E402
 
 rows = list(csv.DictReader(open(sys.argv[1])))
 fig, (ax_t, ax_m) = plt.subplots(1, 2, figsize=(10, 4))
@@ -29,8 +30,7 @@ for ax in (ax_t, ax_m):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
 fig.tight_layout()
-fig.savefig(sys.argv[2] + ".part.png", dpi=110)
-os.replace(sys.argv[2] + ".part.png", sys.argv[2])
+save_figure(fig, sys.argv[2], dpi=110)
 
 # The report: the table as measured, and what it says.
 md = [
@@ -72,8 +72,4 @@ md += [
     "here, and shares the machine's memory bandwidth with rank 0 during its own FEM set-up.",
 ]
 report = os.path.join(os.path.dirname(sys.argv[2]), "scaling.md")
-with open(report + ".part", "w") as f:
-    f.write("\n".join(md) + "\n")
-    f.flush()
-    os.fsync(f.fileno())
-os.replace(report + ".part", report)
+write_text(report, "\n".join(md) + "\n")

@@ -11,13 +11,13 @@ contact), damping (N s/m), time step (s) and solver, with `bounded` (0: the run 
 active (B: energy returned, in J), or diverged (D).
 """
 import csv
-import os
 import sys
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from report_files import save_figure  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
 
@@ -53,11 +53,7 @@ def main():
     if len(sys.argv) == 4:
         fig.suptitle(sys.argv[3] + "  (P passive, B bounded but gives energy back, D diverged; blank: not run)", fontsize=9)
     fig.tight_layout()
-    part = sys.argv[2] + ".part.png"
-    fig.savefig(part, dpi=110)
-    with open(part, "rb") as f:
-        os.fsync(f.fileno())
-    os.replace(part, sys.argv[2])
+    save_figure(fig, sys.argv[2], dpi=110)
 
 
 if __name__ == "__main__":

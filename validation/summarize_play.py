@@ -18,6 +18,7 @@ import math
 import os
 import statistics
 import sys
+from report_files import write_text  # noqa: E402
 
 
 def main():
@@ -165,12 +166,7 @@ def main():
             "its repetition's median (the same work each time: the host ran that vCPU slower); "
             "the last column's percentiles leave them out and say so.\n\n"
             + "\n".join(lines) + "\n")
-    part = sys.argv[2] + ".part"
-    with open(part, "w") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(part, sys.argv[2])
+    write_text(sys.argv[2], text)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,46 @@
+"""How the plot scripts write what they make: under a part name, synced to disk, then renamed,
+so that a failed or interrupted run never leaves a half-written picture or table under its
+final name (the same rule as the C++ writers, common/include/irdm_common/files.h)."""
+import os
+
+
+def _sync_and_rename(part, path):
+    with open(part, "rb") as fh:
+        os.fsync(fh.fileno())
+    os.replace(part, path)
+    folder = os.open(os.path.dirname(os.path.abspath(path)), os.O_RDONLY)
+    try:
+        os.fsync(folder)
+    finally:
+        os.close(folder)
+
+
+def save_figure(fig, path, **savefig_options):
+    """fig.savefig(path, ...) through "<path>.part.<ext>"; the figure is closed afterwards."""
+    import matplotlib.pyplot as plt
+    path = str(path)
+    root, ext = os.path.splitext(path)
+    part = path + ".part" + (ext or ".png")
+    try:
+        fig.savefig(part, **savefig_options)
+        _sync_and_rename(part, path)
+    except BaseException:
+        if os.path.exists(part):
+            os.remove(part)
+        raise
+    finally:
+        plt.close(fig)
+
+
+def write_text(path, text):
+    """A text file (Markdown, CSV) through "<path>.part"."""
+    path = str(path)
+    part = path + ".part"
+    try:
+        with open(part, "w") as fh:
+            fh.write(text)
+        _sync_and_rename(part, path)
+    except BaseException:
+        if os.path.exists(part):
+            os.remove(part)
+        raise
