@@ -1,0 +1,83 @@
+// irdm compress: a model compressed by representative waveforms (seed 000, section 3).
+#include "../command.h"
+
+#include <irdm/model.h>
+#include <irdm/representative_model.h>
+#include <irdm_common/files.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+
+namespace irdm::cli
+{
+  namespace
+  {
+    struct CompressArgs
+    {
+      std::string               in, out;
+      irdm::CompressionOptions  o;
+      bool                      quiet = false;
+    };
+
+    int
+    run_compress(CompressArgs a)
+    {
+      irdm::check_output_file("--out", a.out, {a.in});
+      irdm::OutputLock lock(a.out); // before the work: a second run to --out is refused now
+      a.o.log = stderr_log(a.quiet);
+      const auto model = irdm::load_model(a.in);
+      const auto c     = irdm::compress(model, a.o);
+      irdm::save_representative_model(c, a.in, a.out, std::move(lock));
+      const double waveforms = static_cast<double>(model.n_inputs) * model.n_outputs;
+      std::printf("compressed %s -> %s: theta %.3g, blend %u\n"
+                  "waveforms %.0f: %llu representative (%.3g %%), %llu substituted; mean fit %.4f, "
+                  "min fit %.4f, mean delay %.2f steps, largest delay %u\n"
+                  "size: representatives %.2f MB + blend tables %.2f MB = %.2f MB, %.3g %% of %.1f MB "
+                  "(float H); time %.2f s\n",
+                  a.in.c_str(), a.out.c_str(), c.theta, c.blend, waveforms,
+                  static_cast<unsigned long long>(c.n_representative()),
+                  100 * c.n_representative() / waveforms,
+                  static_cast<unsigned long long>(c.n_substituted), c.mean_fit, c.min_fit,
+                  c.mean_delay, c.delay_span, c.representative_bytes() / 1e6,
+                  (c.bytes() - c.representative_bytes()) / 1e6, c.bytes() / 1e6,
+                  100 * c.bytes() / (4 * waveforms * model.length),
+                  4 * waveforms * model.length / 1e6, c.compression_seconds);
+      return 0;
+    }
+  } // namespace
+
+  Command
+  add_compress(CLI::App &app)
+  {
+    auto ca = std::make_shared<CompressArgs>();
+    auto *compress = app.add_subcommand("compress", "compress a model by representative waveforms (seed 000 sec. 3)");
+    compress->footer("Compresses an impulse-response model (from 'irdm precompute') by representative "
+      "waveforms (seed 000, section 3; docs/compression.md): every waveform H_kj is kept as a "
+      "representative or replaced by representatives of the same input, delayed (d >= 0 "
+      "steps) and scaled, when their correlation reaches theta. The output is a model the "
+      "runtime runs directly, with the source's metadata plus theta and the statistics.");
+    compress->add_option("model", ca->in, "model file from 'irdm precompute'")->required()->check(CLI::ExistingFile);
+    compress->add_option("--out", ca->out, "compressed model to write")->required();
+    compress->add_option("--theta", ca->o.theta, "correlation threshold in (0, 1]")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 1.0));
+    compress->add_option("--blend", ca->o.blend,
+                         "representatives blended per waveform: 1 = plain substitution (the "
+                         "seed's), 2..4 = interpolation among nearby ones")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 4u));
+    compress->add_option("--max-delay", ca->o.max_delay, "largest delay searched, steps")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 65535u));
+    compress->add_option("--candidates", ca->o.candidates,
+                         "nearest representatives searched per waveform")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 100000u));
+    compress->add_option("--threads", ca->o.threads, "worker threads (0: all cores)")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 1024u));
+    compress->add_flag("--quiet", ca->quiet, "no progress on stderr");
+    return {compress, [ca] { return run_compress(*ca); }};
+  }
+} // namespace irdm::cli

@@ -1,0 +1,128 @@
+// irdm precompute: the impulse-response model of a scene's body (HDF5); mpirun-able.
+#include "../command.h"
+
+#include <irdm_common/files.h>
+#include <irdm_common/format.h>
+#include <reference_fem/impulse_response.h>
+#include <reference_fem/scene.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+
+namespace irdm::cli
+{
+  namespace
+  {
+    struct PrecomputeArgs
+    {
+      std::string scene, out, storage, free_route = "modal", fit_weights = "uniform";
+      unsigned    length = 0, chunk = 0, modes = 0;
+      bool        restart = false, quiet = false, allow_large = false, every_mode_every_step = false,
+                  modal_only = false;
+    };
+
+    int
+    run_precompute(const PrecomputeArgs &a)
+    {
+      irdm::check_output_file("--out", a.out, {a.scene});
+      const auto scene = irdm::fem::read_scene(a.scene);
+      irdm::fem::PrecomputeOptions o;
+      o.output = a.out;
+      if (a.length > 0)
+        o.length = a.length;
+      o.inputs_per_chunk = a.chunk;
+      if (a.modes > 0)
+        o.modes = a.modes;
+      o.double_storage   = storage_choice(a.storage);
+      o.restart          = a.restart;
+      o.allow_large      = a.allow_large;
+      o.every_mode_every_step = a.every_mode_every_step;
+      o.modal_only       = a.modal_only;
+      o.free_route       = a.free_route == "rigid_fit" ? irdm::fem::FreeBodyRoute::rigid_fit
+                                                       : irdm::fem::FreeBodyRoute::modal;
+      o.fit_weights      = a.fit_weights == "mass" ? irdm::fem::RigidFitWeights::mass
+                                                   : irdm::fem::RigidFitWeights::uniform;
+      o.log              = stderr_log(a.quiet);
+      const auto r = irdm::fem::precompute_impulse_responses(scene, o);
+      if (mpi_rank() == 0 && r.sparse)
+        std::printf("sparse route: the lowest %u of %u modes (largest relative residual %.2g, %u "
+                    "block solves) + %u residual modes; static compliance at the inputs in the "
+                    "lowest: mean %.4f, least %.4f; with the residual modes: error %.2g\n",
+                    r.n_lowest, r.n_free, r.eigen_residual, r.eigen_iterations,
+                    r.n_modes - r.n_lowest, r.static_in_modes_mean, r.static_in_modes_min,
+                    r.static_basis_error_max);
+      if (mpi_rank() == 0)
+        std::printf("model %s: %u outputs x %u inputs x %u samples, %s, %d rank(s); "
+                    "%u free DoFs, %s route, %u modes\n"
+                    "time: total %.2f s = FEM %.2f + modes %.2f + responses %.2f + write %.2f "
+                    "(+ other)\nenergy left after T: mean %.3g, max %.3g; static compliance beyond T: "
+                    "mean %.3g, max %.3g\n",
+                    o.output.c_str(), r.n_outputs, r.n_inputs, r.length,
+                    r.modal_only ? "modal realization only (no H)"
+                                 : (irdm::fmt(r.bytes / 1e6, "%.1f") + " MB of H (" +
+                                    (r.double_storage ? "double" : "float") + ")").c_str(),
+                    r.ranks, r.n_free,
+                    r.sparse ? "sparse" : "dense", r.n_modes, r.seconds_total,
+                    r.seconds_fem, r.seconds_eigen, r.seconds_responses, r.seconds_write,
+                    r.energy_left_mean, r.energy_left_max, r.static_left_mean, r.static_left_max);
+      return 0;
+    }
+  } // namespace
+
+  Command
+  add_precompute(CLI::App &app)
+  {
+    auto pre = std::make_shared<PrecomputeArgs>();
+    auto *precompute = app.add_subcommand("precompute", "impulse-response model of the scene's body (HDF5); mpirun-able");
+    precompute->footer("Computes the impulse-response model H[s] of the scene's body (mesh, material, damping, "
+      "fixed surfaces, integrator and time step tau = the scene's step) by exact modal "
+      "decoupling of the reference FEM's own integrator, and writes it to an HDF5 file "
+      "(docs/model-format.md). Inputs, outputs, length T and storage come from the scene's "
+      "\"model\" section (default: every free surface vertex DoF in and out, T = 500, float). "
+      "Under 'mpirun -np N' the inputs are split across ranks; the file is the same as a "
+      "serial run's. An interrupted run leaves MODEL.h5.part and the next run with the same "
+      "spec resumes it; a second run to the same --out while one is running is refused.");
+    precompute->add_option("scene", pre->scene, "scene file (JSON)")->required()->check(CLI::ExistingFile);
+    precompute->add_option("--out", pre->out, "model file to write")->required();
+    precompute->add_option("--length", pre->length, "samples per response T (overrides the scene)")
+      ->check(CLI::Range(1u, 1000000u));
+    precompute->add_option("--storage", pre->storage, storage_help)
+      ->check(CLI::IsMember({"float", "double"}));
+    precompute->add_option("--chunk", pre->chunk,
+                           "inputs per chunk (default: about 64 MB of responses; clamped to the "
+                           "number of inputs)")
+      ->check(CLI::Range(1u, 1000000u));
+    precompute->add_option("--modes", pre->modes,
+                           "keep the lowest MODES modes (sparse route: shift-invert block Lanczos, plus "
+                           "up to two residual modes per input DoF that keep the static "
+                           "compliance and the feed-through H[0] at the inputs exact; default: "
+                           "all modes by the dense route up to 12000 free DoFs, else 200)")
+      ->check(CLI::Range(1u, 1000000u));
+    precompute->add_option("--free-route", pre->free_route,
+                           "free body (no fixed surface): how the rigid motion leaves the "
+                           "response; modal: the 6 rigid-body modes dropped (mass-orthogonal, "
+                           "route 2); rigid_fit: the whole response minus its best rigid fit at "
+                           "every sample (the seed's, route 1; dense route only, without --modes)")
+      ->check(CLI::IsMember({"modal", "rigid_fit"}))
+      ->capture_default_str();
+    precompute->add_option("--fit-weights", pre->fit_weights,
+                           "rigid_fit: least-squares weights over the output vertices (uniform: "
+                           "the seed's; mass: each vertex's lumped mass)")
+      ->check(CLI::IsMember({"uniform", "mass"}))
+      ->capture_default_str();
+    precompute->add_flag("--restart", pre->restart, "ignore a partial file and start over");
+    precompute->add_flag("--allow-large", pre->allow_large,
+                         "run even if the memory or disk estimate exceeds what is free");
+    precompute->add_flag("--every-mode-every-step", pre->every_mode_every_step,
+                         "sum every mode at every step (default: a mode is left out once its "
+                         "terms stay below a tenth of the storage's round-off of the largest "
+                         "response; see the file's /impulse_response/H attributes)");
+    precompute->add_flag("--modal-only", pre->modal_only,
+                         "write the modal realization (/modes) without H (format version 3): "
+                         "for models whose H would not fit (inputs x T x outputs); only the "
+                         "modal runtime reads it (irdm play, validate-converged)");
+    precompute->add_flag("--quiet", pre->quiet, "no progress on stderr");
+    return {precompute, [pre] { return run_precompute(*pre); }, true};
+  }
+} // namespace irdm::cli
