@@ -205,6 +205,12 @@ TEST(Cli, ASecondPrecomputeToTheSameOutIsRefusedAndTheFirstFinishes)
   EXPECT_FALSE(fs::exists(out + ".part"));
 }
 
+namespace
+{
+  std::pair<int, std::string>
+  status_and_error(const std::string &cmd);
+}
+
 TEST(Cli, ValidateNeverTouchesAModelAlreadyInItsModelsFolder)
 {
   const std::string scenes = tmp("cli_validate_scenes"), models = tmp("cli_validate_models");
@@ -212,16 +218,33 @@ TEST(Cli, ValidateNeverTouchesAModelAlreadyInItsModelsFolder)
   fs::remove_all(models);
   fs::create_directories(scenes);
   fs::create_directories(models);
-  std::ofstream(fs::path(scenes) / "irdm_beam.json") << beam_scene("");
+  // A probe, so that the scene has something to validate and only the model stops it.
+  const std::string probe = R"(, "probes": [{"name": "finger", "surface": "sides",
+      "direction": [0, 0, -1], "unilateral": false, "until_s": 0.15,
+      "path": {"times_s": [0, 0.2], "points_m": [[0.21, 0.001, 0.01], [0.235, -0.002, 0.01]]},
+      "depth": {"times_s": [0, 0.05, 0.1, 0.12], "values_m": [0, 0.002, 0.002, 0.001]}}])";
+  std::ofstream(fs::path(scenes) / "irdm_beam.json") << beam_scene(probe);
   const std::string mine = (fs::path(models) / "irdm_beam.h5").string();
   std::ofstream(mine) << "a user's file";
-  EXPECT_EQ(status(std::string(IRDM_CLI) + " validate --scenes " + scenes + " --models " + models +
-                   " --out " + tmp("cli_validate_report") + " --no-full-model"),
-            2);
+  const auto [user_code, user_error] =
+    status_and_error(std::string(IRDM_CLI) + " validate --scenes " + scenes + " --models " +
+                     models + " --out " + tmp("cli_validate_report") + " --no-full-model");
+  EXPECT_EQ(user_code, 2);
+  EXPECT_NE(user_error.find("'" + mine + "' exists"), std::string::npos) << user_error;
   std::ifstream in(mine);
   std::string   content;
   std::getline(in, content);
   EXPECT_EQ(content, "a user's file");
+  // A model a stopped validate left there: refused too, with the command that clears it.
+  fs::remove(mine);
+  make_model(fem::parse_scene(beam_scene(""), "."), "cli_validate_leftover.h5");
+  fs::copy_file(tmp("cli_validate_leftover.h5"), mine);
+  const auto [code, error] =
+    status_and_error(std::string(IRDM_CLI) + " validate --scenes " + scenes + " --models " +
+                     models + " --out " + tmp("cli_validate_report") + " --no-full-model");
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(error.find("rm '" + mine + "'"), std::string::npos) << error;
+  EXPECT_TRUE(fs::exists(mine));
 }
 
 TEST(Cli, ARunLargerThanTheDiskIsRefusedBeforeItStarts)

@@ -9,6 +9,7 @@
 #include <irdm/representative_model.h>
 #include <irdm_common/csv.h>
 #include <irdm_common/error.h>
+#include <irdm_common/h5.h>
 #include <irdm_common/geometry.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
@@ -37,10 +38,27 @@ namespace irdm::validation
     void
     refuse_existing_model(const std::string &path)
     {
-      if (fs::exists(path))
-        throw InputError("'" + path + "' exists; validate writes its working models to --models "
-                         "and removes them after use, so it never touches a file already there: "
-                         "move it or choose another --models folder");
+      if (!fs::exists(path))
+        return;
+      // A model irdm made is most likely the working model of a validate run that was stopped
+      // before it removed it: say so, and how to clear it.
+      bool ours = false;
+      try
+        {
+          const h5::Reader r(path);
+          ours = r.has_attribute("/", "format") &&
+                 r.string_attribute("/", "format") == "irdm-impulse-response";
+        }
+      catch (const InputError &)
+        {}
+      if (ours)
+        throw InputError("'" + path + "' is an irdm model, most likely the working model of an "
+                         "earlier validate run that was stopped before it removed it; validate "
+                         "never touches a file already in --models: remove it (rm '" + path +
+                         "') and run again, or choose another --models folder");
+      throw InputError("'" + path + "' exists; validate writes its working models to --models "
+                       "and removes them after use, so it never touches a file already there: "
+                       "move it or choose another --models folder");
     }
 
 
