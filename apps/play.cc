@@ -19,6 +19,7 @@
 #include <irdm/point_interaction.h>
 #include <irdm/surface_exchange.h>
 #include <irdm_common/format.h>
+#include <irdm_common/report_stamp.h>
 #include <irdm_common/csv.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
@@ -769,6 +770,7 @@ namespace irdm::play
     }
     std::ostringstream md;
     md << "# irdm play\n\n"
+       << report_stamp() << "\n\n"
        << "Model `" << o.model << "`: " << model.n_inputs / 3 << " input vertices, "
        << model.n_outputs / 3 << " surface vertices, " << modal.force_modes << " of its "
        << modal.n_modes << " modes in the force loop"

@@ -7,6 +7,7 @@
 // MODEL.h5: a model from 'irdm precompute' (scripts/benchmark.sh makes one: the press scene's
 // inputs, every surface vertex out, T = 500, float, like the full cat model).
 #include <irdm_common/files.h>
+#include <irdm_common/report_stamp.h>
 #include <irdm/modal_model.h>
 #include <irdm/point_interaction.h>
 #include <irdm/representative_interaction.h>
@@ -241,14 +242,15 @@ main(int argc, char **argv)
       md += line;
     }
   const auto &m = *g_model;
-  char        head[512];
+  char        head[768];
   std::snprintf(head, sizeof head,
-                "# IRDM runtime kernels (Google Benchmark, one core)\n\nModel: %u inputs x %u "
+                "# IRDM runtime kernels (Google Benchmark, one core)\n\n%s\n\nModel: %u inputs x %u "
                 "outputs x T = %u (%s), one probe pressing with a slow sine, steady state (the "
                 "history window full). Ratios are to the direct convolution of the same kernel "
                 "(for the product u = Phi_M a of the modal surface update: to the portable "
                 "kernel at the same M), measured in this run.\n\n",
-                m.n_inputs, m.n_outputs, m.length, m.double_storage ? "double" : "float");
+                irdm::report_stamp().c_str(), m.n_inputs, m.n_outputs, m.length,
+                m.double_storage ? "double" : "float");
   std::printf("\n%s%s", head, md.c_str());
   if (!report.empty())
     irdm::write_text_file(report, std::string(head) + md);

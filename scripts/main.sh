@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job: install, build, run the validation suites, write the reports.
 #
-#   scripts/main.sh          every report section, on restricted models (below): 9.0 min
+#   scripts/main.sh          every report section, on restricted models (below), and the
+#                            index of every report (reports/README.md): 9.0 min
 #                            (9:02 wall by /usr/bin/time, install and build checks included)
 #                            and a 3.3 GB peak on 2 cores once built (one run, 2026-11-25:
 #                            validate 261 s, benchmarks 40, verify-fem 68, virtual-DOF
@@ -89,4 +90,6 @@ if [ "$full" -eq 1 ]; then
   scripts/converged.sh build
   stage_done "converged"
 fi
-echo "reports ($(( (SECONDS - start) / 60 )) min): $out/validation.md, $out/<scene>/report.md, $out/benchmarks.md, $out/fem-verification/report.md, $out/planes/planes.md"
+# Every study in one line, with its date and commit, stale ones flagged (reports/README.md).
+/usr/bin/python3 validation/reports_index.py reports
+echo "reports ($(( (SECONDS - start) / 60 )) min): $out/validation.md, $out/<scene>/report.md, $out/benchmarks.md, $out/fem-verification/report.md, $out/planes/planes.md; the index: reports/README.md"

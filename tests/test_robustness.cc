@@ -21,6 +21,7 @@
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
 #include <irdm_common/h5.h>
+#include <irdm_common/report_stamp.h>
 #include <reference_fem/mesh.h>
 
 #include <gtest/gtest.h>
@@ -1661,4 +1662,26 @@ TEST(Writers, OutputChecksRefuseInputsFoldersAndMissingFolders)
   EXPECT_THROW(check_output_file("--out", tmp(""), {}), InputError);
   EXPECT_THROW(check_output_file("--out", tmp("no/such/folder/x.h5"), {}), InputError);
   EXPECT_NO_THROW(check_output_file("--out", tmp("fine.h5"), {in}));
+}
+
+// Every report states when and from which commit it was made (irdm_common/report_stamp.h), as
+// git itself names the source tree's commit.
+TEST(Writers, ReportStampNamesTheSourceTreesCommit)
+{
+  const std::string stamp = report_stamp();
+  std::string       head;
+  if (FILE *p = ::popen("git -C '" IRDM_MESH_DIR "/..' rev-parse --short=7 HEAD 2>/dev/null", "r"))
+    {
+      char line[64] = {};
+      if (std::fgets(line, sizeof line, p))
+        head = std::string(line).substr(0, 7);
+      ::pclose(p);
+    }
+  if (head.empty())
+    EXPECT_NE(stamp.find("an unknown commit"), std::string::npos) << stamp;
+  else
+    EXPECT_NE(stamp.find("at commit " + head), std::string::npos) << stamp << " vs " << head;
+  EXPECT_EQ(stamp.rfind("Made on 20", 0), 0u) << stamp;
+  EXPECT_NE(stamp.find(" UTC at "), std::string::npos) << stamp;
+  EXPECT_NE(stamp.find("(irdm " IRDM_VERSION ")."), std::string::npos) << stamp;
 }

@@ -16,7 +16,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
-from report_files import save_figure, write_text  # noqa: E402
+from report_files import save_figure, stamp, write_text  # noqa: E402
 
 QUANTITIES = [
     ("f1_Hz", "first frequency (Hz)"),
@@ -71,7 +71,7 @@ def main():
                 reference[key] = limits[key][deg][1]
                 break
 
-    lines = ["# Mesh convergence of the grounded cat", "",
+    lines = ["# Mesh convergence of the grounded cat", "", stamp(), "",
              "Made by `scripts/convergence.sh` (rerun it to refresh every number here). The "
              "press scene's body (`validation/scenes/press.json`: E = 2 kPa, nu = 0.4, rho = "
              "1100 kg/m^3, fixed base) on five meshes from `meshes/cat.geo` (P1) and the first "

@@ -7,7 +7,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
-from report_files import save_figure, write_text  # noqa: E402
+from report_files import save_figure, stamp, write_text  # noqa: E402
 
 rows = list(csv.DictReader(open(sys.argv[1])))
 fig, (ax_t, ax_m) = plt.subplots(1, 2, figsize=(10, 4))
@@ -35,6 +35,8 @@ save_figure(fig, sys.argv[2], dpi=110)
 # The report: the table as measured, and what it says.
 md = [
     "# Precompute cost against free DoFs",
+    "",
+    stamp(),
     "",
     "Made by `scripts/scaling.sh` (the numbers below are that run's; rerun it to refresh them).",
     "The grounded cat of `validation/scenes/press.json` (E = 2 kPa, nu = 0.4, rho = 1100, "

@@ -2,6 +2,7 @@
 so that a failed or interrupted run never leaves a half-written picture or table under its
 final name (the same rule as the C++ writers, common/include/irdm_common/files.h)."""
 import os
+import sys
 
 
 def _sync_and_rename(part, path):
@@ -44,3 +45,27 @@ def write_text(path, text):
         if os.path.exists(part):
             os.remove(part)
         raise
+
+
+def stamp():
+    """The line every report states about itself, as irdm_common/report_stamp.h writes it:
+    "Made on <date> UTC at commit <sha>[+changes] (<what>)."."""
+    import subprocess
+    import time
+    here = os.path.dirname(os.path.abspath(__file__))
+
+    def git(*args):
+        try:
+            return subprocess.run(["git", "-C", here, *args], capture_output=True, text=True,
+                                  check=True).stdout.strip()
+        except (OSError, subprocess.CalledProcessError):
+            return None
+
+    commit = git("rev-parse", "--short=7", "HEAD")
+    if commit is None:
+        where = "an unknown commit"
+    else:
+        where = "commit " + commit + ("+changes" if git("status", "--porcelain",
+                                                         "--untracked-files=no") else "")
+    date = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    return f"Made on {date} at {where} (validation/{os.path.basename(sys.argv[0])})."

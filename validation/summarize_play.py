@@ -18,7 +18,7 @@ import math
 import os
 import statistics
 import sys
-from report_files import write_text  # noqa: E402
+from report_files import stamp, write_text  # noqa: E402
 
 
 def main():
@@ -158,7 +158,7 @@ def main():
             f"| {g(med(group, 'force_error'))} "
             f"| {pool(name, 'force_step')} | {pool(name, 'surface_update')} | {slowed(name)} "
             f"| {over(name, 'surface_update', 20)} |")
-    text = ("# irdm play, repeated runs\n\n"
+    text = ("# irdm play, repeated runs\n\n" + stamp() + "\n\n"
             "Made by `scripts/play_study.sh` from `" + os.path.basename(sys.argv[1]) + "`. Sums over "
             "the repetitions for deadlines; medians over the repetitions for latencies, and in the "
             "pooled columns the percentiles of every repetition's samples together. Slowed "

@@ -4,6 +4,7 @@
 #include <irdm/modal_model.h>
 #include <irdm/model.h>
 #include <irdm_common/error.h>
+#include <irdm_common/report_stamp.h>
 #include <irdm_common/files.h>
 #include <irdm_common/format.h>
 #include <reference_fem/elastodynamics.h>
@@ -367,6 +368,7 @@ namespace irdm::validation
       }
 
     md << "# The validation scenes on a converged discretization\n\n"
+       << report_stamp() << "\n\n"
        << "Made by `scripts/converged.sh` (`irdm validate-converged`). Each scene of "
           "`validation/scenes/` named below, its probes given a contact radius of "
        << o.probe_radius * 1e3

@@ -2,6 +2,7 @@
 #include <irdm/free_body.h>
 #include <irdm/modal_model.h>
 #include <irdm_common/error.h>
+#include <irdm_common/report_stamp.h>
 #include <irdm_common/files.h>
 #include <irdm_common/rigid_fit.h>
 #include <reference_fem/impulse_response.h>
@@ -1182,6 +1183,7 @@ namespace irdm::validation
       divisions << (m ? "," : "") << o.fem_divisions[m];
     std::ostringstream md;
     md << "# Free body against the nonlinear FEM (issue 14)\n\n"
+       << report_stamp() << "\n\n"
        << "Written by `irdm validate-free" << (o.quick ? " --quick" : "")
        << " --fem-divisions " << divisions.str()
        << (o.reuse_models ? " --reuse-models" : "") << (o.truth_check ? " --truth-check" : "")

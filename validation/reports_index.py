@@ -1,0 +1,233 @@
+"""reports/README.md: every study in one line, with its headline figure, its picture, a link,
+and when and from which commit its report was made; a report made before a later change to the
+code it measures is flagged. Written by scripts/main.sh at its end.
+
+Usage: reports_index.py [reports folder]   (default: the reports/ beside this script's folder)
+Run with Debian's /usr/bin/python3.
+"""
+import csv
+import os
+import re
+import subprocess
+import sys
+
+from report_files import write_text
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def rows(path):
+    with open(path) as fh:
+        return list(csv.DictReader(fh))
+
+
+def pct(x):
+    return f"{100 * x:.2g} %"
+
+
+def span(values, fmt=pct):
+    values = [v for v in values if v == v]  # NaN out
+    if not values:
+        return "none"
+    lo, hi = min(values), max(values)
+    return fmt(lo) if fmt(lo) == fmt(hi) else f"{fmt(lo)} to {fmt(hi)}"
+
+
+def markdown_table(path):
+    """The first Markdown table of a report: its header cells and its rows of cells."""
+    header, body = None, []
+    with open(path) as fh:
+        for line in fh:
+            if not line.startswith("|"):
+                if header:
+                    break
+                continue
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if header is None:
+                header = cells
+            elif not set("".join(cells)) <= set("-: "):
+                body.append(dict(zip(header, cells)))
+    return body
+
+
+# ---- headline figures, one function per study, each from the report's own data ----
+
+def point_headline(folder):
+    table = markdown_table(os.path.join(folder, "validation.md"))
+    errors = [float(r["force rel. L2"]) for r in table if "force rel. L2" in r]
+    return (f"IRDM with every mode against the linear FEM on {len(errors)} scenes: force rel. L2 "
+            f"{span(errors, lambda x: f'{x:.1e}')}")
+
+
+def planes_headline(folder):
+    data = rows(os.path.join(folder, "planes.csv"))
+
+    def of(method, key):
+        return [float(r[key]) for r in data if r["method"] == method and r[key]]
+    return (f"against the nonlinear FEM over {len({r['case'] for r in data})} cases: many-vertex "
+            f"contact (modal) impulse {span(of('vertex_contact_modal', 'impulse_error'))}; virtual "
+            f"DOFs (nearest) impulse {span(of('vdof_nearest', 'impulse_error'))}")
+
+
+def free_headline(folder):
+    first = [r for r in rows(os.path.join(folder, "first_contact.csv")) if r["material"] == "50kPa"]
+    lin = [r for r in rows(os.path.join(folder, "linearization.csv"))
+           if r["material"] == "50kPa" and r["reference"] == "fem_neo_hookean"
+           and r["method"].startswith("fem_linear")]
+    route2 = [float(r["deformation_error"]) for r in first if r["method"] == "route2_modal"]
+    linear = [float(r["first_deformation_error"]) for r in lin]
+    return (f"50 kPa, first contact, deformation: route 2 (every mode) against the nonlinear FEM "
+            f"{span(route2)}; linear elasticity itself {span(linear)}")
+
+
+def converged_headline(folder):
+    data = rows(os.path.join(folder, "converged.csv"))
+    method = [float(r["method_force_error"]) for r in data if r["discretization"] == "converged"]
+    coarse = [float(r["fem_vs_converged_force_error"]) for r in data
+              if r["discretization"] == "coarse"]
+    return (f"method error on the converged cat {span(method)} in force; the coarse cat's FEM "
+            f"against the converged {span(coarse)}")
+
+
+def convergence_headline(folder):
+    data = [r for r in rows(os.path.join(folder, "convergence.csv")) if r["fe_degree"] == "1"]
+    first, last = data[0], max(data, key=lambda r: int(r["free_dofs"]))
+    return (f"probe stiffness (2 cm radius) {float(first['stiffness_radius_N_m']):.1f} N/m on the "
+            f"P1 cat, {float(last['stiffness_radius_N_m']):.1f} N/m at {last['free_dofs']} DoFs")
+
+
+def verification_headline(folder):
+    # The summary table's last cell (its criteria may hold a "|").
+    results = []
+    with open(os.path.join(folder, "report.md")) as fh:
+        for line in fh:
+            if line.startswith("|"):
+                results.append(line.rstrip().rstrip("|").split("|")[-1].strip())
+            elif results:
+                break
+    results = [r for r in results if r in ("pass", "fail")]
+    return f"{results.count('pass')} of {len(results)} checks pass"
+
+
+def play_headline(folder):
+    data = [r for r in rows(os.path.join(folder, "study.csv")) if r["rate_hz"] == "1000"]
+    step = [float(r["force_step_p99_us"]) for r in data]
+    surface = [float(r["surface_update_p99_us"]) for r in data]
+    us = lambda x: f"{x:.1f} us"  # noqa: E731
+    return (f"at 1 kHz over {len(data)} runs: force step p99 {span(step, us)}, surface update "
+            f"p99 {span(surface, us)}")
+
+
+def scaling_headline(folder):
+    data = rows(os.path.join(folder, "scaling.csv"))
+    big = max(data, key=lambda r: int(r["free_dofs"]))
+    return (f"largest model: {big['free_dofs']} free DoFs ({big['route']} route) in "
+            f"{float(big['seconds_total']):.0f} s, {big['peak_rss_MB']} MB peak")
+
+
+def benchmarks_headline(folder):
+    table = markdown_table(os.path.join(folder, "benchmarks.md"))
+    return f"{len(table)} runtime kernels timed, with their ratios to the direct convolution"
+
+
+# (title, report, picture, headline, the code it measures: git pathspecs)
+RUNTIME = ["irdm", "common"]
+STUDIES = [
+    ("Point probes: IRDM against the FEM (main job)", "quick/validation.md", "quick/press/force.png",
+     point_headline, RUNTIME + ["reference_fem", "validation/src/point_validation.cc"]),
+    ("Point probes: IRDM against the FEM (full study)", "validation.md", "press/force.png",
+     point_headline, RUNTIME + ["reference_fem", "validation/src/point_validation.cc"]),
+    ("Plane contact against the nonlinear FEM (main job)", "quick/planes/planes.md",
+     "quick/planes/planes.png", planes_headline,
+     RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/virtual_dof*",
+                "validation/src/plane_validation.cc"]),
+    ("Plane contact against the nonlinear FEM (full study)", "planes/planes.md",
+     "planes/planes.png", planes_headline,
+     RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/virtual_dof*",
+                "validation/src/plane_validation.cc"]),
+    ("Free bodies against the nonlinear FEM", "free/report.md", "free/impact.png", free_headline,
+     RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/impulse_response*",
+                "validation/src/free_body_validation.cc"]),
+    ("Method and discretization error on the converged cat", "converged/report.md",
+     "converged/converged.png", converged_headline,
+     RUNTIME + ["reference_fem", "validation/src/converged_validation.cc"]),
+    ("Mesh convergence", "convergence/convergence.md", "convergence/convergence.png",
+     convergence_headline, ["reference_fem", "meshes", "scripts/convergence.sh"]),
+    ("Reference FEM against theory (main job)", "quick/fem-verification/report.md",
+     "quick/fem-verification/hertz.png", verification_headline,
+     ["reference_fem", "validation/src/fem_verification.cc"]),
+    ("Reference FEM against theory (full study)", "fem-verification/report.md",
+     "fem-verification/hertz.png", verification_headline,
+     ["reference_fem", "validation/src/fem_verification.cc"]),
+    ("Two loops in real time (irdm play)", "play/study.md", None, play_headline,
+     RUNTIME + ["apps/play.cc", "scripts/play_study.sh"]),
+    ("Precompute cost against DoFs", "scaling/scaling.md", "scaling/scaling.png",
+     scaling_headline, ["reference_fem", "common", "scripts/scaling.sh"]),
+    ("Runtime kernels (Google Benchmark)", "quick/benchmarks.md", None, benchmarks_headline,
+     RUNTIME + ["benchmarks"]),
+]
+
+STAMP = re.compile(r"Made on (\d{4}-\d\d-\d\d)[^.]* at (?:commit ([0-9a-f]{7,40})(\+changes)?|"
+                   r"an unknown commit)")
+
+
+def git(*args):
+    try:
+        return subprocess.run(["git", "-C", ROOT, *args], capture_output=True, text=True,
+                              check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+
+
+def made(report):
+    """(date, commit, how we know): the report's own stamp, else the commit that added it."""
+    with open(report) as fh:
+        m = STAMP.search(fh.read(4000))
+    if m and m.group(2):
+        return m.group(1), m.group(2), "+changes" if m.group(3) else ""
+    last = git("log", "-1", "--format=%cs %h", "--", report)
+    if last:
+        date, commit = last.split()
+        return date, commit, "committed"
+    return None, None, "not committed, not stamped"
+
+
+def staleness(commit, paths):
+    if not commit:
+        return ""
+    later = git("log", "--format=%h", f"{commit}..HEAD", "--", *paths)
+    if later is None:
+        return "(its commit is not in this history)"
+    n = len(later.split())
+    return f"**made before {n} later change{'s' if n > 1 else ''} to its code**" if n else ""
+
+
+def main():
+    reports = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "reports")
+    lines = ["# Reports", "",
+             "Every study in one line: its headline figure (from the report's own data), its "
+             "picture, and when and at which commit its report was made. \"committed\": the "
+             "report states no commit of its own (made before reports were stamped), so the "
+             "commit that added it stands in. A report made before a later commit changed the "
+             "code it measures is flagged; rerun its command (in the report) to refresh it. "
+             "Written by `validation/reports_index.py` (`scripts/main.sh`).", "",
+             "| study | headline | picture | made | |", "|---|---|---|---|---|"]
+    for title, report, picture, headline, paths in STUDIES:
+        path = os.path.join(reports, report)
+        if not os.path.exists(path):
+            lines.append(f"| {title} | not made yet | | | |")
+            continue
+        try:
+            figure = headline(os.path.dirname(path))
+        except (OSError, KeyError, ValueError, IndexError) as e:
+            figure = f"(headline not read: {type(e).__name__})"
+        date, commit, how = made(path)
+        when = f"{date}, {commit}" + (f" ({how})" if how else "") if commit else how
+        pic = f"[png]({picture})" if picture and os.path.exists(os.path.join(reports, picture)) else ""
+        lines.append(f"| [{title}]({report}) | {figure} | {pic} | {when} | "
+                     f"{staleness(commit, paths)} |")
+    write_text(os.path.join(reports, "README.md"), "\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    main()
