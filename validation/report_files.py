@@ -47,25 +47,30 @@ def write_text(path, text):
         raise
 
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def git(*args):
+    """git's output in the source tree (paths relative to its top), or None if git fails."""
+    import subprocess
+    try:
+        return subprocess.run(["git", "-C", ROOT, *args], capture_output=True, text=True,
+                              check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return None
+
+
 def stamp():
     """The line every report states about itself, as irdm_common/report_stamp.h writes it:
     "Made on <date> UTC at commit <sha>[+changes] (<what>)."."""
-    import subprocess
     import time
-    here = os.path.dirname(os.path.abspath(__file__))
-
-    def git(*args):
-        try:
-            return subprocess.run(["git", "-C", here, *args], capture_output=True, text=True,
-                                  check=True).stdout.strip()
-        except (OSError, subprocess.CalledProcessError):
-            return None
-
     commit = git("rev-parse", "--short=7", "HEAD")
     if commit is None:
         where = "an unknown commit"
     else:
-        where = "commit " + commit + ("+changes" if git("status", "--porcelain",
-                                                         "--untracked-files=no") else "")
+        # Changes to the committed reports themselves (which a run rewrites) do not count.
+        changes = git("status", "--porcelain", "--untracked-files=no", "--", ".",
+                      ":(exclude)reports")
+        where = "commit " + commit + ("+changes" if changes else "")
     date = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     return f"Made on {date} at {where} (validation/{os.path.basename(sys.argv[0])})."

@@ -8,13 +8,9 @@ Run with Debian's /usr/bin/python3.
 import csv
 import os
 import re
-import subprocess
 import sys
 
-from report_files import write_text
-
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
+from report_files import ROOT, git, write_text
 
 def rows(path):
     with open(path) as fh:
@@ -169,14 +165,6 @@ STUDIES = [
 
 STAMP = re.compile(r"Made on (\d{4}-\d\d-\d\d)[^.]* at (?:commit ([0-9a-f]{7,40})(\+changes)?|"
                    r"an unknown commit)")
-
-
-def git(*args):
-    try:
-        return subprocess.run(["git", "-C", ROOT, *args], capture_output=True, text=True,
-                              check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return None
 
 
 def made(report):

@@ -37,7 +37,10 @@ namespace irdm
     else
       {
         commit = "commit " + commit;
-        if (!first_line(git + "status --porcelain --untracked-files=no 2>/dev/null").empty())
+        // Changes to the committed reports themselves (which a run rewrites) do not count.
+        if (!first_line(git + "status --porcelain --untracked-files=no -- . ':(exclude)reports' "
+                              "2>/dev/null")
+               .empty())
           commit += "+changes";
       }
     char             date[32] = "an unknown date";
