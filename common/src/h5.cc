@@ -358,12 +358,9 @@ namespace irdm::h5
   std::string
   Writer::string_attribute(const std::string &object, const std::string &name) const
   {
-    if (object != "/" && !detail::exists(file_, part_path_, object))
-      return "";
-    const detail::Handle obj(open_object(file_, object), H5Oclose);
-    if (!obj.ok() || H5Aexists(obj, name.c_str()) <= 0)
-      return "";
-    return detail::read_string_attribute(file_, part_path_, object, name);
+    return detail::has_attribute(file_, part_path_, object, name)
+             ? detail::read_string_attribute(file_, part_path_, object, name)
+             : std::string();
   }
 
   void

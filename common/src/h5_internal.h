@@ -87,6 +87,10 @@ namespace irdm::h5::detail
   /// The shape of a numeric array dataset (a simple dataspace; scalar and null are refused).
   std::vector<hsize_t>
   dataset_shape(hid_t file, const std::string &path, const std::string &name);
+  /// True if object (a hard-linked path, or "/") carries the attribute.
+  bool
+  has_attribute(hid_t file, const std::string &path, const std::string &object,
+                const std::string &name);
   /// One string held by an attribute.
   std::string
   read_string_attribute(hid_t file, const std::string &path, const std::string &object,

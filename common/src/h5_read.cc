@@ -378,6 +378,16 @@ namespace irdm::h5
     read_numeric_dataset<long long>(hid_t, const std::string &, const std::string &,
                                     const std::vector<hsize_t> &, hid_t);
 
+    bool
+    has_attribute(const hid_t file, const std::string &path, const std::string &object,
+                  const std::string &name)
+    {
+      if (object != "/" && !exists(file, path, object))
+        return false;
+      const Handle obj(H5Oopen(file, object.c_str(), H5P_DEFAULT), H5Oclose);
+      return obj.ok() && H5Aexists(obj, name.c_str()) > 0;
+    }
+
     std::string
     read_string_attribute(const hid_t file, const std::string &path, const std::string &object,
                           const std::string &name)
@@ -488,10 +498,7 @@ namespace irdm::h5
   bool
   Reader::has_attribute(const std::string &object, const std::string &name) const
   {
-    if (object != "/" && !exists(object))
-      return false;
-    const Handle obj(H5Oopen(file_, object.c_str(), H5P_DEFAULT), H5Oclose);
-    return obj.ok() && H5Aexists(obj, name.c_str()) > 0;
+    return detail::has_attribute(file_, path_, object, name);
   }
 
   std::vector<std::string>
