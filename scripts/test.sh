@@ -6,7 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 echo "test.sh: $(df -h --output=avail . | tail -1 | tr -d ' ') free on this disk at the start"
-scripts/install-deps.sh
+scripts/install-deps.sh --tests
 scripts/build.sh # warnings are errors, as in the main job's build
 (cd build && ctest --output-on-failure -j2)
 # The loaders, writers and runtime again under AddressSanitizer and UBSan (build-sanitize/).
