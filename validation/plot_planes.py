@@ -1,7 +1,9 @@
 """Charts for reports/planes: error of IRDM plane contact (virtual DOFs, many-vertex contact)
 against the nonlinear FEM, against press depth and impact speed.
-Usage: /usr/bin/python3 plot_planes.py REPORT_DIR (reads planes.csv and cases.csv)"""
+Usage: /usr/bin/python3 plot_planes.py REPORT_DIR (reads planes.csv and cases.csv, and
+spread.csv when there: each error's range under the walls perturbed, drawn as error bars)"""
 import csv
+import os
 import sys
 
 import matplotlib
@@ -13,6 +15,21 @@ from report_files import save_figure  # noqa: E402
 d = sys.argv[1]
 cases = {x["case"]: x for x in csv.DictReader(open(d + "/cases.csv"))}
 rows = list(csv.DictReader(open(d + "/planes.csv")))
+spread = {}
+if os.path.exists(d + "/spread.csv"):
+    spread = {(x["case"], x["method"]): x for x in csv.DictReader(open(d + "/spread.csv"))}
+
+
+def plot_with_range(ax, x, r, key, style, **kw):
+    """Percent errors r[key] against x, with their range under the perturbations as bars."""
+    y = [100 * float(e[key]) for e in r]
+    lo, hi = [], []
+    for e, v in zip(r, y):
+        s = spread.get((e["case"], e["method"]))
+        lo.append(v - 100 * float(s[key + "_min"]) if s else 0)
+        hi.append(100 * float(s[key + "_max"]) - v if s else 0)
+    ax.errorbar(x, y, yerr=[lo, hi], fmt=style, capsize=2, **kw)
+
 methods = (("vdof_interpolated", "o--"), ("vertex_contact_modal", "s-"))
 fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
 for kind, colour in (("press_side", "C0"), ("press_between", "C2"), ("press_top", "C1"),
@@ -20,20 +37,21 @@ for kind, colour in (("press_side", "C0"), ("press_between", "C2"), ("press_top"
     for method, style in methods:
         r = [x for x in rows if cases[x["case"]]["kind"] == kind and x["method"] == method]
         depth = [1000 * float(cases[x["case"]]["depth_m"]) for x in r]
-        ax[0].plot(depth, [100 * float(x["impulse_error"]) for x in r], style, color=colour,
-                   label=f"{kind}, {method}")
+        plot_with_range(ax[0], depth, r, "impulse_error", style, color=colour,
+                        label=f"{kind}, {method}")
 ax[0].axhline(5, color="grey", lw=0.8, ls=":")
 ax[0].set_yscale("log")
 ax[0].set_xlabel("press depth (mm)")
 ax[0].set_ylabel("impulse error (%)")
-ax[0].set_title("Wall press: IRDM vs nonlinear FEM (goal 5 % dotted)")
+ax[0].set_title("Wall press: IRDM vs nonlinear FEM (goal 5 % dotted; bars: range, spread.csv)",
+                fontsize=9)
 ax[0].legend(fontsize=6)
 for (method, style), colour in zip(methods, ("C0", "C1")):
     r = [x for x in rows if cases[x["case"]]["kind"] == "impact_side" and x["method"] == method]
     speed = [float(cases[x["case"]]["speed_m_s"]) for x in r]
     for key, marker in (("impulse_error", style), ("force_error", style[0] + ":")):
-        ax[1].plot(speed, [100 * float(x[key]) for x in r], marker, color=colour,
-                   label=f"{method}: {key.replace('_', ' ')}")
+        plot_with_range(ax[1], speed, r, key, marker, color=colour,
+                        label=f"{method}: {key.replace('_', ' ')}")
 ax[1].set_xscale("log")
 ax[1].set_yscale("log")
 ax[1].set_xlabel("impact speed (m/s), 2 mm deep")
@@ -44,8 +62,6 @@ fig.tight_layout()
 save_figure(fig, d + "/planes.png", dpi=110)
 
 # Compliant walls: error against the wall stiffness (stiffness.csv), rigid at the right.
-import os
-
 if os.path.exists(d + "/stiffness.csv"):
     sweep = list(csv.DictReader(open(d + "/stiffness.csv")))
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))

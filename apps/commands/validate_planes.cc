@@ -66,6 +66,12 @@ namespace irdm::cli
       ->check(CLI::Range(0.0, 1e12));
     validate_planes->add_flag("!--no-direct", vp->direct,
                               "skip vertex_contact_direct (its H needs GBs of memory)");
+    validate_planes->add_option("--perturbations", vp->perturbations,
+                                "runs of every method with the walls' penetration scaled by "
+                                "1 +- 1, 2, ... parts per million, for the range of each error "
+                                "(spread.csv; 0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 1000u));
     validate_planes->add_flag("--quick", vp->quick,
                               "15 of the 22 cases: every kind and the sweep's cases, at fewer "
                               "depths and speeds (the main job's default)");

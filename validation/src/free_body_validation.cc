@@ -11,6 +11,7 @@
 #include <reference_fem/virtual_dof.h>
 #include <validation/free_body_validation.h>
 
+#include "metrics.h"
 #include "scene_runs.h"
 
 #include <Eigen/Dense>
@@ -219,15 +220,15 @@ namespace irdm::validation
     compare(const Samples &reference, const Samples &run, const Eigen::Vector3d &c0,
             const unsigned window_begin, const unsigned window_end)
     {
-      RunErrors          e;
-      double          f2 = 0, df2 = 0, d2 = 0, dd2 = 0, wf2 = 0, wdf2 = 0, wd2 = 0, wdd2 = 0;
+      RunErrors       e;
+      RelativeL2      force, deformation, window_force, window_deformation;
       Eigen::Vector3d J = Eigen::Vector3d::Zero(), J_run = Eigen::Vector3d::Zero(),
                       wJ = Eigen::Vector3d::Zero(), wJ_run = Eigen::Vector3d::Zero(), c_prev = c0;
       for (unsigned step = 1; step <= reference.steps(); ++step)
         {
           const Eigen::Vector3d &F = reference.force[step], &F_run = run.force[step];
           const double           step_f2 = F.squaredNorm(), step_df2 = (F - F_run).squaredNorm();
-          f2 += step_f2, df2 += step_df2;
+          force.add_squared(step_df2, step_f2);
           J += reference.impulse[step], J_run += run.impulse[step];
           e.distance += (reference.com[step] - c_prev).norm(), c_prev = reference.com[step];
           e.com = std::max(e.com, (reference.com[step] - run.com[step]).norm());
@@ -237,21 +238,21 @@ namespace irdm::validation
           for (size_t v = 0; v < ff.deformation.size(); ++v)
             step_d2 += ff.deformation[v].squaredNorm(),
               step_dd2 += (ff.deformation[v] - fr.deformation[v]).squaredNorm();
-          d2 += step_d2, dd2 += step_dd2;
+          deformation.add_squared(step_dd2, step_d2);
           if (step >= window_begin && step < window_end)
             {
-              wf2 += step_f2, wdf2 += step_df2;
+              window_force.add_squared(step_df2, step_f2);
               wJ += reference.impulse[step], wJ_run += run.impulse[step];
-              wd2 += step_d2, wdd2 += step_dd2;
+              window_deformation.add_squared(step_dd2, step_d2);
             }
         }
       e.com /= std::max(e.distance, 1e-12);
-      e.force              = std::sqrt(df2 / std::max(f2, 1e-300));
+      e.force              = force.value();
       e.impulse            = (J_run - J).norm() / std::max(J.norm(), 1e-300);
-      e.deformation        = std::sqrt(dd2 / std::max(d2, 1e-300));
-      e.window_force       = std::sqrt(wdf2 / std::max(wf2, 1e-300));
+      e.deformation        = deformation.value();
+      e.window_force       = window_force.value();
       e.window_impulse     = (wJ_run - wJ).norm() / std::max(wJ.norm(), 1e-300);
-      e.window_deformation = std::sqrt(wdd2 / std::max(wd2, 1e-300));
+      e.window_deformation = window_deformation.value();
       return e;
     }
 

@@ -1,7 +1,11 @@
 // Scene runs shared by the point validation and the compression study (scene_runs.h).
 #include <reference_fem/elastodynamics.h>
 
+#include <irdm_common/format.h>
+
+#include <cmath>
 #include <map>
+#include <sstream>
 
 #include "scene_runs.h"
 
@@ -118,6 +122,42 @@ namespace irdm::validation
       for (const auto &f : p)
         peak = std::max(peak, norm(f));
     return peak;
+  }
+
+  bool
+  coupling_bounded(const CouplingRun &r, const double reference_peak)
+  {
+    const double peak = peak_force(r.s);
+    return r.s.diverged_at < 0 && std::isfinite(peak) && peak <= 100 * reference_peak;
+  }
+
+  bool
+  coupling_passive(const CouplingRun &r, const double reference_peak)
+  {
+    return coupling_bounded(r, reference_peak) && r.s.device_returned <= 1e-6 * r.s.device_work_max;
+  }
+
+  std::string
+  coupling_csv(const std::vector<CouplingRun> &runs, const double reference_peak)
+  {
+    std::ostringstream csv;
+    csv << "stiffness_N_m,damping_N_s_m,time_step_s,solver,peak_force_N,device_work_J,"
+           "device_work_max_J,device_returned_J,bounded,passive\n";
+    for (const auto &r : runs)
+      csv << r.k << "," << r.b << "," << r.tau << "," << r.solver << "," << peak_force(r.s) << ","
+          << r.s.device_work << "," << r.s.device_work_max << "," << r.s.device_returned << ","
+          << coupling_bounded(r, reference_peak) << "," << coupling_passive(r, reference_peak)
+          << "\n";
+    return csv.str();
+  }
+
+  std::string
+  coupling_cell(const CouplingRun &r, const double reference_peak)
+  {
+    return std::string(coupling_passive(r, reference_peak)   ? "**P**"
+                       : coupling_bounded(r, reference_peak) ? "**B**"
+                                                             : "**D**") +
+           " " + fmt(peak_force(r.s)) + " N, " + fmt(r.s.device_returned) + " J";
   }
 
   ProbeSurfaces

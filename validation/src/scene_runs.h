@@ -88,6 +88,33 @@ namespace irdm::validation
   double
   peak_force(const Series &s);
 
+  /// A device held to the body through a spring and a damper (virtual coupling), one solver
+  /// at one setting: the coupling studies of the point and the plane validation.
+  struct CouplingRun
+  {
+    double      k = 0, b = 0, tau = 0; // N/m, N s/m, s
+    std::string solver;
+    Series      s;
+  };
+
+  /// Bounded: never stopped, finite, and its peak force within 100 times reference_peak (N).
+  bool
+  coupling_bounded(const CouplingRun &r, double reference_peak);
+
+  /// Passive: bounded, and the body gave back at most 1e-6 of the work the device put in (the
+  /// passivity observer's round-off).
+  bool
+  coupling_passive(const CouplingRun &r, double reference_peak);
+
+  /// coupling.csv: one row per run.
+  std::string
+  coupling_csv(const std::vector<CouplingRun> &runs, double reference_peak);
+
+  /// A report cell: **P** passive, **B** bounded or **D** diverged, the peak force and the most
+  /// energy given back.
+  std::string
+  coupling_cell(const CouplingRun &r, double reference_peak);
+
   /// FEM run at tau / refine; keeps the samples at t = k tau, k = 1..N, on the model outputs.
   /// Forces are averaged over the refine sub-steps of each tau (impulse per step / tau).
   Series

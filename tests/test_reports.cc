@@ -1,0 +1,96 @@
+// Report templates (validation/src/report_template.h): values, sections, and the errors that
+// keep a template and its writer in step; every template of the project fills. The error
+// measures every study reports (validation/src/metrics.h).
+#include "metrics.h"
+#include "report_template.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <regex>
+#include <stdexcept>
+
+using irdm::validation::fill_template;
+using irdm::validation::TemplateValues;
+
+TEST(ReportTemplate, ValuesAndSectionsAreFilled)
+{
+  const std::string text = "a {{x}} b{{#on}} [on {{x}}]{{/on}}{{^on}} [off]{{/on}}"
+                           "{{#off}} hidden {{y}}{{/off}}{{^off}} shown{{/off}}.";
+  EXPECT_EQ(fill_template(text, {{"x", "1.5"}, {"on", "1"}, {"off", ""}, {"y", "2"}}),
+            "a 1.5 b [on 1.5] shown.");
+  EXPECT_EQ(fill_template(text, {{"x", "0"}, {"on", "0"}, {"off", ""}, {"y", "2"}}),
+            "a 0 b [off] shown.");
+  // Nested sections, and a section whose value is also printed.
+  EXPECT_EQ(fill_template("{{#k}}k = {{k}}{{#n}}, n{{/n}}{{/k}}|", {{"k", "300"}, {"n", "1"}}),
+            "k = 300, n|");
+  EXPECT_EQ(fill_template("{{#k}}k = {{k}}{{#n}}, n{{/n}}{{/k}}|", {{"k", ""}, {"n", "1"}}), "|");
+}
+
+TEST(ReportTemplate, ATemplateAndItsValuesMustAgree)
+{
+  EXPECT_THROW(fill_template("{{missing}}", {}), std::logic_error);
+  EXPECT_THROW(fill_template("text", {{"unused", "1"}}), std::logic_error);
+  EXPECT_THROW(fill_template("{{#s}} open", {{"s", "1"}}), std::logic_error);
+  EXPECT_THROW(fill_template("{{/s}}", {{"s", "1"}}), std::logic_error);
+  EXPECT_THROW(fill_template("{{#s}}{{/t}}", {{"s", "1"}, {"t", "1"}}), std::logic_error);
+  EXPECT_THROW(fill_template("{{s", {{"s", "1"}}), std::logic_error);
+}
+
+TEST(ReportTemplate, EveryTemplateOfTheProjectFills)
+{
+  const std::regex tag(R"(\{\{[#^/]?([a-z_0-9]+)\}\})");
+  int              n = 0;
+  for (const auto &f : std::filesystem::directory_iterator(IRDM_SOURCE_DIR "/validation/templates"))
+    {
+      SCOPED_TRACE(f.path().string());
+      const std::string text = irdm::validation::read_template(f.path().filename().string());
+      TemplateValues    v;
+      for (std::sregex_iterator i(text.begin(), text.end(), tag), end; i != end; ++i)
+        v[(*i)[1]] = "1";
+      ASSERT_FALSE(v.empty());
+      const std::string filled = fill_template(text, v);
+      EXPECT_EQ(filled.find("{{"), std::string::npos);
+      ++n;
+    }
+  EXPECT_GT(n, 0);
+}
+
+// The error measures (validation/src/metrics.h) on histories whose errors are known.
+TEST(Metrics, RelativeL2AndImpulseErrorsOfKnownHistories)
+{
+  using irdm::validation::ImpulseError;
+  using irdm::validation::RelativeL2;
+  // A history off by 10 % everywhere: 10 % in L2 and in impulse.
+  RelativeL2   l2;
+  ImpulseError impulse;
+  for (const double f : {1.0, 3.0, 2.0, 0.5})
+    {
+      l2.add(1.1 * f, f);
+      impulse.add(1.1 * f, f);
+    }
+  EXPECT_NEAR(l2.value(), 0.1, 1e-15);
+  EXPECT_NEAR(impulse.value(), 0.1, 1e-15);
+  // The same force a step late: the impulse is kept, the L2 error is not.
+  RelativeL2   late;
+  ImpulseError late_impulse;
+  const std::vector<double> f = {0, 1, 0, 0}, g = {0, 0, 1, 0};
+  for (size_t k = 0; k < f.size(); ++k)
+    late.add(g[k], f[k]), late_impulse.add(g[k], f[k]);
+  EXPECT_NEAR(late.value(), std::sqrt(2.0), 1e-15);
+  EXPECT_EQ(late_impulse.value(), 0);
+  // Vectors are their components; windows summed apart add up to the whole.
+  RelativeL2 u, parts;
+  u.add(std::vector<double>{1, 2}, std::vector<double>{1, 1});
+  parts.add_squared(0, 1);
+  parts.add_squared(1, 1);
+  EXPECT_NEAR(u.value(), std::sqrt(0.5), 1e-15);
+  EXPECT_EQ(u.value(), parts.value());
+  // A run against itself, and against a zero truth (no division by zero).
+  RelativeL2 same, zero;
+  same.add(2.5, 2.5);
+  zero.add(1e-160, 0);
+  EXPECT_EQ(same.value(), 0);
+  EXPECT_TRUE(std::isfinite(zero.value()));
+}

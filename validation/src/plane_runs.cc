@@ -1,0 +1,589 @@
+// The plane study's runner (plane_runs.h): the models, each case through the truth and every
+// method, the device-held plate, and the orientation mapping's diagnosis.
+#include "plane_runs.h"
+#include "metrics.h"
+
+#include <irdm/point_interaction.h>
+#include <irdm_common/error.h>
+#include <irdm_common/h5.h>
+#include <reference_fem/elastodynamics.h>
+#include <reference_fem/impulse_response.h>
+#include <reference_fem/nonlinear_elasticity.h>
+#include <reference_fem/virtual_dof.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+
+namespace fs = std::filesystem;
+
+namespace irdm::validation::planes
+{
+  namespace
+  {
+    using Clock = std::chrono::steady_clock;
+
+    double
+    since(const Clock::time_point t0)
+    {
+      return std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+
+    void
+    create_parent(const std::string &file)
+    {
+      if (!fs::path(file).parent_path().empty())
+        fs::create_directories(fs::path(file).parent_path());
+    }
+
+    /// The virtual-DOF model, reused when its spec matches.
+    void
+    prepare_virtual_dofs(const fem::Scene &body, const PlaneValidationOptions &o,
+                         PlaneModels &m, std::ostream &log)
+    {
+      bool reuse = false;
+      if (fs::exists(o.model_file))
+        try
+          {
+            const h5::Reader r(o.model_file);
+            const auto       shape = r.shape("/virtual_dofs/surface_response");
+            const unsigned   K     = 10u * (1u << (2 * o.subdivisions)) + 2;
+            reuse = r.string_attribute("/", "scene") == body.json_text && shape.size() == 3 &&
+                    shape[0] == K && shape[1] == o.length;
+          }
+        catch (const InputError &)
+          {}
+      if (!reuse && fs::exists(o.model_file))
+        throw InputError("--model '" + o.model_file + "' exists but is not a virtual-DOF model of "
+                         "this scene with " + std::to_string(o.subdivisions) + " subdivisions and "
+                         "T = " + std::to_string(o.length) + " (a point model, another scene or "
+                         "another spec); it is never overwritten: remove it or choose another path");
+      if (!reuse)
+        {
+          create_parent(o.model_file);
+          fem::VirtualDofOptions vo;
+          vo.output         = o.model_file;
+          vo.subdivisions   = o.subdivisions;
+          vo.length         = o.length;
+          vo.double_storage = false; // the runtime reads the responses as float
+          vo.log            = [&](const std::string &s) { log << "  " << s << "\n"; };
+          log << "precomputing the virtual-DOF model " << o.model_file << "\n";
+          m.seconds_per_orientation = fem::precompute_virtual_dofs(body, vo).seconds_per_orientation_mean;
+        }
+      m.vdof = load_virtual_dof_model(o.model_file, body.time_step);
+      if (reuse)
+        {
+          const h5::Reader r(o.model_file);
+          const auto       secs = r.read_double("/virtual_dofs/seconds", {m.vdof.n_orientations});
+          for (const double s : secs)
+            m.seconds_per_orientation += s / secs.size();
+        }
+      log << "virtual-DOF model: " << m.vdof.n_orientations << " orientations x "
+          << m.vdof.length << " samples, " << m.vdof.n_surface << " surface vertices\n";
+    }
+
+    /// The vertex-contact model: every free surface vertex an input and an output, the linear
+    /// FEM's impulse responses (reused when made from this scene with this length).
+    void
+    prepare_vertex_model(const fem::Scene &body, const PlaneValidationOptions &o,
+                         PlaneModels &m, std::ostream &log)
+    {
+      fem::Scene linear_body = body;
+      linear_body.kinematics = fem::Kinematics::linear;
+      linear_body.model.inputs.reset();
+      linear_body.model.outputs.reset();
+      if (fs::exists(o.vertex_model_file))
+        try
+          {
+            const h5::Reader r(o.vertex_model_file);
+            m.vertex_reused = r.string_attribute("/", "scene") == body.json_text &&
+                              r.string_attribute("/", "format") == "irdm-impulse-response" &&
+                              r.shape("/inputs/node_tags") == r.shape("/outputs/node_tags");
+          }
+        catch (const InputError &)
+          {}
+      if (!m.vertex_reused && fs::exists(o.vertex_model_file))
+        throw InputError("--vertex-model '" + o.vertex_model_file + "' exists but is not the "
+                         "every-surface-vertex model of this scene; it is never overwritten: "
+                         "remove it or choose another path");
+      if (!m.vertex_reused)
+        {
+          create_parent(o.vertex_model_file);
+          fem::PrecomputeOptions po;
+          po.output         = o.vertex_model_file;
+          po.length         = o.length;
+          po.double_storage = false;
+          po.log            = [&](const std::string &x) { log << "  " << x << "\n"; };
+          log << "precomputing the vertex-contact model " << o.vertex_model_file << "\n";
+          const auto t0 = Clock::now();
+          fem::precompute_impulse_responses(linear_body, po);
+          m.vertex_precompute_seconds = since(t0);
+        }
+      m.vertex = load_model(o.vertex_model_file, body.time_step);
+      if (m.vertex.length < o.length)
+        throw InputError("--vertex-model '" + o.vertex_model_file + "' has T = " +
+                         std::to_string(m.vertex.length) + " < --length " +
+                         std::to_string(o.length));
+      m.modal = make_modal_model(m.vertex, {o.surface_modes});
+      log << "vertex-contact model: " << m.vertex.n_inputs / 3 << " surface vertices, "
+          << m.modal.n_modes << " modes (" << m.modal.surface_modes
+          << " in the surface update), direct H " << m.vertex.bytes() / 1e9 << " GB, modal "
+          << m.modal.bytes() / 1e9 << " GB\n";
+    }
+
+    /// One case's truth: the nonlinear FEM, each wall the plane through w(t) d with normal
+    /// -d, sampled at every step.
+    struct Truth
+    {
+      const Case    &c;
+      const PlaneModels &models;
+      double         tau;
+      fem::Scene     scene;
+      unsigned       N = 0;
+      std::shared_ptr<const fem::RunResult> run; // shared by the perturbed cases
+      double         u_max = 0; // m, the FEM's largest surface displacement component
+
+      double
+      wall_at(const size_t a, const double t) const
+      {
+        return wall_position(c, models.vdof, a, t);
+      }
+    };
+
+    void
+    run_truth(Truth &truth, const fem::Scene &body, Row &row, std::ostream &log)
+    {
+      const Case  &c   = truth.c;
+      const double tau = truth.tau;
+      fem::Scene  &s   = truth.scene;
+      s                = body;
+      s.name           = c.name;
+      s.duration       = c.duration;
+      truth.N          = s.n_steps();
+      const unsigned N = truth.N;
+      s.planes.clear();
+      for (size_t a = 0; a < c.d.size(); ++a)
+        {
+          fem::RigidPlane wall;
+          wall.name   = "wall" + std::to_string(a);
+          wall.normal = {-c.d[a][0], -c.d[a][1], -c.d[a][2]};
+          for (unsigned k = 0; k <= N; ++k)
+            {
+              const double w = truth.wall_at(a, k * tau);
+              const Vec3   d = direction(c, a, k * tau);
+              wall.position.times.push_back(k * tau);
+              wall.position.values.push_back({w * d[0], w * d[1], w * d[2]});
+              if (!c.turn_times.empty())
+                {
+                  wall.normal_path.times.push_back(k * tau);
+                  wall.normal_path.values.push_back({-d[0], -d[1], -d[2]});
+                }
+            }
+          s.planes.push_back(wall);
+        }
+      log << c.name << ": FEM ..." << std::flush;
+      const auto t0 = Clock::now();
+      truth.run     = std::make_shared<const fem::RunResult>(fem::NonlinearElasticity(s).run());
+      const auto &r = *truth.run;
+      row.fem_ms_per_step = 1e3 * r.stepping_seconds / N;
+      row.newton          = r.newton_iterations;
+      row.F_fem.assign(N + 1, 0.0);
+      for (unsigned k = 0; k <= N; ++k)
+        {
+          for (size_t a = 0; a < c.d.size(); ++a)
+            {
+              row.F_fem[k] -= dot(r.plane_force.at(s.planes[a].name)[k], direction(c, a, k * tau));
+              row.fem_max_penetration =
+                std::max(row.fem_max_penetration, r.plane_penetration.at(s.planes[a].name)[k]);
+            }
+          row.fem_peak_force = std::max(row.fem_peak_force, row.F_fem[k]);
+        }
+      for (unsigned k = 1; k <= N; ++k)
+        for (const double x : r.surface_displacement[k])
+          truth.u_max = std::max(truth.u_max, std::abs(x));
+      log << " " << since(t0) << " s; IRDM";
+    }
+
+    /// Scores a method stepped as every method is: IRDM step n (n = 0, 1, ...) is FEM step
+    /// n + 1, with the walls where the FEM has them at its end. step(t, F) advances to t and
+    /// gives the total wall force along -d; surface() the surface in the FEM's order.
+    template <class Step, class Surface>
+    void
+    score(MethodResult &m, const Truth &truth, const Row &row, Step &&step, Surface &&surface)
+    {
+      RelativeL2     force, displacement;
+      ImpulseError   impulse;
+      double         t_force = 0, t_surface = 0;
+      const unsigned N = truth.N;
+      m.ran            = true;
+      for (unsigned k = 1; k <= N; ++k)
+        {
+          const auto t1 = Clock::now();
+          double     F  = 0;
+          const bool ok = step(k * truth.tau, F);
+          t_force += since(t1);
+          m.stable = m.stable && ok && std::isfinite(F);
+          m.F.push_back(F);
+          const auto  t2 = Clock::now();
+          const auto &u  = surface();
+          t_surface += since(t2);
+          force.add(F, row.F_fem[k]);
+          impulse.add(F, row.F_fem[k]);
+          displacement.add(u, truth.run->surface_displacement[k]);
+          for (const double x : u)
+            m.stable = m.stable && std::isfinite(x) && std::abs(x) <= 10 * truth.u_max;
+        }
+      m.force_error        = force.value();
+      m.impulse_error      = impulse.value();
+      m.displacement_error = displacement.value();
+      m.force_us           = 1e6 * t_force / N;
+      m.surface_us         = 1e6 * t_surface / N;
+    }
+
+    /// Virtual DOFs with the given orientation mapping and wall stiffness k (0: rigid).
+    void
+    run_virtual_dofs(MethodResult &m, const Truth &truth, const Row &row,
+                     const OrientationMapping mapping, const double k)
+    {
+      const Case                                      &c       = truth.c;
+      const size_t                                     n_walls = c.d.size();
+      PlaneInteraction                                 run(truth.models.vdof, mapping);
+      std::array<VirtualDofWall, PlaneInteraction::max_walls> walls;
+      std::array<double, PlaneInteraction::max_walls>         force{};
+      m.stiffness = k;
+      score(
+        m, truth, row,
+        [&](const double t, double &F) {
+          for (size_t a = 0; a < n_walls; ++a)
+            walls[a] = {direction(c, a, t), truth.wall_at(a, t), k};
+          const bool ok = run.step(walls.data(), static_cast<int>(n_walls), force.data());
+          F             = 0;
+          for (size_t a = 0; a < n_walls; ++a)
+            {
+              F += force[a];
+              if (k > 0)
+                m.max_penetration = std::max(m.max_penetration, force[a] / k);
+            }
+          return ok;
+        },
+        [&]() -> const std::vector<double> & { return run.update_surface(); });
+    }
+
+    /// Many-vertex contact on a runtime (ModalInteraction or PointInteraction), walls of
+    /// stiffness k per vertex. Its surface holds the free surface vertices, put back in the
+    /// FEM's order for the comparison (fixed: zero).
+    template <class Runtime>
+    void
+    run_vertex_contact(Runtime &runtime, MethodResult &m, const Truth &truth, const Row &row,
+                       const double k, const std::vector<unsigned> &fem_order)
+    {
+      const Case  &c       = truth.c;
+      const size_t n_walls = c.d.size();
+      const auto  &vertex  = truth.models.vertex;
+      std::vector<double> u_out(vertex.n_outputs), u_fem_order(3 * truth.run->surface.node_tags.size());
+      std::array<PlaneTarget, contact::max_planes> targets;
+      m.contact_vertices_max = m.candidates_max = m.rounds_max = 0;
+      m.stiffness = k;
+      score(
+        m, truth, row,
+        [&](const double t, double &F) {
+          for (size_t a = 0; a < n_walls; ++a)
+            {
+              const double w = truth.wall_at(a, t);
+              const Vec3   d = direction(c, a, t);
+              targets[a].normal    = {-d[0], -d[1], -d[2]};
+              targets[a].point     = {w * d[0], w * d[1], w * d[2]};
+              targets[a].stiffness = k;
+            }
+          const bool ok = runtime.step(targets.data(), static_cast<int>(n_walls));
+          F             = 0;
+          int active    = 0;
+          for (size_t a = 0; a < n_walls; ++a)
+            {
+              const auto &r = runtime.vertex_contact().plane(static_cast<int>(a));
+              F += dot(r.force, targets[a].normal);
+              active += r.active;
+              m.max_penetration = std::max(m.max_penetration, r.penetration);
+            }
+          m.contact_vertices_max = std::max(m.contact_vertices_max, active);
+          m.candidates_max = std::max(m.candidates_max, runtime.vertex_contact().candidates());
+          m.rounds_max     = std::max(m.rounds_max, runtime.vertex_contact().rounds());
+          return ok;
+        },
+        [&]() -> const std::vector<double> & {
+          runtime.surface_displacement(u_out.data());
+          for (unsigned j = 0; j < vertex.n_outputs; ++j)
+            u_fem_order[3 * fem_order[j / 3] + j % 3] = u_out[j];
+          return u_fem_order;
+        });
+    }
+
+    void
+    run_vertex_modal(MethodResult &m, const Truth &truth, const Row &row, const double k,
+                     const std::vector<unsigned> &fem_order)
+    {
+      ModalInteraction run(truth.models.modal, truth.models.contact);
+      run_vertex_contact(run, m, truth, row, k, fem_order);
+    }
+
+    /// A recorded FEM run of the case's walls (scene ls) scored as a method: its wall force
+    /// along -d at each step (d as the wall turns) and its surface.
+    void
+    replay(MethodResult &m, const Truth &truth, const Row &row, const fem::RunResult &run,
+           const fem::Scene &ls)
+    {
+      unsigned k = 0;
+      score(
+        m, truth, row,
+        [&](double, double &F) {
+          ++k;
+          F = 0;
+          for (size_t a = 0; a < truth.c.d.size(); ++a)
+            F -= dot(run.plane_force.at(ls.planes[a].name)[k], direction(truth.c, a, k * truth.tau));
+          return true;
+        },
+        [&]() -> const std::vector<double> & { return run.surface_displacement[k]; });
+    }
+
+    /// The linear FEM with the same vertex contact (fixed walls only: linear planes keep their
+    /// normal) and, where vertex contact misses the goal (5 % impulse and displacement, 10 %
+    /// force), the small-strain law with the truth's own contact, which says why; elsewhere it
+    /// would cost a nonlinear run per case for nothing.
+    void
+    run_linear_references(Row &row, const Truth &truth, std::ostream &log)
+    {
+      if (truth.c.turn_times.empty())
+        {
+          fem::Scene ls = truth.scene;
+          ls.kinematics = fem::Kinematics::linear;
+          for (auto &p : ls.planes)
+            p.penalty = 0, p.vertex_stiffness = row.vertex_stiffness;
+          const auto t1  = Clock::now();
+          const auto lin = fem::ElasticDynamics(ls).run();
+          row.linear_fem_seconds = since(t1);
+          replay(row.linear_fem, truth, row, lin, ls);
+          log << " linear FEM " << row.linear_fem_seconds << " s" << std::flush;
+        }
+      bool misses = false;
+      for (const int m : {2, 3})
+        if (row.method[m].ran)
+          misses = misses || row.method[m].impulse_error > 0.05 ||
+                   row.method[m].displacement_error > 0.05 || row.method[m].force_error > 0.10;
+      if (misses)
+        {
+          fem::Scene ls       = truth.scene;
+          ls.small_strain_law = true;
+          replay(row.linear_law, truth, row, fem::NonlinearElasticity(ls).run(), ls);
+          log << " linear law" << std::flush;
+        }
+    }
+
+    /// Compliant walls: vdof_nearest and vertex_contact_modal at each stiffness of the sweep,
+    /// and vertex contact at the FEM penalty's per-vertex equivalent.
+    std::vector<SweepRow>
+    run_stiffness_sweep(const Truth &truth, const Row &row, const PlaneValidationOptions &o,
+                        const double penalty, const std::vector<unsigned> &fem_order)
+    {
+      std::vector<SweepRow> sweep;
+      auto                  ks = o.stiffness_sweep;
+      ks.push_back(penalty * truth.models.mean_vertex_area);
+      for (const double k : ks)
+        {
+          SweepRow sr{truth.c.name, "vertex_contact_modal", k, k == ks.back(), {}};
+          run_vertex_modal(sr.result, truth, row, k, fem_order);
+          sweep.push_back(sr);
+          if (k == ks.back())
+            continue; // the FEM equivalent is per vertex only
+          sr = {truth.c.name, "vdof_nearest", k, false, {}};
+          run_virtual_dofs(sr.result, truth, row, OrientationMapping::nearest, k);
+          sweep.push_back(sr);
+        }
+      return sweep;
+    }
+
+    /// Every method again with the walls' penetration scaled by 1 + eps, eps a few parts per
+    /// million either way: a figure that moves under so small a change is decided by round-off
+    /// (unilateral contact chatters, and the order of touches follows the last bits), so its
+    /// range is reported with it. The truth is not run again: it moves by parts per million.
+    void
+    run_perturbed(Row &row, const Truth &truth, const PlaneValidationOptions &o,
+                  const std::vector<unsigned> &fem_order)
+    {
+      for (auto &m : row.method)
+        if (m.ran)
+          m.force_range.add(m.force_error), m.impulse_range.add(m.impulse_error),
+            m.displacement_range.add(m.displacement_error);
+      for (unsigned i = 0; i < o.perturbations; ++i)
+        {
+          const double eps = (i % 2 ? -1.0 : 1.0) * (1 + i / 2) * 1e-6;
+          Case         c   = truth.c;
+          for (double &p : c.penetration)
+            p *= 1 + eps;
+          const Truth  t{c, truth.models, truth.tau, truth.scene, truth.N, truth.run, truth.u_max};
+          std::array<MethodResult, method_names.size()> m;
+          run_virtual_dofs(m[0], t, row, OrientationMapping::nearest, 0);
+          run_virtual_dofs(m[1], t, row, OrientationMapping::interpolated, 0);
+          run_vertex_modal(m[2], t, row, row.vertex_stiffness, fem_order);
+          if (o.direct)
+            {
+              PointInteraction run(t.models.vertex, 0, t.models.contact);
+              run_vertex_contact(run, m[3], t, row, row.vertex_stiffness, fem_order);
+            }
+          for (size_t k = 0; k < m.size(); ++k)
+            if (m[k].ran)
+              {
+                row.method[k].force_range.add(m[k].force_error);
+                row.method[k].impulse_range.add(m[k].impulse_error);
+                row.method[k].displacement_range.add(m[k].displacement_error);
+              }
+        }
+    }
+
+    /// The virtual-DOF surface driven by the FEM's own wall force (one wall, interpolated).
+    double
+    open_loop_displacement_error(const Truth &truth, const Row &row)
+    {
+      PlaneInteraction run(truth.models.vdof, OrientationMapping::interpolated);
+      RelativeL2       displacement;
+      for (unsigned k = 1; k <= truth.N; ++k)
+        {
+          run.apply(direction(truth.c, 0, k * truth.tau), row.F_fem[k]);
+          displacement.add(run.update_surface(), truth.run->surface_displacement[k]);
+        }
+      return displacement.value();
+    }
+  } // namespace
+
+  PlaneModels
+  prepare_models(const fem::Scene &body, const PlaneValidationOptions &o, std::ostream &log)
+  {
+    PlaneModels m;
+    prepare_virtual_dofs(body, o, m, log);
+    prepare_vertex_model(body, o, m, log);
+    m.contact.margin         = o.margin;
+    m.contact.max_candidates = o.max_candidates;
+    // The FEM penalty's per-vertex equivalent needs the mean lumped area of the free vertices.
+    m.mean_vertex_area = mean_free_vertex_area(m.vertex);
+    return m;
+  }
+
+  CaseResult
+  run_case(const Case &c, const fem::Scene &body, const PlaneModels &models,
+           const PlaneValidationOptions &o, std::vector<unsigned> &fem_order, std::ostream &log)
+  {
+    CaseResult result;
+    Row       &row = result.row;
+    row.c          = c;
+    row.on_dome    = c.turn_times.empty();
+    for (const auto &d : c.d)
+      {
+        double best_dot = -1;
+        for (const auto &dk : models.vdof.directions)
+          best_dot = std::max(best_dot, dot(dk, d));
+        row.on_dome = row.on_dome && best_dot > 1 - 1e-12;
+      }
+    Truth truth{c, models, body.time_step, {}, 0, nullptr, 0};
+    run_truth(truth, body, row, log);
+    if (fem_order.empty())
+      {
+        std::map<long long, unsigned> at;
+        for (unsigned i = 0; i < truth.run->surface.node_tags.size(); ++i)
+          at[truth.run->surface.node_tags[i]] = i;
+        for (const long long tag : models.vertex.output_node_tags)
+          fem_order.push_back(at.at(tag));
+      }
+    for (const auto mapping : {OrientationMapping::nearest, OrientationMapping::interpolated})
+      {
+        run_virtual_dofs(row.method[mapping == OrientationMapping::nearest ? 0 : 1], truth, row,
+                         mapping, 0);
+        log << " ." << std::flush;
+      }
+    const double penalty = truth.run->plane_penalty.at(truth.scene.planes[0].name);
+    row.vertex_stiffness = o.vertex_stiffness < 0 ? penalty * models.mean_vertex_area : o.vertex_stiffness;
+    run_vertex_modal(row.method[2], truth, row, row.vertex_stiffness, fem_order);
+    log << " ." << std::flush;
+    if (o.direct)
+      {
+        PointInteraction run(models.vertex, 0, models.contact);
+        run_vertex_contact(run, row.method[3], truth, row, row.vertex_stiffness, fem_order);
+      }
+    if (c.d.size() == 1 && c.turn_times.empty())
+      run_virtual_dofs(row.same_contact, truth, row, OrientationMapping::interpolated_same_contact, 0);
+    run_linear_references(row, truth, log);
+    if (o.perturbations > 0)
+      {
+        run_perturbed(row, truth, o, fem_order);
+        log << " perturbed" << std::flush;
+      }
+    if (std::find(o.sweep_cases.begin(), o.sweep_cases.end(), c.name) != o.sweep_cases.end())
+      {
+        result.sweep = run_stiffness_sweep(truth, row, o, penalty, fem_order);
+        log << " sweep" << std::flush;
+      }
+    if (c.d.size() == 1)
+      row.open_loop_displacement_error = open_loop_displacement_error(truth, row);
+    log << " impulse error: vdof " << 100 * row.method[1].impulse_error << " %, vertex "
+        << 100 * row.method[2].impulse_error << " %; force error: vdof "
+        << 100 * row.method[1].force_error << " %, vertex " << 100 * row.method[2].force_error
+        << " % (" << row.method[2].contact_vertices_max << " vertices, "
+        << row.method[2].force_us << " us/step)\n";
+    return result;
+  }
+
+  std::vector<MappingRow>
+  mapping_rows(const std::vector<Row> &rows, const VirtualDofModel &model)
+  {
+    const auto support_vertex = [&](const Vec3 &d) { return surface_support(model, d).vertex; };
+    std::vector<MappingRow> mapping;
+    for (const auto &r : rows)
+      {
+        if (r.c.d.size() != 1 || !r.c.turn_times.empty())
+          continue;
+        MappingRow mr;
+        mr.name          = r.c.name;
+        mr.row           = &r;
+        const auto near  = orientation_weights(model, r.c.d[0], OrientationMapping::nearest);
+        const auto blend = orientation_weights(model, r.c.d[0], OrientationMapping::interpolated);
+        const unsigned        own = support_vertex(r.c.d[0]);
+        std::vector<unsigned> firsts;
+        for (unsigned i = 0; i < blend.n; ++i)
+          {
+            if (!(blend.w[i] > 0))
+              continue; // on a dome direction the blend is that one virtual DOF
+            const unsigned v = support_vertex(model.directions[blend.k[i]]);
+            if (std::find(firsts.begin(), firsts.end(), v) == firsts.end())
+              firsts.push_back(v);
+            const auto &x = model.coordinates[v], &y = model.coordinates[own];
+            mr.spread = std::max(mr.spread, std::sqrt((x[0] - y[0]) * (x[0] - y[0]) +
+                                                      (x[1] - y[1]) * (x[1] - y[1]) +
+                                                      (x[2] - y[2]) * (x[2] - y[2])));
+          }
+        mr.distinct_first_contacts = static_cast<unsigned>(firsts.size());
+        double c0 = 0, cs = 0;
+        for (unsigned i = 0; i < blend.n; ++i)
+          for (unsigned l = 0; l < blend.n; ++l)
+            for (unsigned t = 0; t < model.length; ++t)
+              {
+                const double y = blend.w[i] * blend.w[l] * model.Y(blend.k[l], t, blend.k[i]);
+                cs += y;
+                if (t == 0)
+                  c0 += y;
+              }
+        double n0 = 0, ns = 0;
+        for (unsigned t = 0; t < model.length; ++t)
+          {
+            const double y = model.Y(near.k[0], t, near.k[0]);
+            ns += y;
+            if (t == 0)
+              n0 += y;
+          }
+        mr.feedthrough_ratio = c0 / n0;
+        mr.static_ratio      = cs / ns;
+        mapping.push_back(mr);
+      }
+    return mapping;
+  }
+} // namespace irdm::validation::planes
