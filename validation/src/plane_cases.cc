@@ -16,54 +16,52 @@ namespace irdm::validation::planes
       return std::to_string(static_cast<int>(std::round(x * 1000)));
     }
 
+    /// One wall along d, its penetration p(t) linear between (times, penetration).
+    Case
+    one_wall(const std::string &kind, const std::string &name, const Vec3 &d, const double depth,
+             std::vector<double> times, std::vector<double> penetration, const double duration)
+    {
+      Case c;
+      c.kind        = kind;
+      c.name        = kind + "_" + name;
+      c.d           = {d};
+      c.depth       = depth;
+      c.times       = std::move(times);
+      c.penetration = std::move(penetration);
+      c.duration    = duration;
+      return c;
+    }
+
+    /// In over 0.2 s, held to 0.35 s, out by 0.45 s, free to 0.6 s.
     Case
     press(const std::string &side, const Vec3 &d, const double depth)
     {
-      Case c;
-      c.kind  = "press_" + side;
-      c.name  = c.kind + "_" + millimetres(depth) + "mm";
-      c.d     = {d};
-      c.depth = depth;
-      // In over 0.2 s, held to 0.35 s, out by 0.45 s, free to 0.6 s.
-      c.times       = {0, 0.2, 0.35, 0.45};
-      c.penetration = {0, depth, depth, -0.01};
-      c.duration    = 0.6;
-      return c;
+      return one_wall("press_" + side, millimetres(depth) + "mm", d, depth, {0, 0.2, 0.35, 0.45},
+                      {0, depth, depth, -0.01}, 0.6);
     }
 
+    /// The wall arrives at the given speed, reverses at the depth, and leaves as fast.
     Case
     impact(const Vec3 &d, const double speed, const double depth)
     {
-      Case c;
-      c.kind  = "impact_side";
-      c.name  = c.kind + "_" + millimetres(speed) + "mm_s";
-      c.d     = {d};
-      c.speed = speed;
-      c.depth = depth;
-      // The wall arrives at the given speed, reverses at the depth, and leaves as fast.
       const double t_in = depth / speed;
-      c.times       = {0, 0.004, 0.004 + t_in, 0.004 + 2 * t_in + 0.01 / speed};
-      c.penetration = {-0.0001, 0, depth, -0.01};
-      c.duration    = 0.4;
+      Case         c    = one_wall("impact_side", millimetres(speed) + "mm_s", d, depth,
+                                   {0, 0.004, 0.004 + t_in, 0.004 + 2 * t_in + 0.01 / speed},
+                                   {-0.0001, 0, depth, -0.01}, 0.4);
+      c.speed = speed;
       return c;
     }
 
-    /// A wall on the side that turns from -angle to +angle about z while held at the depth:
-    /// its contact patch slides over the surface.
+    /// A wall on the side that turns from -angle to +angle about z while held at the depth,
+    /// so that its contact patch slides over the surface: in over 0.1 s, turned by 0.45 s, out
+    /// by 0.55 s, free to 0.6 s.
     Case
     slide(const Vec3 &d, const double depth, const double angle_deg)
     {
-      Case c;
-      c.kind  = "slide_side";
-      c.name  = c.kind + "_" + millimetres(depth) + "mm";
-      c.d     = {d};
-      c.depth = depth;
-      // In over 0.1 s, turned from -angle to +angle by 0.45 s, out by 0.55 s, free to 0.6 s.
-      c.times       = {0, 0.1, 0.45, 0.55};
-      c.penetration = {0, depth, depth, -0.01};
-      c.duration    = 0.6;
-      c.turn_times  = {0, 0.1, 0.45};
-      c.turn_deg    = {-angle_deg, -angle_deg, angle_deg};
+      Case c       = one_wall("slide_side", millimetres(depth) + "mm", d, depth, {0, 0.1, 0.45, 0.55},
+                              {0, depth, depth, -0.01}, 0.6);
+      c.turn_times = {0, 0.1, 0.45};
+      c.turn_deg   = {-angle_deg, -angle_deg, angle_deg};
       return c;
     }
   } // namespace
