@@ -16,10 +16,12 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <sstream>
 
+#include "report_template.h"
 #include "scene_runs.h"
 
 namespace fs = std::filesystem;
@@ -85,6 +87,7 @@ namespace irdm::validation
       bool           sparse = false;
       double         stiffness = 0; // N/m, first probe's driving point
       double         precompute_seconds = 0, stiffness_seconds = 0;
+      double         fem_step_seconds = 0, irdm_force_loop_seconds = 0;
       Series         fem, irdm;
     };
 
@@ -137,10 +140,64 @@ namespace irdm::validation
       double      seconds = 0;
     };
 
+    /// A number as a stream prints it (6 significant digits).
+    std::string
+    num(const double x)
+    {
+      std::ostringstream s;
+      s << x;
+      return s.str();
+    }
+
     std::string
     pct(const double x)
     {
       return fmt(100 * x, "%.3g") + " %";
+    }
+
+    /// The model of a scene's body, discretization and region, made once (scenes on the same
+    /// region share it) into --models.
+    const CachedModel &
+    model_for(const fem::Scene &scene, const std::string &name, const Discretization &d,
+              const ConvergedValidationOptions &o, const unsigned length,
+              std::map<std::string, CachedModel> &models, std::ostream &log)
+    {
+      std::string key = d.label;
+      for (const auto &b : scene.model.inputs->balls)
+        key += "," + fmt(b.first[0], "%.9g") + "," + fmt(b.first[1], "%.9g") + "," +
+               fmt(b.first[2], "%.9g") + "," + fmt(b.second, "%.9g");
+      if (models.count(key) == 0)
+        {
+          fem::PrecomputeOptions po;
+          po.output = (fs::path(o.model_dir) /
+                       (name + "_" + d.label + ".h5")).string();
+          if (fs::exists(po.output))
+            throw InputError("'" + po.output + "' exists; validate-converged writes its working "
+                             "models to --models and removes them after use, so it never "
+                             "touches a file already there: move it or choose another --models "
+                             "folder");
+          po.length  = length;
+          po.restart = true;
+          // The coarse model has every mode and double storage (exact: its method error is
+          // round-off); the converged one the lowest modes plus residual modes, in float (its
+          // H is GBs), whose round-off (1e-7) is far below its modal truncation.
+          const bool coarse = d.label == "coarse";
+          po.double_storage = coarse;
+          if (!coarse)
+            {
+              po.modes = o.modes;
+              // The modal runtime alone runs it: H (inputs x T x outputs, 26.9 GB for trace's
+              // region) is not written.
+              po.modal_only = true;
+            }
+          po.log = [&log](const std::string &line) { log << "    " << line << std::endl; };
+          const auto pre = fem::precompute_impulse_responses(scene, po);
+          models[key]    = {po.output, pre.n_modes, pre.n_lowest, pre.sparse, pre.seconds_total};
+        }
+      else
+        log << "    the model of scene '" << fs::path(models[key].path).stem().string()
+            << "' (same body and region)" << std::endl;
+      return models[key];
     }
 
     Outcome
@@ -180,42 +237,7 @@ namespace irdm::validation
           << d.degree << ", " << r.free_dofs << " free DoFs): probe stiffness "
           << fmt(r.stiffness, "%.4g") << " N/m over " << r.patch_vertices << " vertices" << std::endl;
 
-      std::string key = d.label;
-      for (const auto &b : scene.model.inputs->balls)
-        key += "," + fmt(b.first[0], "%.9g") + "," + fmt(b.first[1], "%.9g") + "," +
-               fmt(b.first[2], "%.9g") + "," + fmt(b.second, "%.9g");
-      if (models.count(key) == 0)
-        {
-          fem::PrecomputeOptions po;
-          po.output = (fs::path(o.model_dir) /
-                       (base.name + "_" + d.label + ".h5")).string();
-          if (fs::exists(po.output))
-            throw InputError("'" + po.output + "' exists; validate-converged writes its working "
-                             "models to --models and removes them after use, so it never "
-                             "touches a file already there: move it or choose another --models "
-                             "folder");
-          po.length  = length;
-          po.restart = true;
-          // The coarse model has every mode and double storage (exact: its method error is
-          // round-off); the converged one the lowest modes plus residual modes, in float (its
-          // H is GBs), whose round-off (1e-7) is far below its modal truncation.
-          const bool coarse = d.label == "coarse";
-          po.double_storage = coarse;
-          if (!coarse)
-            {
-              po.modes = o.modes;
-              // The modal runtime alone runs it: H (inputs x T x outputs, 26.9 GB for trace's
-              // region) is not written.
-              po.modal_only = true;
-            }
-          po.log = [&log](const std::string &line) { log << "    " << line << std::endl; };
-          const auto pre = fem::precompute_impulse_responses(scene, po);
-          models[key]    = {po.output, pre.n_modes, pre.n_lowest, pre.sparse, pre.seconds_total};
-        }
-      else
-        log << "    the model of scene '" << fs::path(models[key].path).stem().string()
-            << "' (same body and region)" << std::endl;
-      const CachedModel &cm = models[key];
+      const CachedModel &cm = model_for(scene, base.name, d, o, length, models, log);
       r.precompute_seconds  = cm.seconds;
       r.modes               = cm.modes;
       r.lowest              = cm.lowest;
@@ -234,11 +256,170 @@ namespace irdm::validation
         ModalInteraction irdm(mm);
         r.irdm = run_irdm(scene, mm, irdm, true);
       }
+      r.fem_step_seconds        = r.fem.step_seconds;
+      r.irdm_force_loop_seconds = r.irdm.force_loop_seconds;
       log << "    model " << r.model_inputs << " inputs = outputs, " << r.modes << " modes ("
           << r.lowest << " lowest) in " << fmt(r.precompute_seconds) << " s; FEM "
           << fmt(1e3 * r.fem.step_seconds) << " ms/step; method error (force rel. L2) "
           << fmt(compare(r.irdm, r.fem).force_rel_l2) << std::endl;
       return r;
+    }
+
+    /// The named scenes, read and checked before any work; `length`: the longest scene's steps
+    /// (the models' T, so that a model serves every scene on its region untruncated).
+    std::vector<fem::Scene>
+    read_scenes(const ConvergedValidationOptions &o, unsigned &length)
+    {
+      std::vector<fem::Scene> scenes;
+      length = 1;
+      for (const auto &name : o.scenes)
+        {
+          const std::string file = (fs::path(o.scenes_dir) / (name + ".json")).string();
+          if (!fs::exists(file))
+            throw InputError("validate-converged: no scene '" + file + "'");
+          scenes.push_back(fem::read_scene(file));
+          if (scenes.back().probes.empty())
+            throw InputError("scene '" + name + "' has no probes: nothing to validate");
+          for (auto &p : scenes.back().probes)
+            if (p.radius == 0)
+              p.radius = o.probe_radius;
+          length = std::max(length, scenes.back().n_steps());
+        }
+      return scenes;
+    }
+
+    /// Whether a scene's first probe is the one the extrapolated stiffness belongs to (the
+    /// first of --extrapolated-scene): the same start point and direction.
+    std::function<bool(const fem::Scene &)>
+    extrapolated_probe_test(const ConvergedValidationOptions &o)
+    {
+      if (!(o.extrapolated_stiffness > 0))
+        return [](const fem::Scene &) { return false; };
+      const fem::Scene e =
+        fem::read_scene((fs::path(o.scenes_dir) / (o.extrapolated_scene + ".json")).string());
+      if (e.probes.empty())
+        throw InputError("validate-converged: scene '" + o.extrapolated_scene +
+                         "' (--extrapolated-scene) has no probe");
+      const Vec3 ex = e.probes[0].path.at(0), ed = e.probes[0].direction;
+      return [ex, ed](const fem::Scene &sc) {
+        if (sc.probes.empty())
+          return false;
+        const Vec3 x = sc.probes[0].path.at(0), d = sc.probes[0].direction;
+        return norm({x[0] - ex[0], x[1] - ex[1], x[2] - ex[2]}) < 1e-9 &&
+               norm({d[0] - ed[0], d[1] - ed[1], d[2] - ed[2]}) < 1e-9;
+      };
+    }
+
+    /// One scene on one discretization, scored: the method error (IRDM against the same FEM)
+    /// and, against the converged FEM, the discretization error of its FEM and of its model.
+    struct Row
+    {
+      std::string scene;
+      Outcome     run; // its series emptied once scored
+      ForceErrors method, fem_vs_truth, model_vs_truth;
+      double      method_disp_rms = 0;
+      double      vs_extrapolated = NAN; // stiffness / extrapolated - 1
+      bool        is_truth = false;
+    };
+
+    /// series.csv's rows of one scene: each probe's force along its direction.
+    std::string
+    series_rows(const fem::Scene &base, const std::vector<Outcome> &runs)
+    {
+      std::ostringstream series;
+      const Series      &truth = runs.back().fem;
+      for (size_t p = 0; p < base.probes.size(); ++p)
+        {
+          const Vec3 &dir_p = base.probes[p].direction;
+          const auto  along = [&](const Series &s, size_t k) {
+            const Vec3 &f = s.force[p][k];
+            return f[0] * dir_p[0] + f[1] * dir_p[1] + f[2] * dir_p[2];
+          };
+          for (size_t k = 0; k < truth.force[p].size(); ++k)
+            series << base.name << "," << fmt((k + 1) * base.time_step, "%.6g") << ","
+                   << base.probes[p].name << "," << fmt(along(runs[0].fem, k), "%.8g") << ","
+                   << fmt(along(runs[0].irdm, k), "%.8g") << "," << fmt(along(runs[1].fem, k), "%.8g")
+                   << "," << fmt(along(runs[1].irdm, k), "%.8g") << "\n";
+        }
+      return series.str();
+    }
+
+    /// converged.csv's row.
+    std::string
+    csv_row(const Row &r)
+    {
+      const Outcome &o = r.run;
+      std::ostringstream csv;
+      csv << r.scene << "," << o.d.label << "," << fs::path(o.d.mesh_file).stem().string() << ","
+          << o.d.degree << "," << o.free_dofs << "," << o.patch_vertices << ","
+          << fmt(o.stiffness, "%.6g") << "," << fmt(r.vs_extrapolated, "%.4g") << ","
+          << o.model_inputs << "," << o.modes << "," << o.lowest << ","
+          << fmt(r.method.rel_l2, "%.4g") << "," << fmt(r.method.peak, "%.4g") << ","
+          << fmt(r.method.impulse, "%.4g") << "," << fmt(r.method_disp_rms, "%.4g") << ","
+          << fmt(r.fem_vs_truth.rel_l2, "%.4g") << "," << fmt(r.fem_vs_truth.peak, "%.4g") << ","
+          << fmt(r.fem_vs_truth.impulse, "%.4g") << "," << fmt(r.model_vs_truth.rel_l2, "%.4g")
+          << "," << fmt(r.model_vs_truth.peak, "%.4g") << "," << fmt(r.model_vs_truth.impulse, "%.4g")
+          << "," << fmt(o.precompute_seconds, "%.4g") << "," << fmt(1e3 * o.fem_step_seconds, "%.4g")
+          << "," << fmt(1e6 * o.irdm_force_loop_seconds, "%.4g") << "\n";
+      return csv.str();
+    }
+
+    /// The report's two tables' rows.
+    void
+    table_rows(const Row &r, std::string &method, std::string &discretization)
+    {
+      const Outcome     &o    = r.run;
+      const std::string  disc = fs::path(o.d.mesh_file).stem().string() + " P" + std::to_string(o.d.degree);
+      method += "| " + r.scene + " | " + disc + " | " + std::to_string(o.free_dofs) + " | " +
+                std::to_string(o.modes) +
+                (o.sparse ? " (" + std::to_string(o.lowest) + " lowest)" : " (all)") + " | " +
+                fmt(r.method.rel_l2) + " | " + fmt(r.method.peak) + " | " + fmt(r.method.impulse) +
+                " | " + fmt(r.method_disp_rms) + " | " + fmt(o.precompute_seconds) + " | " +
+                fmt(1e3 * o.fem_step_seconds) + " | " + fmt(1e6 * o.irdm_force_loop_seconds) + " |\n";
+      discretization += "| " + r.scene + " | " + disc + " | " + fmt(o.stiffness, "%.4g") + " | " +
+                        (std::isnan(r.vs_extrapolated) ? "" : pct(r.vs_extrapolated)) + " | " +
+                        (r.is_truth ? "(the truth)" : pct(r.fem_vs_truth.rel_l2)) + " | " +
+                        (r.is_truth ? "" : pct(r.fem_vs_truth.peak)) + " | " +
+                        (r.is_truth ? "" : pct(r.fem_vs_truth.impulse)) + " | " +
+                        pct(r.model_vs_truth.rel_l2) + " | " + pct(r.model_vs_truth.peak) + " | " +
+                        pct(r.model_vs_truth.impulse) + " |\n";
+    }
+
+    void
+    write_report(const std::string &dir, const ConvergedValidationOptions &o,
+                 const Discretization &converged, const std::vector<Row> &rows,
+                 const std::string &series)
+    {
+      std::string csv = "scene,discretization,mesh,fe_degree,free_dofs,patch_vertices,stiffness_N_m,"
+                        "stiffness_vs_extrapolated,model_inputs,model_modes,model_lowest_modes,"
+                        "method_force_error,method_peak_error,method_impulse_error,method_disp_rms,"
+                        "fem_vs_converged_force_error,fem_vs_converged_peak_error,"
+                        "fem_vs_converged_impulse_error,model_vs_converged_force_error,"
+                        "model_vs_converged_peak_error,model_vs_converged_impulse_error,precompute_s,"
+                        "fem_ms_per_step,irdm_us_per_step\n";
+      std::string method, discretization;
+      for (const auto &r : rows)
+        {
+          csv += csv_row(r);
+          table_rows(r, method, discretization);
+        }
+      const TemplateValues v{
+        {"stamp", report_stamp()},
+        {"radius_mm", num(o.probe_radius * 1e3)},
+        {"converged_mesh", fs::path(converged.mesh_file).filename().string()},
+        {"converged_degree", std::to_string(converged.degree)},
+        {"modes", std::to_string(o.modes)},
+        {"extrapolated", o.extrapolated_stiffness > 0 ? "1" : ""},
+        {"extrapolated_scene", o.extrapolated_scene},
+        {"extrapolated_stiffness", fmt(o.extrapolated_stiffness, "%.5g")},
+        {"method_table", method},
+        {"discretization_table", discretization}};
+      write_text_file((fs::path(dir) / "converged.csv").string(), csv);
+      write_text_file((fs::path(dir) / "series.csv").string(),
+                      "scene,t_s,probe,fem_coarse_N,irdm_coarse_N,fem_converged_N,irdm_converged_N\n" +
+                        series);
+      write_text_file((fs::path(dir) / "report.md").string(),
+                      fill_template(read_template("converged.md"), v));
     }
   } // namespace
 
@@ -256,58 +437,14 @@ namespace irdm::validation
     const OutputLock models_lock((fs::path(o.model_dir) / "converged").string());
     const Discretization converged{"converged", fs::absolute(o.converged_mesh).string(),
                                    o.converged_degree};
-
-    std::ostringstream csv, series, md;
-    csv << "scene,discretization,mesh,fe_degree,free_dofs,patch_vertices,stiffness_N_m,"
-           "stiffness_vs_extrapolated,model_inputs,model_modes,model_lowest_modes,"
-           "method_force_error,method_peak_error,method_impulse_error,method_disp_rms,"
-           "fem_vs_converged_force_error,fem_vs_converged_peak_error,"
-           "fem_vs_converged_impulse_error,model_vs_converged_force_error,"
-           "model_vs_converged_peak_error,model_vs_converged_impulse_error,precompute_s,"
-           "fem_ms_per_step,irdm_us_per_step\n";
-    series << "scene,t_s,probe,fem_coarse_N,irdm_coarse_N,fem_converged_N,irdm_converged_N\n";
-    std::ostringstream table_method, table_disc;
-    // Every scene first: read and checked before any work, and the models' length T is the
-    // longest scene's (so that a model serves every scene on its region, untruncated).
-    std::vector<fem::Scene> scenes;
-    unsigned                length = 1;
-    for (const auto &name : o.scenes)
-      {
-        const std::string file = (fs::path(o.scenes_dir) / (name + ".json")).string();
-        if (!fs::exists(file))
-          throw InputError("validate-converged: no scene '" + file + "'");
-        scenes.push_back(fem::read_scene(file));
-        length = std::max(length, scenes.back().n_steps());
-      }
-    // The probe the extrapolated stiffness belongs to: the first of extrapolated_scene.
-    std::optional<std::pair<Vec3, Vec3>> extrapolated_probe; // start point, direction
-    if (o.extrapolated_stiffness > 0)
-      {
-        const fem::Scene e = fem::read_scene(
-          (fs::path(o.scenes_dir) / (o.extrapolated_scene + ".json")).string());
-        if (e.probes.empty())
-          throw InputError("validate-converged: scene '" + o.extrapolated_scene +
-                           "' (--extrapolated-scene) has no probe");
-        extrapolated_probe = {e.probes[0].path.at(0), e.probes[0].direction};
-      }
-    const auto same_probe = [&](const fem::Scene &sc) {
-      if (!extrapolated_probe || sc.probes.empty())
-        return false;
-      const Vec3 x = sc.probes[0].path.at(0), d = sc.probes[0].direction;
-      const auto &[ex, ed] = *extrapolated_probe;
-      return norm({x[0] - ex[0], x[1] - ex[1], x[2] - ex[2]}) < 1e-9 &&
-             norm({d[0] - ed[0], d[1] - ed[1], d[2] - ed[2]}) < 1e-9;
-    };
+    unsigned                      length = 1;
+    const std::vector<fem::Scene> scenes = read_scenes(o, length);
+    const auto                    same_probe = extrapolated_probe_test(o);
     std::map<std::string, CachedModel> models;
-    for (size_t si = 0; si < scenes.size(); ++si)
+    std::vector<Row>                   rows;
+    std::string                        series;
+    for (const fem::Scene &base : scenes)
       {
-        const std::string &file = o.scenes[si];
-        fem::Scene         base = scenes[si];
-        if (base.probes.empty())
-          throw InputError("scene '" + file + "' has no probes: nothing to validate");
-        for (auto &p : base.probes)
-          if (p.radius == 0)
-            p.radius = o.probe_radius;
         log << "== " << base.name << ": " << base.n_steps() << " steps of " << base.time_step
             << " s, probes of radius " << o.probe_radius << " m" << std::endl;
         const Discretization coarse{"coarse", base.mesh_file, base.fe_degree};
@@ -315,111 +452,23 @@ namespace irdm::validation
         runs.push_back(run_one(base, coarse, o, length, models, log));
         runs.push_back(run_one(base, converged, o, length, models, log));
         const Series &truth = runs.back().fem;
+        std::vector<Row> scored;
         for (const auto &r : runs)
+          scored.push_back({base.name, {}, force_errors(r.irdm, r.fem), force_errors(r.fem, truth),
+                            force_errors(r.irdm, truth), compare(r.irdm, r.fem).disp_rms,
+                            same_probe(base) ? r.stiffness / o.extrapolated_stiffness - 1 : NAN,
+                            &r == &runs.back()});
+        series += series_rows(base, runs);
+        for (size_t i = 0; i < runs.size(); ++i)
           {
-            const Errors      method = compare(r.irdm, r.fem);
-            const ForceErrors mf = force_errors(r.irdm, r.fem);
-            const ForceErrors df = force_errors(r.fem, truth);
-            const ForceErrors tf = force_errors(r.irdm, truth);
-            const double      vs_ext = same_probe(base)
-                                         ? r.stiffness / o.extrapolated_stiffness - 1
-                                         : NAN;
-            const double irdm_us = 1e6 * r.irdm.force_loop_seconds;
-            csv << base.name << "," << r.d.label << "," << fs::path(r.d.mesh_file).stem().string()
-                << "," << r.d.degree << "," << r.free_dofs << "," << r.patch_vertices << ","
-                << fmt(r.stiffness, "%.6g") << "," << fmt(vs_ext, "%.4g") << "," << r.model_inputs
-                << "," << r.modes << "," << r.lowest << "," << fmt(mf.rel_l2, "%.4g") << ","
-                << fmt(mf.peak, "%.4g") << "," << fmt(mf.impulse, "%.4g") << ","
-                << fmt(method.disp_rms, "%.4g") << "," << fmt(df.rel_l2, "%.4g") << ","
-                << fmt(df.peak, "%.4g") << "," << fmt(df.impulse, "%.4g") << ","
-                << fmt(tf.rel_l2, "%.4g") << "," << fmt(tf.peak, "%.4g") << ","
-                << fmt(tf.impulse, "%.4g") << "," << fmt(r.precompute_seconds, "%.4g") << ","
-                << fmt(1e3 * r.fem.step_seconds, "%.4g") << "," << fmt(irdm_us, "%.4g") << "\n";
-            const std::string disc = fs::path(r.d.mesh_file).stem().string() + " P" +
-                                     std::to_string(r.d.degree);
-            table_method << "| " << base.name << " | " << disc << " | " << r.free_dofs << " | "
-                         << r.modes << (r.sparse ? " (" + std::to_string(r.lowest) + " lowest)" : " (all)")
-                         << " | " << fmt(mf.rel_l2) << " | " << fmt(mf.peak) << " | "
-                         << fmt(mf.impulse) << " | " << fmt(method.disp_rms) << " | "
-                         << fmt(r.precompute_seconds) << " | " << fmt(1e3 * r.fem.step_seconds)
-                         << " | " << fmt(irdm_us) << " |\n";
-            table_disc << "| " << base.name << " | " << disc << " | " << fmt(r.stiffness, "%.4g")
-                       << " | " << (std::isnan(vs_ext) ? "" : pct(vs_ext)) << " | "
-                       << (&r == &runs.back() ? "(the truth)" : pct(df.rel_l2)) << " | "
-                       << (&r == &runs.back() ? "" : pct(df.peak)) << " | "
-                       << (&r == &runs.back() ? "" : pct(df.impulse)) << " | " << pct(tf.rel_l2)
-                       << " | " << pct(tf.peak) << " | " << pct(tf.impulse) << " |\n";
-          }
-        for (size_t p = 0; p < base.probes.size(); ++p)
-          {
-            const Vec3  &dir_p = base.probes[p].direction;
-            const auto along = [&](const Series &s, size_t k) {
-              const Vec3 &f = s.force[p][k];
-              return f[0] * dir_p[0] + f[1] * dir_p[1] + f[2] * dir_p[2];
-            };
-            const size_t N = truth.force[p].size();
-            for (size_t k = 0; k < N; ++k)
-              series << base.name << "," << fmt((k + 1) * base.time_step, "%.6g") << ","
-                     << base.probes[p].name << "," << fmt(along(runs[0].fem, k), "%.8g") << ","
-                     << fmt(along(runs[0].irdm, k), "%.8g") << ","
-                     << fmt(along(runs[1].fem, k), "%.8g") << ","
-                     << fmt(along(runs[1].irdm, k), "%.8g") << "\n";
+            runs[i].fem = runs[i].irdm = Series(); // the figures are kept; the series are large
+            scored[i].run = std::move(runs[i]);
+            rows.push_back(std::move(scored[i]));
           }
       }
-
-    md << "# The validation scenes on a converged discretization\n\n"
-       << report_stamp() << "\n\n"
-       << "Made by `scripts/converged.sh` (`irdm validate-converged`). Each scene of "
-          "`validation/scenes/` named below, its probes given a contact radius of "
-       << o.probe_radius * 1e3
-       << " mm (a force that converges with the mesh; docs/scene-format.md), runs on two "
-          "discretizations of the same body: the scene's own (**coarse**: the P1 `cat` every "
-          "other report uses) and a **converged** one, `"
-       << fs::path(converged.mesh_file).filename().string() << "` P" << converged.degree
-       << ". Each runs through the linear FEM (ground truth of that discretization) and through "
-          "IRDM from a model of that discretization "
-          "(inputs = outputs = the surface vertices around the probes and along their paths; "
-          "one model per body and region, T = the longest scene's steps; run by its modal "
-          "realization with every mode, irdm/modal_model.h). The coarse model keeps "
-          "every mode (dense route, double: exact); the converged model keeps the lowest "
-       << o.modes
-       << " modes plus up to two residual modes per input DoF, which keep the static "
-          "compliance and the feed-through H[0] at the inputs exact (sparse route, shift-invert "
-          "block Lanczos; written as its modal realization alone, without H: `irdm precompute "
-          "--modal-only`, docs/model-format.md). Time step and "
-          "material are the scene's; forces in N, SI throughout.\n\n";
-    if (o.extrapolated_stiffness > 0)
-      md << "Extrapolated driving-point stiffness of the first probe of scene `"
-         << o.extrapolated_scene
-         << "` with this radius (the mesh-converged value, `reports/convergence/`): "
-         << fmt(o.extrapolated_stiffness, "%.5g")
-         << " N/m; compared with every scene whose first probe starts at the same point along "
-            "the same direction (the others have another probe and no extrapolated value).\n\n";
-    md << "![probe force](converged.png)\n\n"
-          "The probe force along its direction against time (`converged.png`, drawn by "
-          "`validation/plot_converged.py` from `series.csv`).\n\n"
-          "## Method error: IRDM against the FEM of the same discretization\n\n"
-          "Force: relative L2 over the run, relative error of the peak, relative error of the "
-          "impulse; displacement: RMS over the model's outputs and the run, relative to the "
-          "largest displacement.\n\n"
-          "| scene | discretization | free DoFs | modes | force rel. L2 | peak | impulse | disp. RMS | precompute s | FEM ms/step | IRDM us/step |\n"
-          "|---|---|---|---|---|---|---|---|---|---|---|\n"
-       << table_method.str()
-       << "\n## Discretization error: against the converged FEM\n\n"
-          "Probe force of each discretization's FEM (discretization error) and of its IRDM "
-          "model (what a user of that model gets: discretization plus method error) against "
-          "the converged FEM. The stiffness column is the first probe's static driving-point "
-          "stiffness on that discretization.\n\n"
-          "| scene | discretization | stiffness N/m | vs extrapolated | FEM force rel. L2 | FEM peak | FEM impulse | model force rel. L2 | model peak | model impulse |\n"
-          "|---|---|---|---|---|---|---|---|---|---|\n"
-       << table_disc.str()
-       << "\nSeries of the force along each probe's direction: `series.csv`; every figure: "
-          "`converged.csv`.\n";
     for (const auto &m : models)
       fs::remove(m.second.path);
-    write_text_file((fs::path(dir) / "converged.csv").string(), csv.str());
-    write_text_file((fs::path(dir) / "series.csv").string(), series.str());
-    write_text_file((fs::path(dir) / "report.md").string(), md.str());
+    write_report(dir, o, converged, rows, series);
     log << "report: " << dir << "/report.md\n";
   }
 } // namespace irdm::validation
