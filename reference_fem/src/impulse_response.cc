@@ -313,20 +313,119 @@ namespace irdm::fem
       P -= removed;
       return share;
     }
+    /// The precompute of one scene's impulse responses, shaped as a deal.II tutorial program:
+    /// setup (the FEM, the route and the vertex sets), the modes (dense or sparse route, the
+    /// free body's rigid modes removed), the modal responses, the output file (a part file
+    /// whose spec fits is resumed), the responses in chunks, run. Collective over
+    /// MPI_COMM_WORLD; rank 0 computes the modes and writes the file.
+    class ImpulseResponsePrecompute
+    {
+    public:
+      ImpulseResponsePrecompute(const Scene &scene, const PrecomputeOptions &options);
+      PrecomputeReport
+      run();
+
+    private:
+      void
+      setup();
+      void
+      compute_modes();
+      void
+      sparse_modes();
+      void
+      dense_modes();
+      void
+      centrifugal_loads(const DenseSystem &sys, const std::vector<double> &phi);
+      void
+      fit_route1(const DenseSystem &sys);
+      void
+      modal_responses();
+      void
+      open_output();
+      std::string
+      spec_id_of() const;
+      void
+      write_metadata(h5::Writer &f, const std::string &spec_id);
+      void
+      write_geometry_and_modes(h5::Writer &f);
+      void
+      write_responses();
+      template <class Scalar>
+      void
+      compute_chunk(unsigned c, const std::vector<Scalar> &phi_out_s, Scalar *result) const;
+      template <class Scalar>
+      double
+      run_chunks();
+      template <class Scalar>
+      void
+      fill_by_reciprocity(unsigned c, Scalar *data,
+                          std::vector<std::vector<std::vector<Scalar>>> &block) const;
+
+      const Scene                                    &scene;
+      const PrecomputeOptions                        &options;
+      const Clock::time_point                         t_start = Clock::now();
+      const MpiRank                                   mpi;
+      const int                                       rank, size;
+      const std::function<void(const std::string &)> log;
+      const IntegratorCoefficients                    coef;
+      OutputLock                                      output_lock; // rank 0: the output's
+      PrecomputeReport                                rep;
+
+      // The body and the route. A scene that fixes no surface is a free body: its six
+      // rigid-body modes (w = 0) are separated from the elastic ones and left to the runtime's
+      // rigid-body dynamics.
+      bool        free_body = false, rigid_fit = false, sparse = false;
+      unsigned    n_rigid = 0;  // the free body's rigid-body modes, not kept
+      unsigned    T = 0, n = 0; // samples per response; free DoFs
+      unsigned    n_lowest = 0; // exact eigenmodes kept (all of them on the dense route)
+      const char *weights_name = "uniform"; // route 1's fit weights
+      std::unique_ptr<ElasticDynamics> fem;
+      SurfaceMesh                      boundary;
+      // The vertex sets (boundary indices), each input's row among the outputs, and the free
+      // DoF of each output and input DoF (3 * vertex + axis).
+      std::vector<unsigned> out_v, in_v, in_as_out;
+      std::vector<int>      out_free, in_free;
+      unsigned              nin = 0, nout = 0;
+
+      // The modes, M-orthonormal, at the output and input DoFs (row-major, rows x nm).
+      unsigned            nm           = 0; // modes kept
+      double              rigid_w2_max = 0; // free body: largest |w^2| of the rigid modes
+      std::vector<double> w2, phi_out, phi_in;
+      std::vector<double> compliance; // sparse route: the static compliance, nout x nin
+      std::vector<double> load_out;   // route 1: the modes' shapes at the outputs before the fit
+      // Free body, dense route: each elastic mode's load of the spin's centrifugal field,
+      // [mode][a][b] = phi_i^T M w_ab, w_ab the field e_a (x_b - c_b) (x - c from the centre of
+      // mass): the modal force of -M (omega x (omega x r)) is sum_ab S_ab [i][a][b] with
+      // S = |omega|^2 I - omega omega^T (docs/model-format.md).
+      std::vector<double> centrifugal;
+
+      // The modal responses h[s][i] and the modes alive at each step; h and Phi_in with their
+      // modes in live order, so that a row of a chunk's GEMM operand is a contiguous product.
+      std::vector<double> h, h_live, phi_in_live;
+      LiveModes           live;
+
+      // The file: H in chunks of inputs, each marked done when written.
+      size_t                      per_input = 0, scalar = 0; // H values per input; bytes each
+      unsigned                    chunk = 0, n_chunks = 0, workers = 1;
+      bool                        symmetric = false; // H[s] symmetric: reciprocity halves the work
+      std::vector<long long>      done;
+      std::unique_ptr<h5::Writer> w;
+      double                      write_seconds = 0;
+    };
   } // namespace
 
-  PrecomputeReport
-  precompute_impulse_responses(const Scene &scene, const PrecomputeOptions &options)
+  ImpulseResponsePrecompute::ImpulseResponsePrecompute(const Scene &scene, const PrecomputeOptions &options)
+    : scene(scene)
+    , options(options)
+    , rank(mpi.rank)
+    , size(mpi.size)
+    , log(mpi.rank0(options.log))
+    , coef(IntegratorCoefficients::from_scene(scene))
   {
-    const auto t_start = Clock::now();
-    const MpiRank mpi;
-    const int     rank = mpi.rank, size = mpi.size;
-    const auto    log  = mpi.rank0(options.log);
     if (options.output.empty())
       throw InputError("precompute: no output file given");
     // Rank 0 writes the file: it checks the path and takes the output's lock now, before
     // any work, so that a bad path or a second run to the same file is refused at once.
-    OutputLock output_lock;
     if (rank == 0)
       {
         check_output_file("--out", options.output, {scene.mesh_file});
@@ -334,30 +433,33 @@ namespace irdm::fem
       }
     // A scene that fixes no surface is a free body: its six rigid-body modes (w = 0) are
     // separated from the elastic ones and left to the runtime's rigid-body dynamics.
-    const bool     free_body = scene.fixed_surfaces.empty();
-    const unsigned n_rigid   = free_body ? 6 : 0; // its rigid-body modes, not kept
-    const bool rigid_fit = free_body && options.free_route == FreeBodyRoute::rigid_fit;
-    const char *weights_name = options.fit_weights == RigidFitWeights::mass ? "mass" : "uniform";
+    free_body    = scene.fixed_surfaces.empty();
+    n_rigid      = free_body ? 6 : 0;
+    rigid_fit    = free_body && options.free_route == FreeBodyRoute::rigid_fit;
+    weights_name = options.fit_weights == RigidFitWeights::mass ? "mass" : "uniform";
     if (!free_body && options.free_route == FreeBodyRoute::rigid_fit)
       throw InputError("precompute: the rigid-fit route is for a free body (a scene with no "
                        "fixed surface); this scene fixes " + join(scene.fixed_surfaces));
     if (scene.gravity_enabled)
       log("note: gravity is a constant load and is not part of the impulse responses");
 
-    PrecomputeReport rep;
     rep.ranks          = size;
     rep.length         = options.length.value_or(scene.model.length);
     rep.double_storage = options.double_storage.value_or(scene.model.double_storage);
-    const unsigned T   = rep.length;
+    T                  = rep.length;
+  }
 
+  void
+  ImpulseResponsePrecompute::setup()
+  {
     // 1. The FEM on the free DoFs, the route, and the vertex sets.
-    auto            t0 = Clock::now();
-    ElasticDynamics fem(scene);
-    const unsigned  n = fem.n_free_dofs();
+    const auto t0 = Clock::now();
+    fem           = std::make_unique<ElasticDynamics>(scene);
+    n             = fem->n_free_dofs();
     // The dense route keeps all modes (exact); beyond its limit, or when --modes is given, the
     // sparse route keeps the lowest ones plus a static correction for the rest.
-    const bool sparse = options.modes.has_value() || n > dense_route_limit;
-    const unsigned n_lowest =
+    sparse = options.modes.has_value() || n > dense_route_limit;
+    n_lowest =
       sparse ? options.modes.value_or(default_sparse_modes) : n - n_rigid;
     if (rigid_fit && sparse)
       throw InputError("precompute: the rigid-fit route (route 1) needs every elastic mode, on "
@@ -373,15 +475,15 @@ namespace irdm::fem
       // Checked before the dense matrices are built (2 n^2 doubles: 6 GB at n = 19440).
       check_memory_estimate("the dense modal route (" + std::to_string(n) + " free DoFs)",
                             3.0 * n * n * 8, options.allow_large);
-    const std::vector<int> dof_to_free = fem.vertex_dof_to_free();
-    const SurfaceMesh      b           = fem.boundary();
-    const auto out_v = select_vertices(scene.model.outputs, b, dof_to_free, "outputs");
-    std::vector<unsigned> in_v = select_vertices(scene.model.inputs, b, dof_to_free, "inputs");
+    const std::vector<int> dof_to_free = fem->vertex_dof_to_free();
+    boundary                           = fem->boundary();
+    out_v = select_vertices(scene.model.outputs, boundary, dof_to_free, "outputs");
+    in_v = select_vertices(scene.model.inputs, boundary, dof_to_free, "inputs");
     if (options.input_stride > 1)
       {
         std::vector<unsigned> always;
         if (options.inputs_always)
-          always = select_vertices(options.inputs_always, b, dof_to_free, "inputs (always)");
+          always = select_vertices(options.inputs_always, boundary, dof_to_free, "inputs (always)");
         std::vector<unsigned> sample;
         for (size_t i = 0; i < in_v.size(); ++i)
           if (i % options.input_stride == 0 ||
@@ -389,28 +491,29 @@ namespace irdm::fem
             sample.push_back(in_v[i]);
         in_v = std::move(sample);
       }
-    std::vector<unsigned> in_as_out; // each input's row among the outputs
     {
       for (const unsigned v : in_v)
         {
           const auto it = std::find(out_v.begin(), out_v.end(), v);
           if (it == out_v.end())
             throw InputError("model: every input vertex must also be an output (the contact "
-                             "solve needs H_CC[0]); node " + std::to_string(b.node_tags[v]) +
+                             "solve needs H_CC[0]); node " + std::to_string(boundary.node_tags[v]) +
                              " is not");
           in_as_out.push_back(static_cast<unsigned>(it - out_v.begin()));
         }
     }
-    const unsigned nin = 3 * in_v.size(), nout = 3 * out_v.size();
+    nin  = 3 * in_v.size();
+    nout = 3 * out_v.size();
     // Free index of each output DoF (3 * vertex + axis) and each input DoF.
     const auto free_dofs_of = [&](const std::vector<unsigned> &verts) {
       std::vector<int> f(3 * verts.size());
       for (size_t k = 0; k < verts.size(); ++k)
         for (unsigned d = 0; d < 3; ++d)
-          f[3 * k + d] = dof_to_free[3 * b.mesh_vertex[verts[k]] + d];
+          f[3 * k + d] = dof_to_free[3 * boundary.mesh_vertex[verts[k]] + d];
       return f;
     };
-    const std::vector<int> out_free = free_dofs_of(out_v), in_free = free_dofs_of(in_v);
+    out_free = free_dofs_of(out_v);
+    in_free  = free_dofs_of(in_v);
     rep.n_free    = n;
     rep.sparse    = sparse;
     rep.n_inputs  = nin;
@@ -429,157 +532,23 @@ namespace irdm::fem
           "and the modes run on rank 0 alone while the other ranks wait: `mpirun --bind-to " +
           "none` lets its BLAS and MUMPS threads use every core (cat_fine P2, 2 ranks: 40.2 -> "
           "35.0 s)");
+  }
 
+  void
+  ImpulseResponsePrecompute::compute_modes()
+  {
     // 2. Modes, M-orthonormal, at the output and input DoFs (row-major, rows x nm), on rank 0
     //    and broadcast so that every rank uses the same bits. Dense route: all modes by LAPACK
     //    dsygvd. Sparse route: the lowest n_lowest by block Lanczos plus the residual modes of unit
     //    loads at the inputs, so that the basis holds K^-1 at the inputs exactly.
-    t0 = Clock::now();
-    unsigned            nm = sparse ? 0 : n - n_rigid; // modes kept
-    double              rigid_w2_max = 0; // free body: largest |w^2| of the rigid modes
-    std::vector<double> w2, phi_out, phi_in, compliance; // compliance: nout x nin (sparse)
-    std::vector<double> load_out; // route 1: the modes' shapes at the outputs before the fit
-    // Free body, dense route: each elastic mode's load of the spin's centrifugal field,
-    // [mode][a][b] = phi_i^T M w_ab, w_ab the field e_a (x_b - c_b) (x - c from the centre of
-    // mass): the modal force of -M (omega x (omega x r)) is sum_ab S_ab [i][a][b] with
-    // S = |omega|^2 I - omega omega^T (docs/model-format.md).
-    std::vector<double> centrifugal;
+    const auto t0 = Clock::now();
+    nm = sparse ? 0 : n - n_rigid;
     if (rank == 0)
       {
         if (sparse)
-          {
-            // The shift of one step of the integrator: k_eff = a (w^2 + sigma) for every mode
-            // (ModalStep), so residual modes from (K + sigma M)^-1 at the inputs make the
-            // feed-through H[0] exact there, along with the static compliance. (Computing them
-            // on rank 1 meanwhile was tried: on 2 cores the two factorizations slow each
-            // other, cat_xfine P2 126 s on 2 ranks against 113-127 s on 1.)
-            const IntegratorCoefficients ic = IntegratorCoefficients::from_scene(scene);
-            const EffectiveStiffness     step(ic, StepCoefficients(ic, scene.time_step),
-                                          scene.rayleigh_alpha, scene.rayleigh_beta);
-            LowestModes lm = fem.lowest_modes(n_lowest, out_free, in_free, step.shift());
-            nm             = static_cast<unsigned>(lm.w2.size());
-            w2             = std::move(lm.w2);
-            phi_out        = std::move(lm.shapes);
-            compliance     = std::move(lm.compliance);
-            rigid_w2_max   = lm.rigid_w2_max;
-            if (free_body)
-              {
-                char line[256];
-                std::snprintf(line, sizeof line,
-                              "free body: the 6 rigid modes (|w^2| <= %.2e (rad/s)^2) by "
-                              "shift-invert at -%.3g; inertia-relief static responses in %u "
-                              "refinement passes (last relative correction %.1e)",
-                              lm.rigid_w2_max, lm.rigid_shift, lm.refinement_passes,
-                              lm.refinement_change);
-                log(line);
-              }
-            rep.eigen_residual   = lm.largest_residual;
-            rep.eigen_iterations = lm.iterations;
-            rep.seconds_factor   = lm.seconds_factor;
-            rep.seconds_lanczos  = lm.seconds_lanczos;
-            rep.seconds_solves   = lm.seconds_solves;
-            rep.seconds_static   = lm.seconds_static;
-            phi_in.resize(static_cast<size_t>(nin) * nm);
-            for (unsigned k = 0; k < nin; ++k)
-              std::copy_n(&phi_out[static_cast<size_t>(3 * in_as_out[k / 3] + k % 3) * nm], nm,
-                          &phi_in[static_cast<size_t>(k) * nm]);
-          }
+          sparse_modes();
         else
-          {
-            const DenseSystem sys = fem.dense_free_system();
-            // One BLAS thread: the eigenvectors' bits depend on the thread count, and a run
-            // under mpirun (one core per rank) must give the serial run's file exactly.
-            const int threads = openblas_get_num_threads ? openblas_get_num_threads() : 1;
-            if (openblas_set_num_threads)
-              openblas_set_num_threads(1);
-            std::vector<double> phi = sys.stiffness, m = sys.mass; // phi: column-major
-            w2.resize(n);
-            const int itype = 1, N = static_cast<int>(n);
-            int       info  = 0, lwork = -1, liwork = -1, iwq = 0;
-            double    wq    = 0;
-            dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), &wq, &lwork,
-                    &iwq, &liwork, &info);
-            lwork  = static_cast<int>(wq);
-            liwork = iwq;
-            std::vector<double> work(lwork);
-            std::vector<int>    iwork(liwork);
-            dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), work.data(),
-                    &lwork, iwork.data(), &liwork, &info);
-            if (openblas_set_num_threads)
-              openblas_set_num_threads(threads);
-            if (info != 0)
-              throw std::runtime_error("dsygvd failed (info " + std::to_string(info) + ")");
-            if (free_body)
-              {
-                // The rigid modes: six eigenvalues zero to round-off (a free body has exactly
-                // six), well below the first elastic one. Whatever basis of that null space
-                // LAPACK returns, the elastic modes are M-orthogonal to all of it, so dropping
-                // the six is the mass-orthogonal separation of rigid motion.
-                for (unsigned i = 0; i < n_rigid; ++i)
-                  rigid_w2_max = std::max(rigid_w2_max, std::abs(w2[i]));
-                if (n <= n_rigid || !(rigid_w2_max < 1e-6 * w2[n_rigid]))
-                  throw InputError(
-                    "precompute: the free body's six lowest eigenvalues are not rigid modes "
-                    "(largest |w^2| " + std::to_string(rigid_w2_max) + " against the next, " +
-                    std::to_string(n > n_rigid ? w2[n_rigid] : 0.0) +
-                    "): is the mesh one connected body?");
-                w2.erase(w2.begin(), w2.begin() + n_rigid);
-              }
-            // Row-major Phi restricted to the given free DoFs (the elastic modes only).
-            const auto restrict_rows = [&](const std::vector<int> &free) {
-              std::vector<double> r(free.size() * static_cast<size_t>(nm));
-              for (size_t k = 0; k < free.size(); ++k)
-                for (unsigned i = 0; i < nm; ++i)
-                  r[k * nm + i] = phi[static_cast<size_t>(i + n_rigid) * n + free[k]];
-              return r;
-            };
-            phi_out = restrict_rows(out_free);
-            phi_in  = restrict_rows(in_free);
-            if (free_body)
-              {
-                // M W, W the nine linear fields (n x 9, row-major), then Phi^T (M W).
-                std::vector<double> mw(static_cast<size_t>(n) * 9, 0.0);
-                for (unsigned r = 0; r < n; ++r)
-                  for (unsigned j = 0; j < n; ++j)
-                    {
-                      const double mrj = sys.mass[static_cast<size_t>(r) * n + j];
-                      if (mrj == 0)
-                        continue;
-                      const unsigned a = sys.free_dof_axis[j];
-                      for (unsigned c = 0; c < 3; ++c)
-                        mw[static_cast<size_t>(r) * 9 + 3 * a + c] += mrj * sys.free_dof_offset[j][c];
-                    }
-                centrifugal.assign(static_cast<size_t>(nm) * 9, 0.0);
-                for (unsigned i = 0; i < nm; ++i)
-                  {
-                    const double *col = &phi[static_cast<size_t>(i + n_rigid) * n];
-                    for (unsigned r = 0; r < n; ++r)
-                      for (unsigned e = 0; e < 9; ++e)
-                        centrifugal[static_cast<size_t>(i) * 9 + e] += col[r] * mw[static_cast<size_t>(r) * 9 + e];
-                  }
-              }
-            if (rigid_fit)
-              {
-                std::vector<std::array<double, 3>> x(nout / 3);
-                std::vector<double>                weight(nout / 3, 1.0);
-                for (unsigned v = 0; v < nout / 3; ++v)
-                  {
-                    x[v] = b.coordinates[out_v[v]];
-                    if (options.fit_weights == RigidFitWeights::mass)
-                      {
-                        const size_t i = static_cast<size_t>(out_free[3 * v]);
-                        weight[v]      = 0;
-                        for (unsigned j = 0; j < n; ++j) // row sum: the lumped mass
-                          weight[v] += sys.mass[static_cast<size_t>(j) * n + i];
-                      }
-                  }
-                load_out = phi_out;
-                const std::vector<double> share = remove_rigid_fit(phi_out, nm, x, weight);
-                rep.rigid_fit_share_max  = *std::max_element(share.begin(), share.end());
-                rep.rigid_fit_share_mean =
-                  std::accumulate(share.begin(), share.end(), 0.0) / share.size();
-              }
-          }
+          dense_modes();
       }
     wait_for_all_quietly(); // the other ranks wait for rank 0's modes without taking a core
     MPI_Bcast(&nm, 1, MPI_UNSIGNED, 0, MPI_COMM_WORLD);
@@ -630,10 +599,165 @@ namespace irdm::fem
                     "(factorization, solves, orthonormalization) " +
                     fmt(rep.seconds_static, "%.1f") + " s"
                 : std::string()));
+  }
 
+  /// Sparse route (rank 0): the lowest n_lowest modes by block Lanczos plus the residual modes
+  /// of unit loads at the inputs, so that the basis holds K^-1 at the inputs exactly.
+  void
+  ImpulseResponsePrecompute::sparse_modes()
+  {
+    // The shift of one step of the integrator: k_eff = a (w^2 + sigma) for every mode
+    // (ModalStep), so residual modes from (K + sigma M)^-1 at the inputs make the
+    // feed-through H[0] exact there, along with the static compliance. (Computing them
+    // on rank 1 meanwhile was tried: on 2 cores the two factorizations slow each
+    // other, cat_xfine P2 126 s on 2 ranks against 113-127 s on 1.)
+    const IntegratorCoefficients ic = IntegratorCoefficients::from_scene(scene);
+    const EffectiveStiffness     step(ic, StepCoefficients(ic, scene.time_step),
+                                  scene.rayleigh_alpha, scene.rayleigh_beta);
+    LowestModes lm = fem->lowest_modes(n_lowest, out_free, in_free, step.shift());
+    nm             = static_cast<unsigned>(lm.w2.size());
+    w2             = std::move(lm.w2);
+    phi_out        = std::move(lm.shapes);
+    compliance     = std::move(lm.compliance);
+    rigid_w2_max   = lm.rigid_w2_max;
+    if (free_body)
+      {
+        char line[256];
+        std::snprintf(line, sizeof line,
+                      "free body: the 6 rigid modes (|w^2| <= %.2e (rad/s)^2) by "
+                      "shift-invert at -%.3g; inertia-relief static responses in %u "
+                      "refinement passes (last relative correction %.1e)",
+                      lm.rigid_w2_max, lm.rigid_shift, lm.refinement_passes,
+                      lm.refinement_change);
+        log(line);
+      }
+    rep.eigen_residual   = lm.largest_residual;
+    rep.eigen_iterations = lm.iterations;
+    rep.seconds_factor   = lm.seconds_factor;
+    rep.seconds_lanczos  = lm.seconds_lanczos;
+    rep.seconds_solves   = lm.seconds_solves;
+    rep.seconds_static   = lm.seconds_static;
+    phi_in.resize(static_cast<size_t>(nin) * nm);
+    for (unsigned k = 0; k < nin; ++k)
+      std::copy_n(&phi_out[static_cast<size_t>(3 * in_as_out[k / 3] + k % 3) * nm], nm,
+                  &phi_in[static_cast<size_t>(k) * nm]);
+  }
+
+  /// Dense route (rank 0): every mode by LAPACK dsygvd; a free body's six rigid modes removed.
+  void
+  ImpulseResponsePrecompute::dense_modes()
+  {
+    const DenseSystem sys = fem->dense_free_system();
+    // One BLAS thread: the eigenvectors' bits depend on the thread count, and a run
+    // under mpirun (one core per rank) must give the serial run's file exactly.
+    const int threads = openblas_get_num_threads ? openblas_get_num_threads() : 1;
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(1);
+    std::vector<double> phi = sys.stiffness, m = sys.mass; // phi: column-major
+    w2.resize(n);
+    const int itype = 1, N = static_cast<int>(n);
+    int       info  = 0, lwork = -1, liwork = -1, iwq = 0;
+    double    wq    = 0;
+    dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), &wq, &lwork,
+            &iwq, &liwork, &info);
+    lwork  = static_cast<int>(wq);
+    liwork = iwq;
+    std::vector<double> work(lwork);
+    std::vector<int>    iwork(liwork);
+    dsygvd_(&itype, "V", "L", &N, phi.data(), &N, m.data(), &N, w2.data(), work.data(),
+            &lwork, iwork.data(), &liwork, &info);
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(threads);
+    if (info != 0)
+      throw std::runtime_error("dsygvd failed (info " + std::to_string(info) + ")");
+    if (free_body)
+      {
+        // The rigid modes: six eigenvalues zero to round-off (a free body has exactly
+        // six), well below the first elastic one. Whatever basis of that null space
+        // LAPACK returns, the elastic modes are M-orthogonal to all of it, so dropping
+        // the six is the mass-orthogonal separation of rigid motion.
+        for (unsigned i = 0; i < n_rigid; ++i)
+          rigid_w2_max = std::max(rigid_w2_max, std::abs(w2[i]));
+        if (n <= n_rigid || !(rigid_w2_max < 1e-6 * w2[n_rigid]))
+          throw InputError(
+            "precompute: the free body's six lowest eigenvalues are not rigid modes "
+            "(largest |w^2| " + std::to_string(rigid_w2_max) + " against the next, " +
+            std::to_string(n > n_rigid ? w2[n_rigid] : 0.0) +
+            "): is the mesh one connected body?");
+        w2.erase(w2.begin(), w2.begin() + n_rigid);
+      }
+    // Row-major Phi restricted to the given free DoFs (the elastic modes only).
+    const auto restrict_rows = [&](const std::vector<int> &free) {
+      std::vector<double> r(free.size() * static_cast<size_t>(nm));
+      for (size_t k = 0; k < free.size(); ++k)
+        for (unsigned i = 0; i < nm; ++i)
+          r[k * nm + i] = phi[static_cast<size_t>(i + n_rigid) * n + free[k]];
+      return r;
+    };
+    phi_out = restrict_rows(out_free);
+    phi_in  = restrict_rows(in_free);
+    if (free_body)
+      centrifugal_loads(sys, phi);
+    if (rigid_fit)
+      fit_route1(sys);
+  }
+
+  /// The free body's centrifugal loads of the elastic modes (phi: every mode, column-major).
+  void
+  ImpulseResponsePrecompute::centrifugal_loads(const DenseSystem &sys, const std::vector<double> &phi)
+  {
+    // M W, W the nine linear fields (n x 9, row-major), then Phi^T (M W).
+    std::vector<double> mw(static_cast<size_t>(n) * 9, 0.0);
+    for (unsigned r = 0; r < n; ++r)
+      for (unsigned j = 0; j < n; ++j)
+        {
+          const double mrj = sys.mass[static_cast<size_t>(r) * n + j];
+          if (mrj == 0)
+            continue;
+          const unsigned a = sys.free_dof_axis[j];
+          for (unsigned c = 0; c < 3; ++c)
+            mw[static_cast<size_t>(r) * 9 + 3 * a + c] += mrj * sys.free_dof_offset[j][c];
+        }
+    centrifugal.assign(static_cast<size_t>(nm) * 9, 0.0);
+    for (unsigned i = 0; i < nm; ++i)
+      {
+        const double *col = &phi[static_cast<size_t>(i + n_rigid) * n];
+        for (unsigned r = 0; r < n; ++r)
+          for (unsigned e = 0; e < 9; ++e)
+            centrifugal[static_cast<size_t>(i) * 9 + e] += col[r] * mw[static_cast<size_t>(r) * 9 + e];
+      }
+  }
+
+  /// Route 1: the best rigid fit taken out of every mode's output shape.
+  void
+  ImpulseResponsePrecompute::fit_route1(const DenseSystem &sys)
+  {
+    std::vector<std::array<double, 3>> x(nout / 3);
+    std::vector<double>                weight(nout / 3, 1.0);
+    for (unsigned v = 0; v < nout / 3; ++v)
+      {
+        x[v] = boundary.coordinates[out_v[v]];
+        if (options.fit_weights == RigidFitWeights::mass)
+          {
+            const size_t i = static_cast<size_t>(out_free[3 * v]);
+            weight[v]      = 0;
+            for (unsigned j = 0; j < n; ++j) // row sum: the lumped mass
+              weight[v] += sys.mass[static_cast<size_t>(j) * n + i];
+          }
+      }
+    load_out = phi_out;
+    const std::vector<double> share = remove_rigid_fit(phi_out, nm, x, weight);
+    rep.rigid_fit_share_max  = *std::max_element(share.begin(), share.end());
+    rep.rigid_fit_share_mean =
+      std::accumulate(share.begin(), share.end(), 0.0) / share.size();
+  }
+
+  void
+  ImpulseResponsePrecompute::modal_responses()
+  {
     // 3. Modal responses h[s][i] and the energy left at T.
-    const auto          coef = IntegratorCoefficients::from_scene(scene);
-    std::vector<double> h(static_cast<size_t>(T) * nm), q(T), e0(nm), eT(nm), gain(nm);
+    h.assign(static_cast<size_t>(T) * nm, 0.0);
+    std::vector<double> q(T), e0(nm), eT(nm), gain(nm);
     for (unsigned i = 0; i < nm; ++i)
       {
         modal_response(scene, coef, w2[i], q.data(), T, e0[i], eT[i]);
@@ -691,7 +815,7 @@ namespace irdm::fem
           std::to_string(nm - n_lowest) + " residual modes: error " +
           fmt(rep.static_basis_error_max, "%.2g") + " (exact: round-off)");
 
-    const LiveModes live = live_modes(h, phi_in, phi_out, T, nm,
+    live = live_modes(h, phi_in, phi_out, T, nm,
                                       options.every_mode_every_step
                                         ? 0.0
                                         : 0.1 * (rep.double_storage ? 0x1p-53 : 0x1p-24));
@@ -700,16 +824,20 @@ namespace irdm::fem
         std::to_string(live.alive[T / 2]) + " at step " + std::to_string(T / 2) + ", " +
         std::to_string(live.alive[T - 1]) + " at the last; the responses' GEMM is " +
         std::to_string(100 * live.work) + " % of all modes at every step");
+  }
 
+  void
+  ImpulseResponsePrecompute::open_output()
+  {
     // 4. The file: metadata first, then H in chunks of inputs, each marked done when written.
-    const size_t   per_input = static_cast<size_t>(T) * nout;
-    const size_t   scalar    = rep.double_storage ? 8 : 4;
+    per_input = static_cast<size_t>(T) * nout;
+    scalar    = rep.double_storage ? 8 : 4;
     // A chunk never holds more inputs than there are (a larger --chunk is clamped).
-    const unsigned chunk = std::min<unsigned>(
+    chunk = std::min<unsigned>(
       nin, options.inputs_per_chunk > 0
              ? options.inputs_per_chunk
              : static_cast<unsigned>(std::clamp<size_t>(64000000 / (per_input * scalar), 1, 256)));
-    const unsigned n_chunks = (nin + chunk - 1) / chunk;
+    n_chunks = (nin + chunk - 1) / chunk;
     rep.n_chunks = n_chunks;
     rep.modal_only = options.modal_only;
     rep.bytes      = options.modal_only ? 0.0 : static_cast<double>(per_input) * nin * scalar;
@@ -718,7 +846,7 @@ namespace irdm::fem
     // its own first input on (half the GEMM) and takes the outputs before it from the chunks
     // already computed, transposed. Those blocks wait on the writing rank until their chunk is
     // written: at most about a quarter of H.
-    const bool symmetric = in_v == out_v && !rigid_fit; // route 1's H is not symmetric
+    symmetric = in_v == out_v && !rigid_fit; // route 1's H is not symmetric
     {
       // Before the long part: the chunk buffers (two sets on one rank: one computing, one
       // writing) and GEMM operands of every worker, the blocks reciprocity keeps, and the file.
@@ -734,35 +862,9 @@ namespace irdm::fem
         check_disk_estimate("the model", options.output, rep.bytes, options.allow_large);
     }
 
-    const std::string  mesh_hash = file_hash(scene.mesh_file);
-    std::ostringstream spec;
-    spec.precision(17);
-    spec << "mesh " << mesh_hash << " p " << scene.fe_degree << " E "
-         << scene.youngs_modulus << " nu " << scene.poisson_ratio << " rho " << scene.density
-         << " a " << scene.rayleigh_alpha << " b " << scene.rayleigh_beta << " int "
-         << static_cast<int>(scene.integrator) << " rho_inf " << scene.rho_inf << " dt "
-         << scene.time_step << " T " << T << " dbl " << rep.double_storage << " chunk " << chunk
-         << " fixed " << join(scene.fixed_surfaces);
-    if (sparse)
-      spec << " modes " << n_lowest;
-    if (rigid_fit)
-      spec << " rigid_fit " << static_cast<int>(options.fit_weights);
-    if (options.modal_only)
-      spec << " modal_only";
-    spec << " live " << live.tolerance;
-    spec << " in";
-    for (const unsigned v : in_v)
-      spec << ' ' << b.node_tags[v];
-    spec << " out";
-    for (const unsigned v : out_v)
-      spec << ' ' << b.node_tags[v];
-    const std::string spec_text = spec.str();
-    const std::string spec_id   = std::to_string(std::hash<std::string>{}(spec_text));
-
-    std::vector<long long>     done(n_chunks, 0);
-    std::unique_ptr<h5::Writer> w;
-    t0 = Clock::now();
-    double write_seconds = 0;
+    const std::string spec_id = spec_id_of();
+    done.assign(n_chunks, 0);
+    const auto t0 = Clock::now();
     if (rank == 0)
       {
         w = std::make_unique<h5::Writer>(options.output,
@@ -802,378 +904,245 @@ namespace irdm::fem
                 log("the partial file " + options.output + ".part is from another spec: starting over");
                 w->start_over();
               }
-            {
-              auto &f = *w;
-              f.attribute("/", "format", std::string("irdm-impulse-response"));
-              // Version 3: H not stored (modal_only); a build that reads only 1 and 2 then
-              // refuses the file by its version rather than by a missing dataset.
-              f.attribute("/", "format_version", options.modal_only ? 3LL : 2LL);
-              write_provenance(f, scene, coef);
-              f.attribute("/", "spec_id", spec_id);
-              f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; H in m/N"));
-              f.attribute("/", "convention",
-                          std::string("u[n] = sum_s H[s] f[n-s]; f[n] is the force held during "
-                                      "step n (impulse = f * time_step); H[s] is the FEM "
-                                      "displacement s steps after a unit force sample at step "
-                                      "0 from rest; H[0] is the direct feed-through; IRDM "
-                                      "step n is FEM time (n+1)*time_step"));
-              f.attribute("/", "length", static_cast<long long>(T));
-              f.attribute("/", "storage", std::string(rep.double_storage ? "double" : "float"));
-              f.attribute("/", "route",
-                          sparse ? "modal (the lowest " + std::to_string(n_lowest) + " of " +
-                                     std::to_string(n) + " modes by shift-invert block Lanczos, plus " +
-                                     std::to_string(nm - n_lowest) + " residual modes of "
-                                     "the inputs' static and one-step responses" +
-                                     (free_body ? std::string("; free body: the 6 rigid-body "
-                                                              "modes removed, mass-orthogonal, "
-                                                              "static responses in the inertia-"
-                                                              "relief form") : std::string()) +
-                                     ")"
-                                 : rigid_fit
-                                     ? std::string("rigid fit, free body (the whole response "
-                                                   "minus its best rigid fit at every sample: "
-                                                   "linear least squares over the outputs, ") +
-                                         weights_name + " weights; all elastic modes, exact)"
-                                 : free_body
-                                     ? std::string("modal, free body (the 6 rigid-body modes "
-                                                   "removed, mass-orthogonal; all elastic "
-                                                   "modes, exact)")
-                                     : std::string("modal (all modes, exact)"));
-              f.attribute("/", "body", std::string(free_body ? "free" : "fixed"));
-              if (free_body)
-                {
-                  f.attribute("/", "free_body_route",
-                              std::string(rigid_fit ? "rigid_fit" : "modal"));
-                  if (rigid_fit)
-                    f.attribute("/", "rigid_fit_weights", std::string(weights_name));
-                }
-              if (free_body)
-                {
-                  // What the runtime's rigid-body dynamics needs, from the mesh (exact for
-                  // straight tetrahedra, uniform density).
-                  const MassProperties mp =
-                    mass_properties(read_gmsh(scene.mesh_file), scene.density);
-                  f.create_group("/rigid_body");
-                  f.write("/rigid_body/mass_kg", {1}, &mp.mass);
-                  f.write("/rigid_body/center_of_mass_m", {3}, mp.center.data());
-                  f.write("/rigid_body/inertia_kg_m2", {3, 3}, &mp.inertia[0][0]);
-                  f.attribute("/rigid_body", "rigid_modes_removed", static_cast<long long>(n_rigid));
-                  f.attribute("/rigid_body", "rigid_modes_largest_w2", rigid_w2_max);
-                  f.attribute("/rigid_body", "frame",
-                              std::string("model (mesh) frame; inertia about the centre of mass"));
-                }
-              f.attribute("/", "free_dofs", static_cast<long long>(n));
-              f.attribute("/", "modes_kept", static_cast<long long>(nm));
-              f.attribute("/", "modes_lowest", static_cast<long long>(n_lowest));
-
-              const auto write_vertices = [&](const std::string &g, const std::vector<unsigned> &vs) {
-                f.create_group(g);
-                std::vector<long long> tags;
-                std::vector<double>    xyz;
-                for (const unsigned v : vs)
-                  {
-                    tags.push_back(b.node_tags[v]);
-                    xyz.insert(xyz.end(), b.coordinates[v].begin(), b.coordinates[v].end());
-                  }
-                f.write(g + "/node_tags", {vs.size()}, tags.data());
-                f.write(g + "/coordinates", {vs.size(), 3}, xyz.data());
-              };
-              write_vertices("/outputs", out_v);
-              write_vertices("/inputs", in_v);
-              // Inputs as rows of the outputs (so the contact solve can read H_CC).
-              const std::vector<long long> output_index(in_as_out.begin(), in_as_out.end());
-              f.write("/inputs/output_index", {output_index.size()}, output_index.data());
-
-              // Surface triangles among the outputs, for display and for probes.
-              std::vector<long long> local(b.mesh_vertex.size(), -1), tris, tri_surface;
-              for (size_t i = 0; i < out_v.size(); ++i)
-                local[out_v[i]] = static_cast<long long>(i);
-              std::vector<std::string> names;
-              for (unsigned t = 0; t < b.triangles.size(); ++t)
-                {
-                  const auto &tri = b.triangles[t];
-                  if (local[tri[0]] < 0 || local[tri[1]] < 0 || local[tri[2]] < 0)
-                    continue;
-                  for (const unsigned v : tri)
-                    tris.push_back(local[v]);
-                  auto it = std::find(names.begin(), names.end(), b.triangle_surface[t]);
-                  if (it == names.end())
-                    it = names.insert(names.end(), b.triangle_surface[t]);
-                  tri_surface.push_back(it - names.begin());
-                }
-              f.create_group("/surface");
-              f.write("/surface/triangles", {tri_surface.size(), 3}, tris.data());
-              f.write("/surface/triangle_surface", {tri_surface.size()}, tri_surface.data());
-              f.attribute("/surface", "surface_names", join(names));
-
-              f.create_group("/modes");
-              std::vector<double> hz(nm), zeta(nm);
-              for (unsigned i = 0; i < nm; ++i)
-                {
-                  const double wi = std::sqrt(w2[i]);
-                  hz[i]   = wi / (2 * M_PI);
-                  zeta[i] = (scene.rayleigh_alpha + scene.rayleigh_beta * w2[i]) / (2 * wi);
-                }
-              f.write("/modes/frequency_Hz", {nm}, hz.data());
-              f.write("/modes/damping_ratio", {nm}, zeta.data());
-              // The modal realization of H: mode shapes at the outputs (M-orthonormal) and
-              // each mode's step matrix; H[s] = Phi_out diag(q_i[s]) Phi_in^T with q_i from
-              // iterating the step (docs/model-format.md).
-              f.write("/modes/shapes", {nout, nm}, phi_out.data());
-              if (rigid_fit) // H[s] = shapes diag(q[s]) load_shapes(inputs)^T
-                f.write("/modes/load_shapes", {nout, nm}, load_out.data());
-              std::vector<double> steps(static_cast<size_t>(nm) * 15);
-              for (unsigned i = 0; i < nm; ++i)
-                {
-                  const auto m = ModalStep(scene, coef, w2[i]).matrix();
-                  std::copy(m.begin(), m.end(), steps.begin() + 15 * i);
-                }
-              f.write("/modes/step", {nm, 3, 5}, steps.data());
-              if (!centrifugal.empty())
-                {
-                  f.write("/modes/centrifugal_load", {nm, 3, 3}, centrifugal.data());
-                  f.attribute("/modes/centrifugal_load", "meaning",
-                              std::string("[mode i][a][b] = phi_i^T M w_ab, w_ab the field e_a (x_b "
-                                          "- c_b), c the centre of mass (kg m per unit modal "
-                                          "coordinate): a spin omega (rad/s, model frame) loads "
-                                          "mode i by sum_ab S_ab [i][a][b] N, S = |omega|^2 I - "
-                                          "omega omega^T, the centrifugal force -M (omega x "
-                                          "(omega x r))"));
-                }
-
-              if (options.modal_only)
-                {
-                  f.attribute("/", "impulse_response",
-                              std::string("modal realization only: /impulse_response/H is not "
-                                          "stored; H[s] = shapes diag(q[s]) L(inputs)^T, L the "
-                                          "load_shapes if present, else the shapes, q from "
-                                          "/modes/step"));
-                  f.flush();
-                }
-              else
-                {
-                  f.create_group("/impulse_response");
-                  f.create_dataset("/impulse_response/H", {nin, T, nout}, rep.double_storage, 1, true);
-                  f.attribute("/impulse_response/H", "layout",
-                              std::string("[input DoF][step s][output DoF]; DoF = 3 * vertex + axis"));
-                  f.attribute("/impulse_response/H", "modes_left_out_below_m_per_N", live.tolerance);
-                  f.attribute("/impulse_response/H", "modes_left_out",
-                              std::string("each mode is summed up to its last step whose term can "
-                                          "exceed modes_left_out_below_m_per_N / modes_kept in any "
-                                          "entry; what is left out of an entry is at most "
-                                          "modes_left_out_below_m_per_N (a tenth of the storage's "
-                                          "unit round-off times the largest driving-point response)"));
-                  f.create_group("/progress");
-                  f.write("/progress/chunk_done", {n_chunks}, done.data());
-                  f.flush();
-                }
-            }
+            write_metadata(*w, spec_id);
           }
       }
     MPI_Bcast(done.data(), n_chunks, MPI_LONG_LONG, 0, MPI_COMM_WORLD);
     write_seconds += since(t0);
+  }
 
+  /// What makes a part file this run's: the mesh, material, integrator, step, length, storage,
+  /// chunks, route and vertex sets.
+  std::string
+  ImpulseResponsePrecompute::spec_id_of() const
+  {
+    const std::string  mesh_hash = file_hash(scene.mesh_file);
+    std::ostringstream spec;
+    spec.precision(17);
+    spec << "mesh " << mesh_hash << " p " << scene.fe_degree << " E "
+         << scene.youngs_modulus << " nu " << scene.poisson_ratio << " rho " << scene.density
+         << " a " << scene.rayleigh_alpha << " b " << scene.rayleigh_beta << " int "
+         << static_cast<int>(scene.integrator) << " rho_inf " << scene.rho_inf << " dt "
+         << scene.time_step << " T " << T << " dbl " << rep.double_storage << " chunk " << chunk
+         << " fixed " << join(scene.fixed_surfaces);
+    if (sparse)
+      spec << " modes " << n_lowest;
+    if (rigid_fit)
+      spec << " rigid_fit " << static_cast<int>(options.fit_weights);
+    if (options.modal_only)
+      spec << " modal_only";
+    spec << " live " << live.tolerance;
+    spec << " in";
+    for (const unsigned v : in_v)
+      spec << ' ' << boundary.node_tags[v];
+    spec << " out";
+    for (const unsigned v : out_v)
+      spec << ' ' << boundary.node_tags[v];
+    return std::to_string(std::hash<std::string>{}(spec.str()));
+  }
+
+  /// The model's attributes and provenance, and a free body's rigid-body data.
+  void
+  ImpulseResponsePrecompute::write_metadata(h5::Writer &f, const std::string &spec_id)
+  {
+    f.attribute("/", "format", std::string("irdm-impulse-response"));
+    // Version 3: H not stored (modal_only); a build that reads only 1 and 2 then
+    // refuses the file by its version rather than by a missing dataset.
+    f.attribute("/", "format_version", options.modal_only ? 3LL : 2LL);
+    write_provenance(f, scene, coef);
+    f.attribute("/", "spec_id", spec_id);
+    f.attribute("/", "units", std::string("SI: m, s, N, kg, Pa; H in m/N"));
+    f.attribute("/", "convention",
+                std::string("u[n] = sum_s H[s] f[n-s]; f[n] is the force held during "
+                            "step n (impulse = f * time_step); H[s] is the FEM "
+                            "displacement s steps after a unit force sample at step "
+                            "0 from rest; H[0] is the direct feed-through; IRDM "
+                            "step n is FEM time (n+1)*time_step"));
+    f.attribute("/", "length", static_cast<long long>(T));
+    f.attribute("/", "storage", std::string(rep.double_storage ? "double" : "float"));
+    f.attribute("/", "route",
+                sparse ? "modal (the lowest " + std::to_string(n_lowest) + " of " +
+                           std::to_string(n) + " modes by shift-invert block Lanczos, plus " +
+                           std::to_string(nm - n_lowest) + " residual modes of "
+                           "the inputs' static and one-step responses" +
+                           (free_body ? std::string("; free body: the 6 rigid-body "
+                                                    "modes removed, mass-orthogonal, "
+                                                    "static responses in the inertia-"
+                                                    "relief form") : std::string()) +
+                           ")"
+                       : rigid_fit
+                           ? std::string("rigid fit, free body (the whole response "
+                                         "minus its best rigid fit at every sample: "
+                                         "linear least squares over the outputs, ") +
+                               weights_name + " weights; all elastic modes, exact)"
+                       : free_body
+                           ? std::string("modal, free body (the 6 rigid-body modes "
+                                         "removed, mass-orthogonal; all elastic "
+                                         "modes, exact)")
+                           : std::string("modal (all modes, exact)"));
+    f.attribute("/", "body", std::string(free_body ? "free" : "fixed"));
+    if (free_body)
+      {
+        f.attribute("/", "free_body_route",
+                    std::string(rigid_fit ? "rigid_fit" : "modal"));
+        if (rigid_fit)
+          f.attribute("/", "rigid_fit_weights", std::string(weights_name));
+      }
+    if (free_body)
+      {
+        // What the runtime's rigid-body dynamics needs, from the mesh (exact for
+        // straight tetrahedra, uniform density).
+        const MassProperties mp =
+          mass_properties(read_gmsh(scene.mesh_file), scene.density);
+        f.create_group("/rigid_body");
+        f.write("/rigid_body/mass_kg", {1}, &mp.mass);
+        f.write("/rigid_body/center_of_mass_m", {3}, mp.center.data());
+        f.write("/rigid_body/inertia_kg_m2", {3, 3}, &mp.inertia[0][0]);
+        f.attribute("/rigid_body", "rigid_modes_removed", static_cast<long long>(n_rigid));
+        f.attribute("/rigid_body", "rigid_modes_largest_w2", rigid_w2_max);
+        f.attribute("/rigid_body", "frame",
+                    std::string("model (mesh) frame; inertia about the centre of mass"));
+      }
+    f.attribute("/", "free_dofs", static_cast<long long>(n));
+    f.attribute("/", "modes_kept", static_cast<long long>(nm));
+    f.attribute("/", "modes_lowest", static_cast<long long>(n_lowest));
+
+    write_geometry_and_modes(f);
+  }
+
+  /// The vertices, the surface, the modal realization, and H's dataset with its progress.
+  void
+  ImpulseResponsePrecompute::write_geometry_and_modes(h5::Writer &f)
+  {
+    const auto write_vertices = [&](const std::string &g, const std::vector<unsigned> &vs) {
+      f.create_group(g);
+      std::vector<long long> tags;
+      std::vector<double>    xyz;
+      for (const unsigned v : vs)
+        {
+          tags.push_back(boundary.node_tags[v]);
+          xyz.insert(xyz.end(), boundary.coordinates[v].begin(), boundary.coordinates[v].end());
+        }
+      f.write(g + "/node_tags", {vs.size()}, tags.data());
+      f.write(g + "/coordinates", {vs.size(), 3}, xyz.data());
+    };
+    write_vertices("/outputs", out_v);
+    write_vertices("/inputs", in_v);
+    // Inputs as rows of the outputs (so the contact solve can read H_CC).
+    const std::vector<long long> output_index(in_as_out.begin(), in_as_out.end());
+    f.write("/inputs/output_index", {output_index.size()}, output_index.data());
+
+    // Surface triangles among the outputs, for display and for probes.
+    std::vector<long long> local(boundary.mesh_vertex.size(), -1), tris, tri_surface;
+    for (size_t i = 0; i < out_v.size(); ++i)
+      local[out_v[i]] = static_cast<long long>(i);
+    std::vector<std::string> names;
+    for (unsigned t = 0; t < boundary.triangles.size(); ++t)
+      {
+        const auto &tri = boundary.triangles[t];
+        if (local[tri[0]] < 0 || local[tri[1]] < 0 || local[tri[2]] < 0)
+          continue;
+        for (const unsigned v : tri)
+          tris.push_back(local[v]);
+        auto it = std::find(names.begin(), names.end(), boundary.triangle_surface[t]);
+        if (it == names.end())
+          it = names.insert(names.end(), boundary.triangle_surface[t]);
+        tri_surface.push_back(it - names.begin());
+      }
+    f.create_group("/surface");
+    f.write("/surface/triangles", {tri_surface.size(), 3}, tris.data());
+    f.write("/surface/triangle_surface", {tri_surface.size()}, tri_surface.data());
+    f.attribute("/surface", "surface_names", join(names));
+
+    f.create_group("/modes");
+    std::vector<double> hz(nm), zeta(nm);
+    for (unsigned i = 0; i < nm; ++i)
+      {
+        const double wi = std::sqrt(w2[i]);
+        hz[i]   = wi / (2 * M_PI);
+        zeta[i] = (scene.rayleigh_alpha + scene.rayleigh_beta * w2[i]) / (2 * wi);
+      }
+    f.write("/modes/frequency_Hz", {nm}, hz.data());
+    f.write("/modes/damping_ratio", {nm}, zeta.data());
+    // The modal realization of H: mode shapes at the outputs (M-orthonormal) and
+    // each mode's step matrix; H[s] = Phi_out diag(q_i[s]) Phi_in^T with q_i from
+    // iterating the step (docs/model-format.md).
+    f.write("/modes/shapes", {nout, nm}, phi_out.data());
+    if (rigid_fit) // H[s] = shapes diag(q[s]) load_shapes(inputs)^T
+      f.write("/modes/load_shapes", {nout, nm}, load_out.data());
+    std::vector<double> steps(static_cast<size_t>(nm) * 15);
+    for (unsigned i = 0; i < nm; ++i)
+      {
+        const auto m = ModalStep(scene, coef, w2[i]).matrix();
+        std::copy(m.begin(), m.end(), steps.begin() + 15 * i);
+      }
+    f.write("/modes/step", {nm, 3, 5}, steps.data());
+    if (!centrifugal.empty())
+      {
+        f.write("/modes/centrifugal_load", {nm, 3, 3}, centrifugal.data());
+        f.attribute("/modes/centrifugal_load", "meaning",
+                    std::string("[mode i][a][b] = phi_i^T M w_ab, w_ab the field e_a (x_b "
+                                "- c_b), c the centre of mass (kg m per unit modal "
+                                "coordinate): a spin omega (rad/s, model frame) loads "
+                                "mode i by sum_ab S_ab [i][a][b] N, S = |omega|^2 I - "
+                                "omega omega^T, the centrifugal force -M (omega x "
+                                "(omega x r))"));
+      }
+
+    if (options.modal_only)
+      {
+        f.attribute("/", "impulse_response",
+                    std::string("modal realization only: /impulse_response/H is not "
+                                "stored; H[s] = shapes diag(q[s]) L(inputs)^T, L the "
+                                "load_shapes if present, else the shapes, q from "
+                                "/modes/step"));
+        f.flush();
+      }
+    else
+      {
+        f.create_group("/impulse_response");
+        f.create_dataset("/impulse_response/H", {nin, T, nout}, rep.double_storage, 1, true);
+        f.attribute("/impulse_response/H", "layout",
+                    std::string("[input DoF][step s][output DoF]; DoF = 3 * vertex + axis"));
+        f.attribute("/impulse_response/H", "modes_left_out_below_m_per_N", live.tolerance);
+        f.attribute("/impulse_response/H", "modes_left_out",
+                    std::string("each mode is summed up to its last step whose term can "
+                                "exceed modes_left_out_below_m_per_N / modes_kept in any "
+                                "entry; what is left out of an entry is at most "
+                                "modes_left_out_below_m_per_N (a tenth of the storage's "
+                                "unit round-off times the largest driving-point response)"));
+        f.create_group("/progress");
+        f.write("/progress/chunk_done", {n_chunks}, done.data());
+        f.flush();
+      }
+  }
+
+  void
+  ImpulseResponsePrecompute::write_responses()
+  {
     // 5. Chunks: A[(k, s), i] = h[s][i] phi_in[k][i] over the modes alive at step s
     //    (live_modes), then H_chunk = A Phi_out^T, one GEMM per input and block of steps.
     //    Chunk c belongs to rank c % size; rank 0 receives and writes in order.
     //    phi_out_s: Phi_out in the storage precision, its modes in live order, converted once.
     // h and Phi_in with their modes in live order, so that a row of A is a contiguous product.
-    std::vector<double> h_live(h.size()), phi_in_live(phi_in.size());
+    h_live.resize(h.size());
+    phi_in_live.resize(phi_in.size());
     for (size_t r = 0; r < h.size() / nm; ++r)
       for (unsigned i = 0; i < nm; ++i)
         h_live[r * nm + i] = h[r * nm + live.order[i]];
     for (size_t r = 0; r < phi_in.size() / nm; ++r)
       for (unsigned i = 0; i < nm; ++i)
         phi_in_live[r * nm + i] = phi_in[r * nm + live.order[i]];
-    const auto compute_chunk = [&](const unsigned c, const auto &phi_out_s, auto *result) {
-      using Scalar     = std::remove_pointer_t<decltype(result)>;
-      const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
-      const unsigned j0 = symmetric ? k0 : 0; // the outputs before j0 come by reciprocity
-      const size_t   nj = nout - j0;
-      // Per block of steps, one GEMM over every input of the chunk (rows (k, s), k-major), so
-      // that each call is large; its rows then go to their places in the chunk.
-      std::vector<Scalar> A, C;
-      for (size_t b = 0; b + 1 < live.block.size(); ++b)
-        {
-          const unsigned s0 = live.block[b], len = live.block[b + 1] - s0, m = live.width[b];
-          const auto     row_of = [&](const unsigned k, const unsigned s) {
-            return result + (static_cast<size_t>(k) * T + s0 + s) * nout + j0;
-          };
-          if (m == 0) // every mode has died out: nothing left above the round-off
-            {
-              for (unsigned k = 0; k < nk; ++k)
-                for (unsigned s = 0; s < len; ++s)
-                  std::fill(row_of(k, s), row_of(k, s) + nj, Scalar(0));
-              continue;
-            }
-          const size_t rows = static_cast<size_t>(nk) * len;
-          A.resize(rows * m);
-          C.resize(rows * nj);
-          for (unsigned k = 0; k < nk; ++k)
-            for (unsigned s = 0; s < len; ++s)
-              {
-                Scalar       *row = &A[(static_cast<size_t>(k) * len + s) * m];
-                const double *hs  = &h_live[static_cast<size_t>(s0 + s) * nm];
-                const double *pk  = &phi_in_live[static_cast<size_t>(k0 + k) * nm];
-                for (unsigned i = 0; i < m; ++i)
-                  row[i] = static_cast<Scalar>(hs[i] * pk[i]);
-              }
-          gemm_abt(static_cast<int>(rows), static_cast<int>(nj), static_cast<int>(m), A.data(),
-                   static_cast<int>(m), phi_out_s.data() + static_cast<size_t>(j0) * nm,
-                   static_cast<int>(nm), C.data(), static_cast<int>(nj));
-          for (unsigned k = 0; k < nk; ++k)
-            for (unsigned s = 0; s < len; ++s)
-              std::copy_n(&C[(static_cast<size_t>(k) * len + s) * nj], nj, row_of(k, s));
-        }
-    };
     // Each GEMM runs on one BLAS thread so that a chunk's bits do not depend on how the work
     // is split; a serial run computes several chunks at once on threads of its own instead.
     const int blas_threads = openblas_get_num_threads ? openblas_get_num_threads() : 1;
     if (openblas_set_num_threads)
       openblas_set_num_threads(1);
-    const unsigned workers =
+    workers =
       size == 1 ? std::max(1u, std::min(4u, std::thread::hardware_concurrency())) : 1u;
-    const auto run_chunks = [&](auto zero) {
-      using Scalar = decltype(zero);
-      const MPI_Datatype        type = sizeof(Scalar) == 8 ? MPI_DOUBLE : MPI_FLOAT;
-      std::vector<Scalar> phi_out_s(phi_out.size());
-      for (size_t j = 0; j < nout; ++j)
-        for (unsigned i = 0; i < nm; ++i)
-          phi_out_s[j * nm + i] = static_cast<Scalar>(phi_out[j * nm + live.order[i]]);
-      // Two sets of buffers on one rank: the GEMMs of one batch fill one set while the other
-      // set, the batch before, is being written.
-      const unsigned n_sets = size == 1 ? 2 : 1;
-      std::vector<std::vector<Scalar>> buffers(n_sets * workers,
-                                               std::vector<Scalar>(static_cast<size_t>(chunk) * per_input));
-      double     compute_seconds = 0, fill_seconds = 0;
-      unsigned   finished        = rep.chunks_resumed;
-      const auto t_chunks        = Clock::now(); // the time left is estimated from this run's rate
-      const auto store = [&](const unsigned c, const Scalar *data) {
-        const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
-        const auto     tw = Clock::now();
-        w->write_rows("/impulse_response/H", k0, nk, data);
-        const long long one = 1;
-        w->write_rows("/progress/chunk_done", c, 1, &one);
-        w->flush();
-        write_seconds += since(tw);
-        ++finished;
-        const double per_chunk = since(t_chunks) / (finished - rep.chunks_resumed);
-        log("chunk " + std::to_string(finished) + "/" + std::to_string(n_chunks) + " (inputs " +
-            std::to_string(k0) + ".." + std::to_string(k0 + nk - 1) + "), " +
-            std::to_string(static_cast<int>(since(t_start))) + " s elapsed, about " +
-            std::to_string(static_cast<int>(per_chunk * (n_chunks - finished))) + " s left");
-      };
-      // Reciprocity, on the writing rank, chunk by chunk in order: chunk c's outputs before
-      // its first input from the blocks earlier chunks left for it (and its own block's lower
-      // triangle from its upper), then the blocks it leaves for later chunks:
-      // block[c2][c] = H[inputs of c][s][outputs of c2], [k][s][j].
-      std::vector<std::vector<std::vector<Scalar>>> block(
-        symmetric ? n_chunks : 0, std::vector<std::vector<Scalar>>(n_chunks));
-      const auto complete = [&](const unsigned c, Scalar *data) {
-        if (!symmetric)
-          return;
-        const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
-        for (unsigned c1 = 0; c1 < c; ++c1)
-          {
-            const unsigned j0 = c1 * chunk, nj = std::min(chunk, nin - j0);
-            const Scalar  *from = block[c][c1].data(); // [j][s][k]: H[j][s][k] = H[k][s][j]
-            // k innermost: the reads run along `from`, the writes go to nk rows side by side.
-            for (unsigned s = 0; s < T; ++s)
-              for (unsigned j = 0; j < nj; ++j)
-                {
-                  const Scalar *in = from + (static_cast<size_t>(j) * T + s) * nk;
-                  for (unsigned k = 0; k < nk; ++k)
-                    data[(static_cast<size_t>(k) * T + s) * nout + j0 + j] = in[k];
-                }
-            std::vector<Scalar>().swap(block[c][c1]);
-          }
-        // Within the chunk's own block, below its diagonal too: the stored H[s] is then exactly
-        // symmetric.
-        for (unsigned k = 1; k < nk; ++k)
-          for (unsigned s = 0; s < T; ++s)
-            for (unsigned j = 0; j < k; ++j)
-              data[(static_cast<size_t>(k) * T + s) * nout + k0 + j] =
-                data[(static_cast<size_t>(j) * T + s) * nout + k0 + k];
-        for (unsigned c2 = c + 1; c2 < n_chunks; ++c2)
-          {
-            const unsigned j0 = c2 * chunk, nj = std::min(chunk, nin - j0);
-            auto          &to = block[c2][c];
-            to.resize(static_cast<size_t>(nk) * T * nj);
-            for (size_t r = 0; r < static_cast<size_t>(nk) * T; ++r)
-              std::copy(data + r * nout + j0, data + r * nout + j0 + nj, to.data() + r * nj);
-          }
-      };
-      // Chunks to compute: those not written yet; under reciprocity every chunk (a resumed run
-      // recomputes the written ones for the blocks they leave, without writing them again).
-      std::vector<unsigned> todo;
-      for (unsigned c = 0; c < n_chunks; ++c)
-        if (!done[c] || symmetric)
-          todo.push_back(c);
-      if (size == 1)
-        {
-          std::future<void> writing; // the batch before, written while this batch computes
-          for (size_t first = 0, batch = 0; first < todo.size(); first += workers, ++batch)
-            {
-              const size_t n_batch = std::min<size_t>(workers, todo.size() - first);
-              const auto   buffer  = [&, batch](const size_t b) {
-                return buffers[(batch % n_sets) * workers + b].data();
-              };
-              const auto tc = Clock::now();
-              std::vector<std::thread> pool;
-              for (size_t b = 1; b < n_batch; ++b)
-                pool.emplace_back([&, b] { compute_chunk(todo[first + b], phi_out_s, buffer(b)); });
-              compute_chunk(todo[first], phi_out_s, buffer(0));
-              for (auto &t : pool)
-                t.join();
-              const auto tf = Clock::now();
-              for (size_t b = 0; b < n_batch; ++b)
-                complete(todo[first + b], buffer(b));
-              fill_seconds += since(tf);
-              compute_seconds += since(tc);
-              if (writing.valid())
-                writing.get(); // rethrows a failed write
-              writing = std::async(std::launch::async, [&, first, n_batch, buffer] {
-                for (size_t b = 0; b < n_batch; ++b)
-                  if (!done[todo[first + b]])
-                    store(todo[first + b], buffer(b));
-              });
-            }
-          if (writing.valid())
-            writing.get();
-          if (symmetric)
-            log("responses: " + std::to_string(compute_seconds) + " s, of which the fill by "
-                "reciprocity " + std::to_string(fill_seconds) + " s");
-        }
-      else
-        for (const unsigned c : todo)
-          {
-            const int      owner = static_cast<int>(c % size);
-            const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
-            const size_t   count = static_cast<size_t>(nk) * per_input;
-            if (owner == rank)
-              {
-                const auto tc = Clock::now();
-                compute_chunk(c, phi_out_s, buffers[0].data());
-                compute_seconds += since(tc);
-                if (rank != 0)
-                  MPI_Send(buffers[0].data(), static_cast<int>(count), type, 0,
-                           static_cast<int>(c), MPI_COMM_WORLD);
-              }
-            else if (rank == 0)
-              MPI_Recv(buffers[0].data(), static_cast<int>(count), type, owner,
-                       static_cast<int>(c), MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-            if (rank == 0)
-              {
-                complete(c, buffers[0].data());
-                if (!done[c])
-                  store(c, buffers[0].data());
-              }
-          }
-      return compute_seconds;
-    };
-    double compute_seconds = options.modal_only      ? 0.0
-                             : rep.double_storage ? run_chunks(0.0)
-                                                  : run_chunks(0.0f);
+    double compute_seconds = options.modal_only  ? 0.0
+                             : rep.double_storage ? run_chunks<double>()
+                                                  : run_chunks<float>();
     if (openblas_set_num_threads)
       openblas_set_num_threads(blas_threads);
     MPI_Allreduce(MPI_IN_PLACE, &compute_seconds, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
@@ -1195,6 +1164,217 @@ namespace irdm::fem
         (options.modal_only ? std::string("the modal realization only, no H")
                             : std::to_string(rep.bytes / 1e6) + " MB of H") + ") in " +
         std::to_string(rep.seconds_total) + " s");
+  }
+
+  template <class Scalar>
+  void
+  ImpulseResponsePrecompute::compute_chunk(const unsigned c, const std::vector<Scalar> &phi_out_s, Scalar *result) const
+  {
+    const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
+    const unsigned j0 = symmetric ? k0 : 0; // the outputs before j0 come by reciprocity
+    const size_t   nj = nout - j0;
+    // Per block of steps, one GEMM over every input of the chunk (rows (k, s), k-major), so
+    // that each call is large; its rows then go to their places in the chunk.
+    std::vector<Scalar> A, C;
+    for (size_t b = 0; b + 1 < live.block.size(); ++b)
+      {
+        const unsigned s0 = live.block[b], len = live.block[b + 1] - s0, m = live.width[b];
+        const auto     row_of = [&](const unsigned k, const unsigned s) {
+          return result + (static_cast<size_t>(k) * T + s0 + s) * nout + j0;
+        };
+        if (m == 0) // every mode has died out: nothing left above the round-off
+          {
+            for (unsigned k = 0; k < nk; ++k)
+              for (unsigned s = 0; s < len; ++s)
+                std::fill(row_of(k, s), row_of(k, s) + nj, Scalar(0));
+            continue;
+          }
+        const size_t rows = static_cast<size_t>(nk) * len;
+        A.resize(rows * m);
+        C.resize(rows * nj);
+        for (unsigned k = 0; k < nk; ++k)
+          for (unsigned s = 0; s < len; ++s)
+            {
+              Scalar       *row = &A[(static_cast<size_t>(k) * len + s) * m];
+              const double *hs  = &h_live[static_cast<size_t>(s0 + s) * nm];
+              const double *pk  = &phi_in_live[static_cast<size_t>(k0 + k) * nm];
+              for (unsigned i = 0; i < m; ++i)
+                row[i] = static_cast<Scalar>(hs[i] * pk[i]);
+            }
+        gemm_abt(static_cast<int>(rows), static_cast<int>(nj), static_cast<int>(m), A.data(),
+                 static_cast<int>(m), phi_out_s.data() + static_cast<size_t>(j0) * nm,
+                 static_cast<int>(nm), C.data(), static_cast<int>(nj));
+        for (unsigned k = 0; k < nk; ++k)
+          for (unsigned s = 0; s < len; ++s)
+            std::copy_n(&C[(static_cast<size_t>(k) * len + s) * nj], nj, row_of(k, s));
+      }
+  }
+
+  template <class Scalar>
+  double
+  ImpulseResponsePrecompute::run_chunks()
+  {
+    const MPI_Datatype        type = sizeof(Scalar) == 8 ? MPI_DOUBLE : MPI_FLOAT;
+    std::vector<Scalar> phi_out_s(phi_out.size());
+    for (size_t j = 0; j < nout; ++j)
+      for (unsigned i = 0; i < nm; ++i)
+        phi_out_s[j * nm + i] = static_cast<Scalar>(phi_out[j * nm + live.order[i]]);
+    // Two sets of buffers on one rank: the GEMMs of one batch fill one set while the other
+    // set, the batch before, is being written.
+    const unsigned n_sets = size == 1 ? 2 : 1;
+    std::vector<std::vector<Scalar>> buffers(n_sets * workers,
+                                             std::vector<Scalar>(static_cast<size_t>(chunk) * per_input));
+    double     compute_seconds = 0, fill_seconds = 0;
+    unsigned   finished        = rep.chunks_resumed;
+    const auto t_chunks        = Clock::now(); // the time left is estimated from this run's rate
+    const auto store = [&](const unsigned c, const Scalar *data) {
+      const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
+      const auto     tw = Clock::now();
+      w->write_rows("/impulse_response/H", k0, nk, data);
+      const long long one = 1;
+      w->write_rows("/progress/chunk_done", c, 1, &one);
+      w->flush();
+      write_seconds += since(tw);
+      ++finished;
+      const double per_chunk = since(t_chunks) / (finished - rep.chunks_resumed);
+      log("chunk " + std::to_string(finished) + "/" + std::to_string(n_chunks) + " (inputs " +
+          std::to_string(k0) + ".." + std::to_string(k0 + nk - 1) + "), " +
+          std::to_string(static_cast<int>(since(t_start))) + " s elapsed, about " +
+          std::to_string(static_cast<int>(per_chunk * (n_chunks - finished))) + " s left");
+    };
+    // Reciprocity, on the writing rank, chunk by chunk in order: chunk c's outputs before
+    // its first input from the blocks earlier chunks left for it (and its own block's lower
+    // triangle from its upper), then the blocks it leaves for later chunks:
+    // block[c2][c] = H[inputs of c][s][outputs of c2], [k][s][j].
+    std::vector<std::vector<std::vector<Scalar>>> block(
+      symmetric ? n_chunks : 0, std::vector<std::vector<Scalar>>(n_chunks));
+    const auto complete = [&](const unsigned c, Scalar *data) { fill_by_reciprocity(c, data, block); };
+    // Chunks to compute: those not written yet; under reciprocity every chunk (a resumed run
+    // recomputes the written ones for the blocks they leave, without writing them again).
+    std::vector<unsigned> todo;
+    for (unsigned c = 0; c < n_chunks; ++c)
+      if (!done[c] || symmetric)
+        todo.push_back(c);
+    if (size == 1)
+      {
+        std::future<void> writing; // the batch before, written while this batch computes
+        for (size_t first = 0, batch = 0; first < todo.size(); first += workers, ++batch)
+          {
+            const size_t n_batch = std::min<size_t>(workers, todo.size() - first);
+            const auto   buffer  = [&, batch](const size_t b) {
+              return buffers[(batch % n_sets) * workers + b].data();
+            };
+            const auto tc = Clock::now();
+            std::vector<std::thread> pool;
+            for (size_t b = 1; b < n_batch; ++b)
+              pool.emplace_back([&, b] { compute_chunk(todo[first + b], phi_out_s, buffer(b)); });
+            compute_chunk(todo[first], phi_out_s, buffer(0));
+            for (auto &t : pool)
+              t.join();
+            const auto tf = Clock::now();
+            for (size_t b = 0; b < n_batch; ++b)
+              complete(todo[first + b], buffer(b));
+            fill_seconds += since(tf);
+            compute_seconds += since(tc);
+            if (writing.valid())
+              writing.get(); // rethrows a failed write
+            writing = std::async(std::launch::async, [&, first, n_batch, buffer] {
+              for (size_t b = 0; b < n_batch; ++b)
+                if (!done[todo[first + b]])
+                  store(todo[first + b], buffer(b));
+            });
+          }
+        if (writing.valid())
+          writing.get();
+        if (symmetric)
+          log("responses: " + std::to_string(compute_seconds) + " s, of which the fill by "
+              "reciprocity " + std::to_string(fill_seconds) + " s");
+      }
+    else
+      for (const unsigned c : todo)
+        {
+          const int      owner = static_cast<int>(c % size);
+          const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
+          const size_t   count = static_cast<size_t>(nk) * per_input;
+          if (owner == rank)
+            {
+              const auto tc = Clock::now();
+              compute_chunk(c, phi_out_s, buffers[0].data());
+              compute_seconds += since(tc);
+              if (rank != 0)
+                MPI_Send(buffers[0].data(), static_cast<int>(count), type, 0,
+                         static_cast<int>(c), MPI_COMM_WORLD);
+            }
+          else if (rank == 0)
+            MPI_Recv(buffers[0].data(), static_cast<int>(count), type, owner,
+                     static_cast<int>(c), MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+          if (rank == 0)
+            {
+              complete(c, buffers[0].data());
+              if (!done[c])
+                store(c, buffers[0].data());
+            }
+        }
+    return compute_seconds;
+  }
+
+  /// Reciprocity, on the writing rank, chunk by chunk in order: chunk c's outputs before its
+  /// first input from the blocks earlier chunks left for it (and its own block's lower
+  /// triangle from its upper), then the blocks it leaves for later chunks:
+  /// block[c2][c] = H[inputs of c][s][outputs of c2], [k][s][j].
+  template <class Scalar>
+  void
+  ImpulseResponsePrecompute::fill_by_reciprocity(const unsigned c, Scalar *data,
+                                                 std::vector<std::vector<std::vector<Scalar>>> &block) const
+  {
+    if (!symmetric)
+      return;
+    const unsigned k0 = c * chunk, nk = std::min(chunk, nin - k0);
+    for (unsigned c1 = 0; c1 < c; ++c1)
+      {
+        const unsigned j0 = c1 * chunk, nj = std::min(chunk, nin - j0);
+        const Scalar  *from = block[c][c1].data(); // [j][s][k]: H[j][s][k] = H[k][s][j]
+        // k innermost: the reads run along `from`, the writes go to nk rows side by side.
+        for (unsigned s = 0; s < T; ++s)
+          for (unsigned j = 0; j < nj; ++j)
+            {
+              const Scalar *in = from + (static_cast<size_t>(j) * T + s) * nk;
+              for (unsigned k = 0; k < nk; ++k)
+                data[(static_cast<size_t>(k) * T + s) * nout + j0 + j] = in[k];
+            }
+        std::vector<Scalar>().swap(block[c][c1]);
+      }
+    // Within the chunk's own block, below its diagonal too: the stored H[s] is then exactly
+    // symmetric.
+    for (unsigned k = 1; k < nk; ++k)
+      for (unsigned s = 0; s < T; ++s)
+        for (unsigned j = 0; j < k; ++j)
+          data[(static_cast<size_t>(k) * T + s) * nout + k0 + j] =
+            data[(static_cast<size_t>(j) * T + s) * nout + k0 + k];
+    for (unsigned c2 = c + 1; c2 < n_chunks; ++c2)
+      {
+        const unsigned j0 = c2 * chunk, nj = std::min(chunk, nin - j0);
+        auto          &to = block[c2][c];
+        to.resize(static_cast<size_t>(nk) * T * nj);
+        for (size_t r = 0; r < static_cast<size_t>(nk) * T; ++r)
+          std::copy(data + r * nout + j0, data + r * nout + j0 + nj, to.data() + r * nj);
+      }
+  }
+
+  PrecomputeReport
+  ImpulseResponsePrecompute::run()
+  {
+    setup();
+    compute_modes();
+    modal_responses();
+    open_output();
+    write_responses();
     return rep;
+  }
+
+  PrecomputeReport
+  precompute_impulse_responses(const Scene &scene, const PrecomputeOptions &options)
+  {
+    return ImpulseResponsePrecompute(scene, options).run();
   }
 } // namespace irdm::fem
