@@ -1,8 +1,8 @@
-// Report templates (validation/src/report_template.h): values, sections, and the errors that
+// Report templates (irdm_common/report_template.h): values, sections, and the errors that
 // keep a template and its writer in step; every template of the project fills. The error
 // measures every study reports (validation/src/metrics.h).
 #include "metrics.h"
-#include "report_template.h"
+#include <irdm_common/report_template.h>
 
 #include <gtest/gtest.h>
 
@@ -11,8 +11,8 @@
 #include <regex>
 #include <stdexcept>
 
-using irdm::validation::fill_template;
-using irdm::validation::TemplateValues;
+using irdm::fill_template;
+using irdm::TemplateValues;
 
 TEST(ReportTemplate, ValuesAndSectionsAreFilled)
 {
@@ -42,19 +42,20 @@ TEST(ReportTemplate, EveryTemplateOfTheProjectFills)
 {
   const std::regex tag(R"(\{\{[#^/]?([a-z_0-9]+)\}\})");
   int              n = 0;
-  for (const auto &f : std::filesystem::directory_iterator(IRDM_SOURCE_DIR "/validation/templates"))
-    {
-      SCOPED_TRACE(f.path().string());
-      const std::string text = irdm::validation::read_template(f.path().filename().string());
-      TemplateValues    v;
-      for (std::sregex_iterator i(text.begin(), text.end(), tag), end; i != end; ++i)
-        v[(*i)[1]] = "1";
-      ASSERT_FALSE(v.empty());
-      const std::string filled = fill_template(text, v);
-      EXPECT_EQ(filled.find("{{"), std::string::npos);
-      ++n;
-    }
-  EXPECT_GT(n, 0);
+  for (const std::string folder : {"validation/templates", "apps/templates"})
+    for (const auto &f : std::filesystem::directory_iterator(IRDM_SOURCE_DIR "/" + folder))
+      {
+        SCOPED_TRACE(f.path().string());
+        const std::string text = irdm::read_template(folder + "/" + f.path().filename().string());
+        TemplateValues    v;
+        for (std::sregex_iterator i(text.begin(), text.end(), tag), end; i != end; ++i)
+          v[(*i)[1]] = "1";
+        ASSERT_FALSE(v.empty());
+        const std::string filled = fill_template(text, v);
+        EXPECT_EQ(filled.find("{{"), std::string::npos);
+        ++n;
+      }
+  EXPECT_GT(n, 6);
 }
 
 // The error measures (validation/src/metrics.h) on histories whose errors are known.

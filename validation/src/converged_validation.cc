@@ -21,7 +21,7 @@
 #include <optional>
 #include <sstream>
 
-#include "report_template.h"
+#include <irdm_common/report_template.h>
 #include "scene_runs.h"
 
 namespace fs = std::filesystem;
@@ -419,7 +419,7 @@ namespace irdm::validation
                       "scene,t_s,probe,fem_coarse_N,irdm_coarse_N,fem_converged_N,irdm_converged_N\n" +
                         series);
       write_text_file((fs::path(dir) / "report.md").string(),
-                      fill_template(read_template("converged.md"), v));
+                      fill_template(read_template("validation/templates/converged.md"), v));
     }
   } // namespace
 

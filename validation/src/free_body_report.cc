@@ -1,7 +1,7 @@
 // The free-body study's report (free_body_runs.h): the CSV files other programs read, and
 // report.md from validation/templates/free.md.
 #include "free_body_runs.h"
-#include "report_template.h"
+#include <irdm_common/report_template.h>
 
 #include <irdm_common/files.h>
 #include <irdm_common/report_stamp.h>
@@ -331,6 +331,6 @@ namespace irdm::validation::free_body
     v["impact_table"]        = impact_md.str();
     v["stability_table"]     = stability_table(s);
     v["free_flight"]         = free_flight_list(s);
-    write(dir, "report.md", fill_template(read_template("free.md"), v));
+    write(dir, "report.md", fill_template(read_template("validation/templates/free.md"), v));
   }
 } // namespace irdm::validation::free_body

@@ -1,7 +1,7 @@
 // The plane study's report (plane_runs.h): the CSV files other programs read, and planes.md
 // from validation/templates/planes.md.
 #include "plane_runs.h"
-#include "report_template.h"
+#include <irdm_common/report_template.h>
 
 #include <irdm_common/files.h>
 #include <irdm_common/format.h>
@@ -402,6 +402,6 @@ namespace irdm::validation::planes
     v["mapping_table"] = mapping_table(s.mapping);
     v["plate_table"]   = plate_table(s.plate);
     write_text_file((fs::path(dir) / "planes.md").string(),
-                    fill_template(read_template("planes.md"), v));
+                    fill_template(read_template("validation/templates/planes.md"), v));
   }
 } // namespace irdm::validation::planes

@@ -1,7 +1,7 @@
 // The point validation's reports (point_runs.h): each scene's CSV files and report.md, and
 // validation.md over every scene and the full model.
 #include "point_runs.h"
-#include "report_template.h"
+#include <irdm_common/report_template.h>
 
 #include <irdm_common/csv.h>
 #include <irdm_common/files.h>
@@ -144,7 +144,7 @@ namespace irdm::validation::points
                                         : fmt(compare(a.s, f.s).force_rel_l2))
                << " |\n";
         }
-      return fill_template(read_template("coupling_sweep.md"),
+      return fill_template(read_template("validation/templates/coupling_sweep.md"),
                            {{"k0", fmt(c.k0)},
                             {"b0", fmt(c.b0)},
                             {"tau", num(scene.time_step)},
@@ -337,7 +337,7 @@ namespace irdm::validation::points
     TemplateValues v = scene_values(r);
     passivity_values(r, v);
     v["coupling_section"] = r.coupling ? coupling_section(dir, r.scene, *r.coupling) : "";
-    write_text_file((dir / "report.md").string(), fill_template(read_template("scene.md"), v));
+    write_text_file((dir / "report.md").string(), fill_template(read_template("validation/templates/scene.md"), v));
   }
 
   std::string
@@ -366,6 +366,6 @@ namespace irdm::validation::points
     if (full)
       write_compression_csv((fs::path(o.report_dir) / "full_model_compression.csv").string(), full->rows);
     write_text_file((fs::path(o.report_dir) / "validation.md").string(),
-                    fill_template(read_template("validation.md"), v));
+                    fill_template(read_template("validation/templates/validation.md"), v));
   }
 } // namespace irdm::validation::points

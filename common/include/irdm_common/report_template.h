@@ -1,11 +1,11 @@
 #pragma once
-// Internal to validation/: reports are Markdown templates (validation/templates/) filled with a
+// Reports are Markdown templates (validation/templates/, apps/templates/) filled with a
 // run's figures and tables, so that the prose lives in Markdown and the C++ gives only values
 // (numbers through irdm::fmt, irdm_common/format.h).
 #include <map>
 #include <string>
 
-namespace irdm::validation
+namespace irdm
 {
   using TemplateValues = std::map<std::string, std::string>;
 
@@ -16,8 +16,9 @@ namespace irdm::validation
   std::string
   fill_template(const std::string &text, const TemplateValues &values);
 
-  /// validation/templates/<name> of the source tree.
+  /// A template of the source tree, by its path from the tree's root
+  /// ("validation/templates/planes.md").
   std::string
-  read_template(const std::string &name);
+  read_template(const std::string &path);
 
-} // namespace irdm::validation
+} // namespace irdm

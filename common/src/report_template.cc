@@ -1,5 +1,5 @@
 // Markdown report templates (report_template.h).
-#include "report_template.h"
+#include <irdm_common/report_template.h>
 
 #include <irdm_common/error.h>
 
@@ -9,7 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace irdm::validation
+namespace irdm
 {
   namespace
   {
@@ -80,9 +80,9 @@ namespace irdm::validation
   }
 
   std::string
-  read_template(const std::string &name)
+  read_template(const std::string &relative)
   {
-    const std::string path = std::string(IRDM_SOURCE_DIR) + "/validation/templates/" + name;
+    const std::string path = std::string(IRDM_SOURCE_DIR) + "/" + relative;
     std::ifstream     in(path);
     if (!in)
       throw IoError("cannot read the report template '" + path + "'");
@@ -90,4 +90,4 @@ namespace irdm::validation
     s << in.rdbuf();
     return s.str();
   }
-} // namespace irdm::validation
+} // namespace irdm
