@@ -402,42 +402,25 @@ namespace irdm::fem
           fail(n.where + ".name", "may hold only letters, digits, '_', '-' and '.'");
       return s;
     }
-  } // namespace
+    /// The names of loads, probes, planes and observed vertices: each used once. A nameless one
+    /// is named after its kind and how many names came before it.
+    struct Names
+    {
+      std::set<std::string> used;
+      std::string
+      operator()(const Node &n, const std::string &kind)
+      {
+        const std::string name = parse_name(n, kind + std::to_string(used.size()));
+        if (!used.insert(name).second)
+          fail(n.where, "name '" + name + "' is used twice");
+        return name;
+      }
+    };
 
-  Scene
-  parse_scene(const std::string &json_text,
-              const std::string &base_dir,
-              const std::string &origin)
-  {
-    json root;
-    try
-      {
-        root = json::parse(json_text);
-      }
-    catch (const json::parse_error &e)
-      {
-        throw InputError("scene " + origin + ": malformed JSON: " + e.what());
-      }
-    catch (const json::out_of_range &e)
-      {
-        // A number too large for a double (1e400): name the key it belongs to.
-        throw InputError("scene " + origin + ": " + overflowing_number(json_text) + " (" +
-                         e.what() + ")");
-      }
-    const Node top{root, "'" + origin + "'"};
-    top.allow_only({"format", "name", "mesh", "fe_degree", "material", "damping",
-                    "integrator", "time", "initial_state", "gravity",
-                    "kinematics", "initial_velocity_m_s", "initial_angular_velocity_rad_s", "planes",
-                    "fixed_surfaces", "loads", "prescribed_displacements",
-                    "probes", "model", "outputs", "comment"});
-    Scene s;
-    s.source    = origin;
-    s.json_text = json_text;
-    if (top.at("format").string() != "irdm-scene/1")
-      fail(top.where + ".format", "unknown format '" + top.at("format").string() +
-                                    "' (this program reads irdm-scene/1)");
-    s.name = parse_name(top, "scene");
-
+    /// The mesh and the element degree.
+    void
+    parse_body(const Node &top, const std::string &base_dir, Scene &s)
+    {
     {
       const Node m = top.at("mesh");
       m.allow_only({"file"});
@@ -452,6 +435,12 @@ namespace irdm::fem
           fail(top.where + ".fe_degree", "must be 1 or 2 (linear or quadratic tetrahedra)");
         s.fe_degree = static_cast<unsigned>(p);
       }
+    }
+
+    /// Young's modulus, Poisson's ratio, density and the law.
+    void
+    parse_material(const Node &top, Scene &s)
+    {
     {
       const Node m = top.at("material");
       m.allow_only({"youngs_modulus_Pa", "poisson_ratio", "density_kg_m3", "law"});
@@ -474,6 +463,12 @@ namespace irdm::fem
           s.body_frame_law = law == "linear_body_frame";
         }
     }
+    }
+
+    /// Rayleigh damping: coefficients, or two ratios at two frequencies.
+    void
+    parse_damping(const Node &top, Scene &s)
+    {
     if (top.has("damping"))
       {
         const Node d = top.at("damping");
@@ -514,6 +509,12 @@ namespace irdm::fem
             s.damping_freqs_spec  = Vec3{f1, f2, 0};
           }
       }
+    }
+
+    /// Newmark or generalized-alpha.
+    void
+    parse_integrator(const Node &top, Scene &s)
+    {
     if (top.has("integrator"))
       {
         const Node in = top.at("integrator");
@@ -536,6 +537,12 @@ namespace irdm::fem
           fail(in.where + ".type", "unknown integrator '" + t +
                                      "' (newmark or generalized_alpha)");
       }
+    }
+
+    /// The step (the seed's 2 ms by default) and the duration.
+    void
+    parse_time(const Node &top, Scene &s)
+    {
     // The step defaults to the seed's tau = 2 ms; a duration is needed only to run the scene
     // (a model spec for 'irdm precompute' does not need one).
     s.time_step = 0.002;
@@ -555,6 +562,12 @@ namespace irdm::fem
               fail(t.where, "more than 1e8 steps");
           }
       }
+    }
+
+    /// The initial state, gravity, kinematics, fixed surfaces and the initial motion.
+    void
+    parse_state(const Node &top, Scene &s)
+    {
     if (top.has("initial_state"))
       {
         const std::string i = top.at("initial_state").string();
@@ -601,13 +614,12 @@ namespace irdm::fem
           fail(top.where + ".initial_angular_velocity_rad_s",
                "a spin needs a free body (no fixed_surfaces)");
       }
+    }
 
-    std::set<std::string> names;
-    const auto unique = [&](const Node &n, const std::string &name) {
-      if (!names.insert(name).second)
-        fail(n.where, "name '" + name + "' is used twice");
-      return name;
-    };
+    /// Vertex and surface forces, and prescribed displacements.
+    void
+    parse_loads(const Node &top, const std::string &base_dir, Names &names, Scene &s)
+    {
     if (top.has("loads"))
       for (const auto &n : top.at("loads").array())
         {
@@ -616,7 +628,7 @@ namespace irdm::fem
             {
               n.allow_only({"type", "name", "vertex", "force_N", "history"});
               VertexForce f;
-              f.name   = unique(n, parse_name(n, "force" + std::to_string(names.size())));
+              f.name   = names(n, "force");
               f.vertex = parse_vertex(n.at("vertex"));
               f.force  = parse_history(n, "force_N", base_dir);
               s.vertex_forces.push_back(f);
@@ -625,7 +637,7 @@ namespace irdm::fem
             {
               n.allow_only({"type", "name", "surface", "total_force_N", "history"});
               SurfaceForce f;
-              f.name        = unique(n, parse_name(n, "force" + std::to_string(names.size())));
+              f.name        = names(n, "force");
               f.surface     = n.at("surface").string();
               f.total_force = parse_history(n, "total_force_N", base_dir);
               s.surface_forces.push_back(f);
@@ -639,18 +651,24 @@ namespace irdm::fem
         {
           n.allow_only({"name", "vertex", "displacement_m", "history"});
           PrescribedDisplacement p;
-          p.name         = unique(n, parse_name(n, "probe" + std::to_string(names.size())));
+          p.name         = names(n, "probe");
           p.vertex       = parse_vertex(n.at("vertex"));
           p.displacement = parse_history(n, "displacement_m", base_dir);
           s.prescribed.push_back(p);
         }
+    }
+
+    /// Probes: a path, a depth along a direction, and how they touch.
+    void
+    parse_probes(const Node &top, Names &names, Scene &s)
+    {
     if (top.has("probes"))
       for (const auto &n : top.at("probes").array())
         {
           n.allow_only({"name", "surface", "direction", "unilateral", "path", "depth", "until_s",
                         "radius_m", "coupling"});
           Probe p;
-          p.name    = unique(n, parse_name(n, "probe" + std::to_string(names.size())));
+          p.name    = names(n, "probe");
           p.surface = n.at("surface").string();
           const Vec3   d    = n.at("direction").vec3();
           const double norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -677,13 +695,19 @@ namespace irdm::fem
             fail(n.where + ".depth", "must be 0 at t = 0: the body starts at rest");
           s.probes.push_back(p);
         }
+    }
+
+    /// Rigid planes: a moving point, a normal (turning, for nonlinear kinematics), and contact.
+    void
+    parse_planes(const Node &top, Names &names, Scene &s)
+    {
     if (top.has("planes"))
       for (const auto &n : top.at("planes").array())
         {
           n.allow_only({"name", "normal", "normal_path", "position", "penalty_Pa_m",
                         "vertex_stiffness_N_m", "coupling"});
           RigidPlane p;
-          p.name            = unique(n, parse_name(n, "plane" + std::to_string(names.size())));
+          p.name            = names(n, "plane");
           const Vec3   d    = n.at("normal").vec3();
           const double norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
           if (!(norm > 0))
@@ -740,6 +764,12 @@ namespace irdm::fem
             }
           s.planes.push_back(p);
         }
+    }
+
+    /// What cannot go together in one scene, and what must be zero at the start from rest.
+    void
+    check_combinations(const Node &top, const Scene &s)
+    {
     if (s.kinematics == Kinematics::linear && s.small_strain_law)
       fail(top.where + ".material.law", "is for nonlinear kinematics (linear kinematics are "
                                         "small-strain elasticity already)");
@@ -752,6 +782,20 @@ namespace irdm::fem
       fail(top.where, "use either 'probes' or 'prescribed_displacements' in one scene, not both");
     if (s.probes.size() > 4)
       fail(top.where + ".probes", "at most 4 probes");
+    if (s.initial == InitialState::rest)
+      for (const auto &p : s.prescribed)
+        {
+          const Vec3 g0 = p.displacement.at(0.0);
+          if (g0[0] != 0 || g0[1] != 0 || g0[2] != 0)
+            fail(top.where + ".prescribed_displacements",
+                 "'" + p.name + "' is not zero at t = 0, but the body starts at rest");
+        }
+    }
+
+    /// The model spec for irdm precompute: length, storage, input and output regions.
+    void
+    parse_model(const Node &top, Scene &s)
+    {
     if (top.has("model"))
       {
         const Node m = top.at("model");
@@ -775,6 +819,12 @@ namespace irdm::fem
         if (m.has("outputs"))
           s.model.outputs = parse_region(m.at("outputs"));
       }
+    }
+
+    /// What a run writes, and where.
+    void
+    parse_outputs(const Node &top, const std::string &base_dir, Names &names, Scene &s)
+    {
     if (top.has("outputs"))
       {
         const Node o = top.at("outputs");
@@ -786,7 +836,7 @@ namespace irdm::fem
             {
               n.allow_only({"name", "vertex"});
               ObservedVertex v;
-              v.name   = unique(n, parse_name(n, "vertex" + std::to_string(names.size())));
+              v.name   = names(n, "vertex");
               v.vertex = parse_vertex(n.at("vertex"));
               s.outputs.vertices.push_back(v);
             }
@@ -811,14 +861,57 @@ namespace irdm::fem
         if (o.has("csv"))
           s.outputs.csv = o.at("csv").boolean();
       }
-    if (s.initial == InitialState::rest)
-      for (const auto &p : s.prescribed)
-        {
-          const Vec3 g0 = p.displacement.at(0.0);
-          if (g0[0] != 0 || g0[1] != 0 || g0[2] != 0)
-            fail(top.where + ".prescribed_displacements",
-                 "'" + p.name + "' is not zero at t = 0, but the body starts at rest");
-        }
+    }
+
+  } // namespace
+
+  Scene
+  parse_scene(const std::string &json_text,
+              const std::string &base_dir,
+              const std::string &origin)
+  {
+    json root;
+    try
+      {
+        root = json::parse(json_text);
+      }
+    catch (const json::parse_error &e)
+      {
+        throw InputError("scene " + origin + ": malformed JSON: " + e.what());
+      }
+    catch (const json::out_of_range &e)
+      {
+        // A number too large for a double (1e400): name the key it belongs to.
+        throw InputError("scene " + origin + ": " + overflowing_number(json_text) + " (" +
+                         e.what() + ")");
+      }
+    const Node top{root, "'" + origin + "'"};
+    top.allow_only({"format", "name", "mesh", "fe_degree", "material", "damping",
+                    "integrator", "time", "initial_state", "gravity",
+                    "kinematics", "initial_velocity_m_s", "initial_angular_velocity_rad_s", "planes",
+                    "fixed_surfaces", "loads", "prescribed_displacements",
+                    "probes", "model", "outputs", "comment"});
+    Scene s;
+    s.source    = origin;
+    s.json_text = json_text;
+    if (top.at("format").string() != "irdm-scene/1")
+      fail(top.where + ".format", "unknown format '" + top.at("format").string() +
+                                    "' (this program reads irdm-scene/1)");
+    s.name = parse_name(top, "scene");
+
+    parse_body(top, base_dir, s);
+    parse_material(top, s);
+    parse_damping(top, s);
+    parse_integrator(top, s);
+    parse_time(top, s);
+    parse_state(top, s);
+    Names names;
+    parse_loads(top, base_dir, names, s);
+    parse_probes(top, names, s);
+    parse_planes(top, names, s);
+    check_combinations(top, s);
+    parse_model(top, s);
+    parse_outputs(top, base_dir, names, s);
     return s;
   }
 
