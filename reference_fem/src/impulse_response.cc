@@ -421,16 +421,8 @@ namespace irdm::fem
     , size(mpi.size)
     , log(mpi.rank0(options.log))
     , coef(IntegratorCoefficients::from_scene(scene))
+    , output_lock(lock_output_on_rank0(mpi, options.output, scene.mesh_file, "precompute"))
   {
-    if (options.output.empty())
-      throw InputError("precompute: no output file given");
-    // Rank 0 writes the file: it checks the path and takes the output's lock now, before
-    // any work, so that a bad path or a second run to the same file is refused at once.
-    if (rank == 0)
-      {
-        check_output_file("--out", options.output, {scene.mesh_file});
-        output_lock = OutputLock(options.output);
-      }
     // A scene that fixes no surface is a free body: its six rigid-body modes (w = 0) are
     // separated from the elastic ones and left to the runtime's rigid-body dynamics.
     free_body    = scene.fixed_surfaces.empty();

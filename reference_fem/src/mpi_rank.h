@@ -2,6 +2,9 @@
 // Internal: this process's place in MPI_COMM_WORLD and a progress log that only rank 0 prints,
 // shared by the precomputes that deal their work to ranks (impulse_response.cc,
 // virtual_dof.cc).
+#include <irdm_common/error.h>
+#include <irdm_common/files.h>
+
 #include <mpi.h>
 #include <sched.h>
 
@@ -33,6 +36,21 @@ namespace irdm::fem
       };
     }
   };
+
+  /// The output of a precompute that rank 0 writes: rank 0 checks the path and takes its
+  /// lock at once, before any work, so that a bad path or a second run to the same file is
+  /// refused at once (the lock of the other ranks is empty). `what` names the precompute.
+  inline OutputLock
+  lock_output_on_rank0(const MpiRank &mpi, const std::string &output, const std::string &mesh_file,
+                       const std::string &what)
+  {
+    if (output.empty())
+      throw InputError(what + ": no output file given");
+    if (mpi.rank != 0)
+      return OutputLock();
+    check_output_file("--out", output, {mesh_file});
+    return OutputLock(output);
+  }
 
   /// The cores this process may run on (its affinity mask), and the machine's.
   inline std::pair<unsigned, unsigned>

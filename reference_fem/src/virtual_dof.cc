@@ -166,16 +166,8 @@ namespace irdm::fem
     , rank(mpi.rank)
     , size(mpi.size)
     , log(mpi.rank0(options.log))
+    , output_lock(lock_output_on_rank0(mpi, options.output, scene.mesh_file, "virtual DOFs"))
   {
-    if (options.output.empty())
-      throw InputError("virtual DOFs: no output file given");
-    // Rank 0 writes the file: it checks the path and takes the output's lock now, before
-    // any work, so that a bad path or a second run to the same file is refused at once.
-    if (rank == 0)
-      {
-        check_output_file("--out", options.output, {scene.mesh_file});
-        output_lock = OutputLock(options.output);
-      }
     // No fixed surface: a free body, whose rigid motion the best fit takes out (header).
     free_body = scene.fixed_surfaces.empty();
     if (!(options.impulse_depth > 0) || !(options.band > 0))
