@@ -585,85 +585,113 @@ namespace irdm::validation
     // 6. Ball on a rigid floor: the nonlinear FEM's peak contact force against Hertz over
     // impact speed (on meshes whose pole scales with Hertz's contact radius), and its
     // convergence with the mesh at the pole and with the penalty.
-    void
-    check_hertz(const FemVerificationOptions &o, Report &rep)
-    {
-      const HertzBall ball; // the exact sphere; each run compares with Hertz at its own mass
-      struct Run
-      {
-        std::string mesh;
-        double      speed = 0, penalty = 0, mass = 0, peak = 0, penetration = 0, seconds = 0;
-        HertzBall   hertz() const // Hertz for the FEM's ball, lighter than the sphere
-        {
-          HertzBall h;
-          h.body_mass = mass;
-          return h;
-        }
-        double error() const { return peak / hertz().peak_force(speed) - 1; }
-      };
-      // 50 steps per Hertz contact time; run until 0.6 of it past touching (the peak is at
-      // half of it).
-      const auto run = [&](const std::string &mesh, const double v, const double penalty) {
-        Run          r{mesh, v, penalty};
-        const double tc = ball.contact_time(v), dt = tc / 50;
-        const double steps = std::ceil((1e-4 / v + 0.6 * tc) / dt);
-        const auto   t0 = std::chrono::steady_clock::now();
-        const auto   res = fem::NonlinearElasticity(
-                           scene_from(ball_scene_json((fs::path(o.mesh_dir) / mesh).string(),
-                                                      ball, v, dt, steps * dt, penalty)))
-                           .run();
-        r.seconds = seconds_since(t0);
-        r.penalty = res.plane_penalty.at("floor");
-        r.mass    = 2 * res.kinetic_energy.at(0) / (v * v); // the mesh's, from 1/2 m v^2
-        for (std::size_t k = 0; k < res.time.size(); ++k)
-          {
-            r.peak        = std::max(r.peak, res.plane_force.at("floor")[k][2]);
-            r.penetration = std::max(r.penetration, res.plane_penetration.at("floor")[k]);
-          }
-        rep.log << "  ball " << mesh << " at " << v << " m/s, penalty " << fmt("%.3g", r.penalty)
-                << " Pa/m: peak " << fmt("%.4g", r.peak) << " N (Hertz "
-                << fmt("%.4g", r.hertz().peak_force(v)) << " N, " << fmt("%+.2f %%", 100 * r.error())
-                << "), " << fmt("%.1f", r.seconds) << " s\n";
-        return r;
-      };
 
+    /// One ball run against Hertz.
+    struct HertzRun
+    {
+      std::string mesh;
+      double      speed = 0, penalty = 0, mass = 0, peak = 0, penetration = 0, seconds = 0;
+      HertzBall   hertz() const // Hertz for the FEM's ball, lighter than the sphere
+      {
+        HertzBall h;
+        h.body_mass = mass;
+        return h;
+      }
+      double error() const { return peak / hertz().peak_force(speed) - 1; }
+    };
+
+    /// The ball on mesh `mesh` at speed v (penalty 0: the default): 50 steps per Hertz contact
+    /// time, run until 0.6 of it past touching (the peak is at half of it).
+    HertzRun
+    run_ball(const FemVerificationOptions &o, Report &rep, const std::string &mesh, const double v,
+             const double penalty)
+    {
+      const HertzBall ball;
+      HertzRun     r{mesh, v, penalty};
+      const double tc = ball.contact_time(v), dt = tc / 50;
+      const double steps = std::ceil((1e-4 / v + 0.6 * tc) / dt);
+      const auto   t0 = std::chrono::steady_clock::now();
+      const auto   res = fem::NonlinearElasticity(
+                         scene_from(ball_scene_json((fs::path(o.mesh_dir) / mesh).string(),
+                                                    ball, v, dt, steps * dt, penalty)))
+                         .run();
+      r.seconds = seconds_since(t0);
+      r.penalty = res.plane_penalty.at("floor");
+      r.mass    = 2 * res.kinetic_energy.at(0) / (v * v); // the mesh's, from 1/2 m v^2
+      for (std::size_t k = 0; k < res.time.size(); ++k)
+        {
+          r.peak        = std::max(r.peak, res.plane_force.at("floor")[k][2]);
+          r.penetration = std::max(r.penetration, res.plane_penetration.at("floor")[k]);
+        }
+      rep.log << "  ball " << mesh << " at " << v << " m/s, penalty " << fmt("%.3g", r.penalty)
+              << " Pa/m: peak " << fmt("%.4g", r.peak) << " N (Hertz "
+              << fmt("%.4g", r.hertz().peak_force(v)) << " N, " << fmt("%+.2f %%", 100 * r.error())
+              << "), " << fmt("%.1f", r.seconds) << " s\n";
+      return r;
+    }
+
+    /// The Hertz study's runs: the speed sweep on coarse and fine meshes, and the convergence
+    /// at v0 with the mesh and with the penalty.
+    struct HertzStudy
+    {
+      double                v0 = 0.02; // m/s: also where the mesh and penalty convergence is run
+      std::vector<double>   speeds, penalty_factors;
+      std::vector<HertzRun> coarse, fine, by_mesh, by_penalty;
+      HertzRun              middle; // the coarse run at v0
+      /// The finest series that was run: the checks read it.
+      const std::vector<HertzRun> &
+      best() const
+      {
+        return fine.empty() ? coarse : fine;
+      }
+    };
+
+    HertzStudy
+    run_hertz_study(const FemVerificationOptions &o, Report &rep)
+    {
       // The speed sweep. Every mesh has pole elements of a fixed fraction of Hertz's contact
       // radius a(v) (coarse 0.27 a, fine 0.135 a; meshes/generate.sh), so the discretization
       // error is alike at every speed and what changes is the physics, a / R ~ v^(2/5).
-      const double v0 = 0.02; // m/s: also where the mesh and penalty convergence is run
+      HertzStudy s;
+      const double v0 = s.v0;
       const auto   mesh_at = [&](const double v, const bool fine) -> std::string {
         if (v == v0)
           return fine ? "ball_pole_1.msh" : "ball_pole_2.msh"; // 2.0 / 1.0 mm = 0.27 / 0.135 a
         return "ball_hertz_" + fmt("%g", 1000 * v) + "mms_" + (fine ? "fine" : "coarse") + ".msh";
       };
-      std::vector<double> speeds = {0.00125, 0.0025, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2};
+      std::vector<double> &speeds = s.speeds;
+      speeds = {0.00125, 0.0025, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2};
       if (o.quick)
         speeds = {0.0025, 0.02, 0.1};
       const auto has_fine = [&](const double v) { return !o.quick && v <= v0; };
-      std::vector<Run> coarse, fine;
+      std::vector<HertzRun> &coarse = s.coarse, &fine = s.fine;
       for (const double v : speeds)
         {
-          coarse.push_back(run(mesh_at(v, false), v, 0));
+          coarse.push_back(run_ball(o, rep, mesh_at(v, false), v, 0));
           if (has_fine(v))
-            fine.push_back(run(mesh_at(v, true), v, 0));
+            fine.push_back(run_ball(o, rep, mesh_at(v, true), v, 0));
         }
-      // The checks read the finest series that was run.
-      const std::vector<Run> &best = fine.empty() ? coarse : fine;
-      const auto at_v0 = [&](const std::vector<Run> &runs) {
-        return *std::find_if(runs.begin(), runs.end(), [&](const Run &r) { return r.speed == v0; });
+      const auto at_v0 = [&](const std::vector<HertzRun> &runs) {
+        return *std::find_if(runs.begin(), runs.end(), [&](const HertzRun &r) { return r.speed == v0; });
       };
 
-      std::vector<Run> by_mesh = {run("ball_pole_4.msh", v0, 0), at_v0(coarse)};
+      s.by_mesh = {run_ball(o, rep, "ball_pole_4.msh", v0, 0), at_v0(coarse)};
       if (!fine.empty())
-        by_mesh.push_back(at_v0(fine));
-      const Run                 middle          = at_v0(coarse);
-      const std::vector<double> penalty_factors = {0.1, 1.0, 10.0}; // of the default
-      std::vector<Run>          by_penalty;
-      for (const double factor : penalty_factors)
-        by_penalty.push_back(factor == 1.0 ? middle : run(middle.mesh, v0, factor * middle.penalty));
+        s.by_mesh.push_back(at_v0(fine));
+      s.middle          = at_v0(coarse);
+      s.penalty_factors = {0.1, 1.0, 10.0}; // of the default
+      for (const double factor : s.penalty_factors)
+        s.by_penalty.push_back(
+          factor == 1.0 ? s.middle : run_ball(o, rep, s.middle.mesh, v0, factor * s.middle.penalty));
+      return s;
+    }
 
+    /// hertz.csv: every run, by series.
+    void
+    write_hertz_csv(Report &rep, const HertzStudy &s)
+    {
       std::vector<std::vector<double>> cols(11);
-      const auto add_rows = [&](const std::vector<Run> &runs, const double series) {
+      const auto add_rows = [&](const std::vector<HertzRun> &runs, const double series) {
         for (const auto &r : runs)
           {
             const HertzBall           h   = r.hertz();
@@ -682,17 +710,27 @@ namespace irdm::validation
               cols[i].push_back(row[i]);
           }
       };
-      add_rows(coarse, 0);
-      add_rows(fine, 1);
-      add_rows(by_mesh, 2);
-      add_rows(by_penalty, 3);
+      add_rows(s.coarse, 0);
+      add_rows(s.fine, 1);
+      add_rows(s.by_mesh, 2);
+      add_rows(s.by_penalty, 3);
       write_csv(rep.path("hertz.csv"),
                 {"series_0coarse_1fine_2mesh_3penalty", "speed_m_s", "hertz_contact_radius_over_R",
                  "penalty_Pa_m", "fem_mass_kg", "fem_peak_N", "hertz_peak_N",
                  "finite_ball_estimate_peak_N", "fem_max_penetration_m", "hertz_max_indentation_m",
                  "seconds"},
                 cols);
+    }
 
+    /// Section 6 of the report: the speed sweep against Hertz and the convergence tables.
+    void
+    write_hertz_section(Report &rep, const HertzStudy &s)
+    {
+      const HertzBall ball;
+      const auto &coarse = s.coarse;
+      const auto &fine = s.fine;
+      const auto &best = s.best();
+      const double v0 = s.v0;
       auto &b = rep.body;
       b << "## 6. Ball on a rigid floor: Hertz\n\n"
         << "An elastic ball (R = " << ball.radius << " m, E = " << ball.youngs_modulus
@@ -727,8 +765,8 @@ namespace irdm::validation
         {
           const HertzBall h  = c.hertz();
           const auto      f  = std::find_if(fine.begin(), fine.end(),
-                                      [&](const Run &r) { return r.speed == c.speed; });
-          const Run      &fb = f != fine.end() ? *f : c; // the estimate at the finest mass
+                                      [&](const HertzRun &r) { return r.speed == c.speed; });
+          const HertzRun &fb = f != fine.end() ? *f : c; // the estimate at the finest mass
           const double    est = fb.hertz().peak_force_finite_ball(c.speed);
           b << "| " << c.speed << " | " << fmt("%.3f", h.contact_radius(c.speed) / h.radius)
             << " | " << fmt("%.4g", h.peak_force(c.speed)) << " | " << fmt("%.4g", c.peak)
@@ -742,21 +780,32 @@ namespace irdm::validation
         }
       b << "\nConvergence at v = " << v0 << " m/s, with the mesh (pole element size; default "
            "penalty 100 E / h, h the mean boundary edge) and with the penalty (on "
-        << middle.mesh << "):\n\n"
+        << s.middle.mesh << "):\n\n"
         << "| run | penalty (Pa/m) | FEM peak (N) | vs Hertz | deepest penetration / "
            "Hertz delta_max | FEM s |\n|---|---|---|---|---|---|\n";
-      const auto conv_row = [&](const std::string &name, const Run &r) {
+      const auto conv_row = [&](const std::string &name, const HertzRun &r) {
         b << "| " << name << " | " << fmt("%.3g", r.penalty) << " | " << fmt("%.4g", r.peak)
           << " | " << fmt("%+.2f %%", 100 * r.error()) << " | "
           << fmt("%.3f", r.penetration / r.hertz().max_indentation(r.speed)) << " | "
           << fmt("%.1f", r.seconds) << " |\n";
       };
-      for (const auto &r : by_mesh)
+      for (const auto &r : s.by_mesh)
         conv_row(r.mesh, r);
-      for (std::size_t i = 0; i < by_penalty.size(); ++i)
-        conv_row(middle.mesh + ", penalty x " + fmt("%g", penalty_factors[i]), by_penalty[i]);
+      for (std::size_t i = 0; i < s.by_penalty.size(); ++i)
+        conv_row(s.middle.mesh + ", penalty x " + fmt("%g", s.penalty_factors[i]), s.by_penalty[i]);
       b << "\n![Hertz](hertz.png)\n\n";
+    }
 
+    /// The Hertz checks: the low-speed power law, the excess falling with the speed, the
+    /// lowest speed within 5 %, and convergence with the mesh and the penalty.
+    void
+    add_hertz_checks(Report &rep, const HertzStudy &s)
+    {
+      const HertzBall ball;
+      const auto &best = s.best();
+      const auto &fine = s.fine;
+      const double v0 = s.v0;
+      auto &b = rep.body;
       // Hertz's law F_max ~ v^(6/5): least-squares slope of log F against log v over the
       // low speeds (v <= v0), on the finest series.
       double sx = 0, sy = 0, sxx = 0, sxy = 0, n_low = 0;
@@ -775,7 +824,7 @@ namespace irdm::validation
           if (i > 0)
             falls = falls && best[i - 1].error() < best[i].error();
         }
-      const Run   &lowest = best.front();
+      const HertzRun &lowest = best.front();
       const double a_low  = lowest.hertz().contact_radius(lowest.speed) / ball.radius;
       const std::string series = fine.empty() ? "coarse" : "fine";
       b << "Low-speed power law (v <= " << v0 << " m/s, " << n_low << " speeds, " << series
@@ -784,28 +833,38 @@ namespace irdm::validation
                "exponent " + fmt("%.3f", exponent), "1.2 +- 0.05",
                std::abs(exponent - 1.2) <= 0.05});
       rep.add({"peak force's excess over Hertz falls as the speed falls (" + series +
-                 " meshes, h / a fixed; " + fmt("%g", speeds.front()) + " -> " + fmt("%g", v0) +
+                 " meshes, h / a fixed; " + fmt("%g", s.speeds.front()) + " -> " + fmt("%g", v0) +
                  " m/s)",
                excesses, "smaller at each lower speed", falls});
       rep.add({"Hertz peak force at the lowest speed, " + fmt("%g", lowest.speed) + " m/s (a / R = " +
                  fmt("%.3f", a_low) + ", " + lowest.mesh + ")",
                fmt("%+.2f %%", 100 * lowest.error()), "within 5 %",
                std::abs(lowest.error()) <= 0.05});
-      const double dm_coarse = std::abs(by_mesh[1].peak - by_mesh[0].peak),
-                   dm_fine   = std::abs(by_mesh.back().peak - by_mesh[by_mesh.size() - 2].peak);
-      if (by_mesh.size() == 3)
+      const double dm_coarse = std::abs(s.by_mesh[1].peak - s.by_mesh[0].peak),
+                   dm_fine   = std::abs(s.by_mesh.back().peak - s.by_mesh[s.by_mesh.size() - 2].peak);
+      if (s.by_mesh.size() == 3)
         rep.add({"peak force converges with the mesh (4 -> 2 -> 1 mm at the pole)",
                  "successive changes " + fmt("%.3g", dm_coarse) + " N, " + fmt("%.3g", dm_fine) +
                    " N",
                  "the second smaller", dm_fine < dm_coarse});
-      const double dp_soft  = std::abs(by_penalty[1].peak - by_penalty[0].peak),
-                   dp_stiff = std::abs(by_penalty[2].peak - by_penalty[1].peak);
+      const double dp_soft  = std::abs(s.by_penalty[1].peak - s.by_penalty[0].peak),
+                   dp_stiff = std::abs(s.by_penalty[2].peak - s.by_penalty[1].peak);
       rep.add({"peak force converges with the penalty (x 0.1 -> 1 -> 10)",
                "successive changes " + fmt("%.3g", dp_soft) + " N, " + fmt("%.3g", dp_stiff) +
-                 " N (" + fmt("%.2f %%", 100 * dp_stiff / by_penalty[2].peak) + ")",
+                 " N (" + fmt("%.2f %%", 100 * dp_stiff / s.by_penalty[2].peak) + ")",
                "the second smaller, and below 1 %",
-               dp_stiff < dp_soft && dp_stiff < 0.01 * by_penalty[2].peak});
+               dp_stiff < dp_soft && dp_stiff < 0.01 * s.by_penalty[2].peak});
     }
+
+    void
+    check_hertz(const FemVerificationOptions &o, Report &rep)
+    {
+      const HertzStudy s = run_hertz_study(o, rep);
+      write_hertz_csv(rep, s);
+      write_hertz_section(rep, s);
+      add_hertz_checks(rep, s);
+    }
+
   } // namespace
 
   bool
