@@ -2,19 +2,12 @@
 # The main job: install, build, run the validation suites, write the reports.
 #
 #   scripts/main.sh          every report section, on restricted models (below), and the
-#                            index of every report (reports/README.md): 9.0 min
-#                            (9:02 wall by /usr/bin/time, install and build checks included)
-#                            and a 3.3 GB peak on 2 cores once built (one run, 2026-11-25:
-#                            validate 261 s, benchmarks 40, verify-fem 68, virtual-DOF
-#                            precompute 51, validate-planes 122);
-#                            reports in reports/quick/
+#                            index of every report (reports/README.md); reports in
+#                            reports/quick/ (its time and memory: README.md)
 #   scripts/main.sh --full   the full study (the full cat model with the seed's Table 1 on all
 #                            1554 surface DoFs as inputs, the finest verification meshes, the
 #                            162-orientation virtual-DOF model, and the probe scenes on
-#                            the converged cat, scripts/converged.sh): about 27 min and
-#                            8.9 GB without the converged scenes (measured before as_float
-#                            stopped copying H twice), which took 26.5 min alone (scripts/converged.sh, 2026-11-24);
-#                            reports in reports/
+#                            the converged cat, scripts/converged.sh); reports in reports/
 #
 # What the default job restricts, and what that changes:
 # - each scene's model is as long as its scene (validate --length 1: T = the scene's steps,
