@@ -133,7 +133,7 @@ def main():
         "| surface update p50 / p99 (us) | surface warm-up before each frame (us ahead; p50); force step warm-up; repeated to the tick or once "
         "| interruptions of the spins per s, force / deformation thread (p50 length, us) | force error against all modes "
         "| pooled over the repetitions: force step p50 / p99 / p99.9 (us; samples) | pooled: surface update p50 / p99 / p99.9 (us; samples) "
-        f"| force steps in slowed stretches of the machine (repetitions with any); pooled p50 / p99 / p99.9 of the others (us) "
+        "| force steps in slowed stretches of the machine (repetitions with any); pooled p50 / p99 / p99.9 of the others (us) "
         "| surface updates over 20 us, pooled |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]

@@ -243,7 +243,7 @@ namespace irdm::validation::free_body
     }
 
     TemplateValues
-    prose_values(const FreeBodyValidationOptions &o, const fem::Scene &base, const bool charts)
+    prose_values(const FreeBodyValidationOptions &o, const fem::Scene &base)
     {
       std::ostringstream fem_steps, tau_ms, duration, stability;
       for (size_t m = 0; m < o.materials.size(); ++m)
@@ -270,7 +270,6 @@ namespace irdm::validation::free_body
               {"truth_check", o.truth_check ? "1" : ""},
               {"linear_fem", o.body_frame ? "fem_linear_body_frame" : "fem_small_strain"},
               {"study_surface_modes", std::to_string(o.study_surface_modes)},
-              {"charts", charts ? "1" : ""},
               {"stability_seconds", stability.str()}};
     }
   } // namespace
@@ -310,7 +309,7 @@ namespace irdm::validation::free_body
 
   void
   write_free_report(const std::string &dir, const FreeBodyValidationOptions &o,
-                    const FreeStudy &s, const fem::Scene &base, const bool charts)
+                    const FreeStudy &s, const fem::Scene &base)
   {
     std::ostringstream csv, free_md, first_csv, first_md, strain_csv, strain_md, lin_csv, lin_md,
       impact_csv, impact_md, truth_csv, truth_md;
@@ -321,7 +320,10 @@ namespace irdm::validation::free_body
     const auto impact = impact_lines(s);
     impact_rows(impact, base.density, impact_csv, impact_md);
     truth_rows(s, truth_csv, truth_md);
-    TemplateValues v        = prose_values(o, base, charts);
+    TemplateValues v        = prose_values(o, base);
+    for (const char *chart : charts) // "fig6_png": shown when drawn
+      v[std::string(chart).replace(std::string(chart).find('.'), 1, "_")] =
+        fs::exists(fs::path(dir) / chart) ? "1" : "";
     v["impact"]              = impact.empty() ? "" : "1";
     v["free_table"]          = free_md.str();
     v["first_table"]         = first_md.str();

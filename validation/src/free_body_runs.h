@@ -188,10 +188,13 @@ namespace irdm::validation::free_body
   write_free_csvs(const std::string &dir, const FreeBodyValidationOptions &o, const FreeStudy &s,
                   double density);
 
-  /// report.md (validation/templates/free.md).
+  /// The pictures validation/plot_free.py draws into the report folder.
+  inline constexpr const char *charts[] = {"fig6.png", "frames.png", "impact.png", "stability.png"};
+
+  /// report.md (validation/templates/free.md), showing the charts present in dir.
   void
   write_free_report(const std::string &dir, const FreeBodyValidationOptions &o,
-                    const FreeStudy &s, const fem::Scene &base, bool charts);
+                    const FreeStudy &s, const fem::Scene &base);
 } // namespace irdm::validation::free_body
 
 namespace irdm::validation::free_body

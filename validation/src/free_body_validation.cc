@@ -61,16 +61,17 @@ namespace irdm::validation
                               o.fem_divisions.size() == 1 ? o.fem_divisions[0] : o.fem_divisions[m],
                               study, log);
     free_body::write_free_csvs(dir, o, study, base.density);
-    // Charts (matplotlib from Debian); the report stands without them.
-    bool charts = false;
+    // Charts (matplotlib from Debian); the report stands without them, and shows those this
+    // run drew (a chart of a case the run left out is not drawn).
+    for (const char *chart : free_body::charts)
+      fs::remove(fs::path(dir) / chart);
     if (!o.plot_script.empty())
       {
         const std::string cmd = "/usr/bin/python3 '" + o.plot_script + "' '" + dir + "'";
-        charts                = std::system(cmd.c_str()) == 0;
-        if (!charts)
+        if (std::system(cmd.c_str()) != 0)
           log << "validate-free: the charts were not drawn (" << cmd << " failed)" << std::endl;
       }
-    free_body::write_free_report(dir, o, study, base, charts);
+    free_body::write_free_report(dir, o, study, base);
     log << "validate-free: wrote " << dir << "/free.csv, series.csv, stability.csv, report.md"
         << std::endl;
   }
