@@ -140,15 +140,6 @@ namespace irdm::validation
       double      seconds = 0;
     };
 
-    /// A number as a stream prints it (6 significant digits).
-    std::string
-    num(const double x)
-    {
-      std::ostringstream s;
-      s << x;
-      return s.str();
-    }
-
     std::string
     pct(const double x)
     {
@@ -405,7 +396,7 @@ namespace irdm::validation
         }
       const TemplateValues v{
         {"stamp", report_stamp()},
-        {"radius_mm", num(o.probe_radius * 1e3)},
+        {"radius_mm", plain(o.probe_radius * 1e3)},
         {"converged_mesh", fs::path(converged.mesh_file).filename().string()},
         {"converged_degree", std::to_string(converged.degree)},
         {"modes", std::to_string(o.modes)},

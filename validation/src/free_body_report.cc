@@ -4,6 +4,7 @@
 #include <irdm_common/report_template.h>
 
 #include <irdm_common/files.h>
+#include <irdm_common/format.h>
 #include <irdm_common/report_stamp.h>
 
 #include <algorithm>
@@ -245,18 +246,15 @@ namespace irdm::validation::free_body
     TemplateValues
     prose_values(const FreeBodyValidationOptions &o, const fem::Scene &base)
     {
-      std::ostringstream fem_steps, tau_ms, duration, stability;
+      std::ostringstream fem_steps;
       for (size_t m = 0; m < o.materials.size(); ++m)
         fem_steps << (m ? ", " : "") << base.time_step * 1e3 / fem_divisions_of(o, m) << " ms at "
                   << material_name(o.materials[m]);
-      tau_ms << base.time_step * 1e3;
-      duration << o.duration;
-      stability << o.stability_seconds;
       return {{"stamp", report_stamp()},
               {"command", command_of(o)},
               {"scene", o.scene},
-              {"tau_ms", tau_ms.str()},
-              {"duration", duration.str()},
+              {"tau_ms", plain(base.time_step * 1e3)},
+              {"duration", plain(o.duration)},
               {"fem_steps", fem_steps.str()},
               {"surface_modes", o.surface_modes == 0 ? "every mode" : std::to_string(o.surface_modes)},
               {"force_modes", o.force_modes > 0 ? std::to_string(o.force_modes) : ""},
@@ -270,18 +268,18 @@ namespace irdm::validation::free_body
               {"truth_check", o.truth_check ? "1" : ""},
               {"linear_fem", o.body_frame ? "fem_linear_body_frame" : "fem_small_strain"},
               {"study_surface_modes", std::to_string(o.study_surface_modes)},
-              {"stability_seconds", stability.str()}};
+              {"stability_seconds", plain(o.stability_seconds)}};
     }
   } // namespace
 
-  void
+  FreeTables
   write_free_csvs(const std::string &dir, const FreeBodyValidationOptions &o, const FreeStudy &s,
                   const double density)
   {
-    std::ostringstream csv, md;
-    free_rows(s, csv, md);
-    std::ostringstream first_csv, first_md, strain_csv, strain_md, lin_csv, lin_md, impact_csv,
-      impact_md, truth_csv, truth_md;
+    std::ostringstream csv, free_md, first_csv, first_md, strain_csv, strain_md, lin_csv, lin_md,
+      impact_csv, impact_md, truth_csv, truth_md;
+    free_rows(s, csv, free_md);
+    write(dir, "free.csv", csv.str());
     first_contact_rows(s, first_csv, first_md);
     write(dir, "first_contact.csv", first_csv.str());
     strain_rows(s, strain_csv, strain_md);
@@ -293,44 +291,36 @@ namespace irdm::validation::free_body
     impact_rows(impact, density, impact_csv, impact_md);
     if (!impact.empty())
       write(dir, "impact.csv", impact_csv.str());
+    truth_rows(s, truth_csv, truth_md);
+    if (o.truth_check)
+      write(dir, "truth.csv", truth_csv.str());
     std::ostringstream tri;
     tri << "a,b,c\n";
     for (const auto &t : s.triangles)
       tri << t[0] << ',' << t[1] << ',' << t[2] << '\n';
-    write(dir, "free.csv", csv.str());
     write(dir, "series.csv", s.series.str());
     write(dir, "stability.csv", s.stability_csv.str());
     write(dir, "frames.csv", s.frames.str());
     write(dir, "triangles.csv", tri.str());
-    truth_rows(s, truth_csv, truth_md);
-    if (o.truth_check)
-      write(dir, "truth.csv", truth_csv.str());
+    return {free_md.str(), first_md.str(), strain_md.str(), lin_md.str(), impact_md.str(),
+            truth_md.str()};
   }
 
   void
   write_free_report(const std::string &dir, const FreeBodyValidationOptions &o,
-                    const FreeStudy &s, const fem::Scene &base)
+                    const FreeStudy &s, const fem::Scene &base, const FreeTables &t)
   {
-    std::ostringstream csv, free_md, first_csv, first_md, strain_csv, strain_md, lin_csv, lin_md,
-      impact_csv, impact_md, truth_csv, truth_md;
-    free_rows(s, csv, free_md);
-    first_contact_rows(s, first_csv, first_md);
-    strain_rows(s, strain_csv, strain_md);
-    linearization_rows(s, lin_csv, lin_md);
-    const auto impact = impact_lines(s);
-    impact_rows(impact, base.density, impact_csv, impact_md);
-    truth_rows(s, truth_csv, truth_md);
-    TemplateValues v        = prose_values(o, base);
+    TemplateValues v = prose_values(o, base);
     for (const char *chart : charts) // "fig6_png": shown when drawn
       v[std::string(chart).replace(std::string(chart).find('.'), 1, "_")] =
         fs::exists(fs::path(dir) / chart) ? "1" : "";
-    v["impact"]              = impact.empty() ? "" : "1";
-    v["free_table"]          = free_md.str();
-    v["first_table"]         = first_md.str();
-    v["strain_table"]        = strain_md.str();
-    v["linearization_table"] = lin_md.str();
-    v["truth_table"]         = truth_md.str();
-    v["impact_table"]        = impact_md.str();
+    v["impact"]              = t.impact.empty() ? "" : "1";
+    v["free_table"]          = t.free;
+    v["first_table"]         = t.first_contact;
+    v["strain_table"]        = t.strain;
+    v["linearization_table"] = t.linearization;
+    v["truth_table"]         = t.truth;
+    v["impact_table"]        = t.impact;
     v["stability_table"]     = stability_table(s);
     v["free_flight"]         = free_flight_list(s);
     write(dir, "report.md", fill_template(read_template("validation/templates/free.md"), v));

@@ -182,9 +182,15 @@ namespace irdm::validation::free_body
   run_material(const FreeBodyValidationOptions &o, const std::string &base_text, double E,
                unsigned M, FreeStudy &study, std::ostream &log);
 
+  /// The report's tables (Markdown rows), made with the CSV files they show.
+  struct FreeTables
+  {
+    std::string free, first_contact, strain, linearization, impact, truth;
+  };
+
   /// free.csv, first_contact.csv, truth_strain.csv, linearization.csv, impact.csv, series.csv,
-  /// stability.csv, frames.csv, triangles.csv, truth.csv in dir.
-  void
+  /// stability.csv, frames.csv, triangles.csv, truth.csv in dir; returns the report's tables.
+  FreeTables
   write_free_csvs(const std::string &dir, const FreeBodyValidationOptions &o, const FreeStudy &s,
                   double density);
 
@@ -194,7 +200,7 @@ namespace irdm::validation::free_body
   /// report.md (validation/templates/free.md), showing the charts present in dir.
   void
   write_free_report(const std::string &dir, const FreeBodyValidationOptions &o,
-                    const FreeStudy &s, const fem::Scene &base);
+                    const FreeStudy &s, const fem::Scene &base, const FreeTables &tables);
 } // namespace irdm::validation::free_body
 
 namespace irdm::validation::free_body

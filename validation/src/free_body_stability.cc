@@ -3,6 +3,8 @@
 #include "free_body_runs.h"
 #include "scene_runs.h"
 
+#include <irdm_common/format.h>
+
 #include <chrono>
 #include <cmath>
 #include <type_traits>
@@ -64,9 +66,7 @@ namespace irdm::validation::free_body
                               << irdm.deformation().elastic_energy() / watch.e_in << ','
                               << turned << ',' << active << ',' << below << '\n';
         }
-      std::ostringstream run;
-      run << "rolling, " << m.o.stability_seconds << " s";
-      study.stability.push_back({run.str(), method, m.E, growth, turned, watch.growth(),
+      study.stability.push_back({"rolling, " + plain(m.o.stability_seconds) + " s", method, m.E, growth, turned, watch.growth(),
                                  1e3 * deepest, 1e6 * seconds / steps, failed, false});
       log << "validate-free: " << m.o.stability_seconds << " s rolling, " << method
           << ": largest energy gain " << growth << " of the energy brought in, turned " << turned

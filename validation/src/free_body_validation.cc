@@ -60,7 +60,7 @@ namespace irdm::validation
       free_body::run_material(o, text.str(), o.materials[m],
                               o.fem_divisions.size() == 1 ? o.fem_divisions[0] : o.fem_divisions[m],
                               study, log);
-    free_body::write_free_csvs(dir, o, study, base.density);
+    const free_body::FreeTables tables = free_body::write_free_csvs(dir, o, study, base.density);
     // Charts (matplotlib from Debian); the report stands without them, and shows those this
     // run drew (a chart of a case the run left out is not drawn).
     for (const char *chart : free_body::charts)
@@ -71,7 +71,7 @@ namespace irdm::validation
         if (std::system(cmd.c_str()) != 0)
           log << "validate-free: the charts were not drawn (" << cmd << " failed)" << std::endl;
       }
-    free_body::write_free_report(dir, o, study, base);
+    free_body::write_free_report(dir, o, study, base, tables);
     log << "validate-free: wrote " << dir << "/free.csv, series.csv, stability.csv, report.md"
         << std::endl;
   }

@@ -18,15 +18,6 @@ namespace irdm::validation::points
 {
   namespace
   {
-    /// A number as a stream prints it (6 significant digits): step sizes and durations.
-    std::string
-    num(const double x)
-    {
-      std::ostringstream s;
-      s << x;
-      return s.str();
-    }
-
     /// "force rel. L2 | force max | disp. RMS | disp. max" of a table row.
     std::string
     error_cells(const Errors &e)
@@ -147,10 +138,10 @@ namespace irdm::validation::points
       return fill_template(read_template("validation/templates/coupling_sweep.md"),
                            {{"k0", fmt(c.k0)},
                             {"b0", fmt(c.b0)},
-                            {"tau", num(scene.time_step)},
+                            {"tau", plain(scene.time_step)},
                             {"fem_peak", fmt(c.fem_peak)},
                             {"sweep_table", sweep.str()},
-                            {"tau_fine", num(c.fine_tau)},
+                            {"tau_fine", plain(c.fine_tau)},
                             {"fine_vertices", std::to_string(c.fine_vertices)},
                             {"fine_length", std::to_string(c.fine_length)},
                             {"fine_table", fine.str()}});
@@ -207,11 +198,11 @@ namespace irdm::validation::points
         {"file", r.file},
         {"fe_degree", std::to_string(s.fe_degree)},
         {"n_free", std::to_string(r.pre.n_free)},
-        {"tau", num(s.time_step)},
+        {"tau", plain(s.time_step)},
         {"steps", std::to_string(r.N)},
-        {"youngs_modulus", num(s.youngs_modulus)},
-        {"poisson_ratio", num(s.poisson_ratio)},
-        {"density", num(s.density)},
+        {"youngs_modulus", plain(s.youngs_modulus)},
+        {"poisson_ratio", plain(s.poisson_ratio)},
+        {"density", plain(s.density)},
         {"rayleigh_alpha", fmt(s.rayleigh_alpha)},
         {"rayleigh_beta", fmt(s.rayleigh_beta)},
         {"lowest_hz", fmt(r.pre.lowest_frequency_hz)},
@@ -221,8 +212,8 @@ namespace irdm::validation::points
         {"exact_float", error_cells(r.exact_float)},
         {"exact_check", r.pass ? "pass" : "FAIL"},
         {"truncation_table", truncation},
-        {"tau_fine", num(s.time_step / 10)},
-        {"phase_duration", num(r.phase.duration)},
+        {"tau_fine", plain(s.time_step / 10)},
+        {"phase_duration", plain(r.phase.duration)},
         {"phase_steps", std::to_string(r.phase.n_steps())},
         {"step_irdm", error_cells(r.step_irdm)},
         {"step_fem", error_cells(r.step_fem)},
