@@ -1,6 +1,7 @@
 // Free (non-grounded) bodies, issue 14: the mass properties, the precompute that separates the
 // rigid-body modes, and the rigid-body integrator of the runtime.
 #include <irdm/free_body.h>
+#include <irdm/irdm.h>
 #include <irdm/modal_model.h>
 #include <irdm/rigid_body.h>
 #include <irdm_common/error.h>
@@ -562,17 +563,40 @@ TEST(FreeBodyRuntime, FlatDropAgreesWithTheLinearFemOfTheFreeBody)
   std::map<long long, unsigned> at;
   for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
     at[r.surface.node_tags[i]] = i;
-  std::vector<double> x(m.n_outputs);
+  // The public API (irdm/irdm.h) on the same file, and its surface state for another thread.
+  irdm::Body api(irdm::Model::load(tmp("free_beam_runtime.h5"), {0}));
+  api.set_motion(api.model().center_of_mass(), {1, 0, 0, 0}, {0, 0, drop_v}, {0, 0, 0});
+  irdm::Plane api_floor;
+  api_floor.point = {0, 0, -gap};
+  irdm::StepInput api_in;
+  api_in.planes   = &api_floor;
+  api_in.n_planes = 1;
+  irdm::StepOutput   api_out;
+  irdm::SurfaceState api_state = api.model().make_surface_state();
+  std::vector<double> x(m.n_outputs), x_api(m.n_outputs), x_state(m.n_outputs);
   const unsigned      n = static_cast<unsigned>(std::lround(s.duration / s.time_step));
   double              f_diff = 0, f_norm = 0, u_diff = 0, u_norm = 0, impulse_fem = 0, impulse_irdm = 0;
+  double              api_force = 0, api_surface = 0, api_state_surface = 0, api_pose = 0;
   g_allocations = 0;
   for (unsigned step = 1; step <= n; ++step)
     {
       g_count_allocations = true; // the step and the surface allocate nothing
       const bool stepped  = body.step(&floor, 1);
       body.surface_positions(x.data());
+      const bool api_stepped = api.step(api_in, api_out);
+      api.save_surface_state(api_state);
+      api.model().surface_positions(api_state, x_state.data());
       g_count_allocations = false;
       ASSERT_TRUE(stepped);
+      ASSERT_TRUE(api_stepped) << api.refusal();
+      api.surface_positions(x_api.data());
+      for (unsigned j = 0; j < m.n_outputs; ++j)
+        {
+          api_surface       = std::max(api_surface, std::abs(x_api[j] - x[j]));
+          api_state_surface = std::max(api_state_surface, std::abs(x_state[j] - x[j]));
+        }
+      api_force = std::max(api_force, (Eigen::Vector3d(api_out.plane_force[0].data()) - body.plane_force(0)).norm());
+      api_pose  = std::max(api_pose, (Eigen::Vector3d(api_out.position.data()) - body.rigid().state().position).norm());
       const double f_fem = r.plane_force.at("floor")[step][2], f_irdm = body.plane_force(0)(2);
       f_diff += (f_fem - f_irdm) * (f_fem - f_irdm);
       f_norm += f_fem * f_fem;
@@ -594,6 +618,17 @@ TEST(FreeBodyRuntime, FlatDropAgreesWithTheLinearFemOfTheFreeBody)
   EXPECT_LT(std::abs(impulse_irdm / impulse_fem - 1), 1e-12);
   EXPECT_LT(force_error, 1e-10);
   EXPECT_LT(path_error, 0.01);
+  // The public API is this runtime, bit for bit; the exchanged state draws the same surface.
+  EXPECT_EQ(api_force, 0.0);
+  EXPECT_EQ(api_pose, 0.0);
+  EXPECT_EQ(api_surface, 0.0);
+  EXPECT_LT(api_state_surface, 1e-14);
+  // A free body takes no probe (a prescribed displacement): applied forces instead.
+  irdm::Probe probe;
+  api_in.probes   = &probe;
+  api_in.n_probes = 1;
+  EXPECT_FALSE(api.step(api_in, api_out));
+  EXPECT_NE(std::string(api.refusal()).find("no probes"), std::string::npos) << api.refusal();
 }
 
 // The plane contact looks for candidates where the surface is, deformed, not where it would
@@ -938,7 +973,8 @@ TEST(FreeBodyRuntime, ProbeForceOnAFreeBodyAgreesWithTheLinearFem)
     g_allocations = 0;
     for (unsigned step = 1; step <= n; ++step)
       {
-        const irdm::PointForce probe{vertex, step <= 10 ? f : Eigen::Vector3d::Zero()};
+        const irdm::AppliedForce probe{vertex, step <= 10 ? std::array<double, 3>{f[0], f[1], f[2]}
+                                                       : std::array<double, 3>{}};
         g_count_allocations = true; // the step allocates nothing
         const bool stepped  = body.step(nullptr, 0, &probe, 1);
         g_count_allocations = false;
@@ -956,7 +992,7 @@ TEST(FreeBodyRuntime, ProbeForceOnAFreeBodyAgreesWithTheLinearFem)
     const Eigen::Vector3d p = body.rigid().state().linear_momentum, impulse = 10 * s.time_step * f;
     EXPECT_LT((p - impulse).norm(), 1e-12 * impulse.norm());
     // A vertex that is not an input, or out of range, is refused and no step is taken.
-    const irdm::PointForce bad{m.n_outputs / 3, f};
+    const irdm::AppliedForce bad{m.n_outputs / 3, {f[0], f[1], f[2]}};
     EXPECT_FALSE(body.step(nullptr, 0, &bad, 1));
     Outcome out;
     out.path_error = std::sqrt(u_diff / u_norm);

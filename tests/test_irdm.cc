@@ -1,6 +1,7 @@
 // IRDM precompute and runtime against the reference FEM on a small mesh: the modal route equals
 // stepping the FEM itself; untruncated IRDM reproduces the FEM's probe force and surface to
 // round-off; the model loader rejects bad files; mpirun -np 2 gives the serial file's numbers.
+#include <irdm/irdm.h>
 #include <irdm/modal_model.h>
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
@@ -270,6 +271,10 @@ namespace
 
     PointInteraction    irdm(model);
     ModalInteraction    modal(modal_model);
+    // The public API (irdm/irdm.h) on the same file: the coupling is the body's own.
+    irdm::Body api(irdm::Model::load(tmp(name + ".h5"), {0}));
+    std::vector<double> x_api(model.n_outputs);
+    double              ferr_api = 0, uerr_api = 0;
     // A virtual coupling (scene key probes[].coupling): each runtime's target from its own
     // last probe displacement, as the FEM's from its own.
     const contact::Coupling coupling{scene.probes[0].coupling_stiffness,
@@ -305,12 +310,30 @@ namespace
         target.displacement = coupling.target(device, device_before, u_irdm, scene.time_step);
         target_modal.displacement =
           coupling.target(device, device_before, u_modal, scene.time_step);
+        irdm::Probe probe_api;
+        probe_api.triangle           = target.triangle;
+        probe_api.weights            = target.weights;
+        probe_api.n_patch            = target.n_patch;
+        probe_api.patch_vertices     = target.patch_vertices;
+        probe_api.patch_weights      = target.patch_weights;
+        probe_api.displacement       = device;
+        probe_api.coupling_stiffness = coupling.stiffness;
+        probe_api.coupling_damping   = coupling.damping;
+        probe_api.direction          = p.direction;
+        probe_api.unilateral         = true;
+        irdm::StepInput  in_api;
+        irdm::StepOutput out_api;
+        in_api.probes       = &probe_api;
+        in_api.n_probes     = 1;
         g_count_allocations = true;
         const bool stepped  = irdm.step(&target, 1);
         irdm.surface_displacement(u.data());
         const bool stepped_modal = modal.step(&target_modal, 1);
         modal.surface_displacement(um.data());
+        const bool stepped_api = api.step(in_api, out_api);
         g_count_allocations = false;
+        api.surface_positions(x_api.data());
+        EXPECT_TRUE(stepped_api) << api.refusal();
         u_irdm  = irdm.probe_displacement(0);
         u_modal = modal.probe_displacement(0);
         EXPECT_TRUE(stepped && stepped_modal);
@@ -322,6 +345,7 @@ namespace
             fmax = std::max(fmax, std::abs(fem_force[d]));
             ferr = std::max({ferr, std::abs(irdm.force(0)[d] - fem_force[d]),
                              std::abs(modal.force(0)[d] - fem_force[d])});
+            ferr_api = std::max(ferr_api, std::abs(out_api.probe_force[0][d] - fem_force[d]));
           }
         switches += irdm.active(0) != was_active;
         was_active = irdm.active(0);
@@ -331,9 +355,12 @@ namespace
             umax = std::max(umax, std::abs(fem_u));
             uerr       = std::max(uerr, std::abs(u[j] - fem_u));
             uerr_modal = std::max(uerr_modal, std::abs(um[j] - fem_u));
+            uerr_api   = std::max(uerr_api, std::abs(x_api[j] - model.output_coordinates[j / 3][j % 3] - fem_u));
           }
       }
     EXPECT_EQ(g_allocations, 0) << "heap allocations inside step() / surface_displacement()";
+    EXPECT_LT(ferr_api / fmax, 1e-9);
+    EXPECT_LT(uerr_api / umax, 1e-5);
     EXPECT_GT(fmax, 1e-4);  // the probe did push
     EXPECT_GE(switches, 2); // it touched and let go
     EXPECT_LT(ferr / fmax, 1e-9);
@@ -504,6 +531,10 @@ namespace
 
     PointInteraction    direct(model);
     ModalInteraction    modal(modal_model);
+    // The public API (irdm/irdm.h) on the same file: the plates' coupling is the body's own.
+    irdm::Body          api(irdm::Model::load(tmp(name + ".h5"), {0}));
+    std::vector<double> x_api(model.n_outputs);
+    double              ferr_api = 0, uerr_api = 0;
     std::vector<double> u(model.n_outputs), um(model.n_outputs);
     double fmax = 0, ferr = 0, umax = 0, uerr = 0, uerr_modal = 0, deepest = 0;
     // Device-held plates (planes[].coupling): each plate's point one step before, per runtime.
@@ -534,12 +565,28 @@ namespace
             targets_modal[p].point = coupling.target(pl.position.at(t), pl.position.at(t - scene.time_step),
                                                      plate_modal[p], scene.time_step);
           }
+        std::array<irdm::Plane, 2> planes_api;
+        for (int p = 0; p < 2; ++p)
+          {
+            planes_api[p].normal             = scene.planes[p].normal;
+            planes_api[p].point              = scene.planes[p].position.at(t);
+            planes_api[p].stiffness          = scene.planes[p].vertex_stiffness;
+            planes_api[p].coupling_stiffness = scene.planes[p].coupling_stiffness;
+            planes_api[p].coupling_damping   = scene.planes[p].coupling_damping;
+          }
+        irdm::StepInput  in_api;
+        irdm::StepOutput out_api;
+        in_api.planes       = planes_api.data();
+        in_api.n_planes     = 2;
         g_count_allocations = true;
         const bool stepped = direct.step(targets.data(), 2);
         direct.surface_displacement(u.data());
         const bool stepped_modal = modal.step(targets_modal.data(), 2);
         modal.surface_displacement(um.data());
+        const bool stepped_api = api.step(in_api, out_api);
         g_count_allocations = false;
+        api.surface_positions(x_api.data());
+        EXPECT_TRUE(stepped_api) << api.refusal();
         for (int p = 0; p < 2; ++p)
           {
             plate_direct[p] = plate_after(targets[p], direct.vertex_contact().plane(p));
@@ -557,7 +604,9 @@ namespace
                 fmax = std::max(fmax, std::abs(fem_force[d]));
                 ferr = std::max({ferr, std::abs(direct.vertex_contact().plane(p).force[d] - fem_force[d]),
                                  std::abs(modal.vertex_contact().plane(p).force[d] - fem_force[d])});
+                ferr_api = std::max(ferr_api, std::abs(out_api.plane_force[p][d] - fem_force[d]));
               }
+            EXPECT_EQ(out_api.plane_vertices[p], modal.vertex_contact().plane(p).active);
             n_active += direct.vertex_contact().plane(p).active;
             EXPECT_EQ(direct.vertex_contact().plane(p).active, modal.vertex_contact().plane(p).active);
             EXPECT_NEAR(direct.vertex_contact().plane(p).penetration,
@@ -573,8 +622,11 @@ namespace
             umax       = std::max(umax, std::abs(fem_u));
             uerr       = std::max(uerr, std::abs(u[j] - fem_u));
             uerr_modal = std::max(uerr_modal, std::abs(um[j] - fem_u));
+            uerr_api   = std::max(uerr_api, std::abs(x_api[j] - model.output_coordinates[j / 3][j % 3] - fem_u));
           }
       }
+    EXPECT_LT(ferr_api / fmax, 1e-9);
+    EXPECT_LT(uerr_api / umax, 1e-5);
     std::cout << "vertex contact (" << name << "): peak force " << fmax << " N, force error "
               << ferr / fmax << ", surface error " << uerr / umax << " (modal " << uerr_modal / umax
               << "), deepest penetration " << deepest << " m, most vertices in contact "
@@ -844,4 +896,124 @@ TEST(Precompute, ResumesAnInterruptedRunWithoutRedoingChunks)
   const auto m = load_model(o.output);
   ASSERT_EQ(m.h_double.size(), reference.h_double.size());
   EXPECT_TRUE(m.h_double == reference.h_double) << "the resumed file differs from a clean run";
+}
+
+// The public API's applied force on a grounded body (irdm/irdm.h): a known force held on an
+// input vertex is convolved with H, u[n] = sum_s H[s] f[n - s], at every output; the modal
+// body reproduces that sum from the file's H (surface shapes in float: 1e-5 of the largest).
+TEST(RuntimeApi, AppliedForceOnAGroundedBodyIsTheConvolutionWithH)
+{
+  const fem::Scene           scene = fem::parse_scene(beam_scene(R"(, "outputs": {"surface": true})"), ".");
+  const ImpulseResponseModel model = make_model(scene, "api_force.h5");
+  irdm::Body body(irdm::Model::load(tmp("api_force.h5"), {0}));
+  const unsigned vertex = model.input_output_index[0];
+  ASSERT_TRUE(body.model().can_push(vertex));
+  const std::array<double, 3> F = {0.01, -0.02, -0.05}; // N
+  const auto force = [&](const unsigned n) { return n < 30 ? 1 + 0.5 * std::sin(0.3 * n) : 0.0; };
+  irdm::AppliedForce applied{vertex, {}};
+  irdm::StepInput    in;
+  in.forces   = &applied;
+  in.n_forces = 1;
+  irdm::StepOutput    out;
+  std::vector<double> u(model.n_outputs);
+  double              err = 0, largest = 0;
+  for (unsigned n = 0; n < model.length; ++n)
+    {
+      for (int d = 0; d < 3; ++d)
+        applied.force[d] = F[d] * force(n);
+      g_count_allocations = true;
+      const bool stepped  = body.step(in, out);
+      g_count_allocations = false;
+      ASSERT_TRUE(stepped) << body.refusal();
+      body.surface_displacement(u.data());
+      for (unsigned j = 0; j < model.n_outputs; ++j)
+        {
+          double expected = 0;
+          for (unsigned s = 0; s <= n; ++s)
+            for (int d = 0; d < 3; ++d)
+              expected += model.h(d, s, j) * F[d] * force(n - s);
+          largest = std::max(largest, std::abs(expected));
+          err     = std::max(err, std::abs(u[j] - expected));
+        }
+    }
+  EXPECT_EQ(g_allocations, 0);
+  EXPECT_GT(largest, 1e-4);
+  EXPECT_LT(err / largest, 1e-5);
+  EXPECT_EQ(out.steps, model.length);
+  EXPECT_NEAR(out.time, model.length * model.time_step, 1e-15);
+}
+
+// What a body does not take is refused with a reason, no step is taken, and the next good
+// step goes on; options that do not fit the model, and files that are no model, throw.
+TEST(RuntimeApi, RefusesWhatABodyDoesNotTakeAndSaysWhy)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  make_model(scene, "api_refusals.h5");
+  const irdm::Model model = irdm::Model::load(tmp("api_refusals.h5"));
+  EXPECT_EQ(model.kind(), "modal");
+  EXPECT_FALSE(model.free_body());
+  EXPECT_NEAR(model.time_step(), scene.time_step, 1e-15);
+  EXPECT_FALSE(model.can_push(static_cast<unsigned>(model.rest_positions().size())));
+  irdm::Body body(model);
+  irdm::Probe probe;
+  probe.n_patch           = 1;
+  probe.patch_vertices[0] = 0;
+  probe.patch_weights[0]  = 1;
+  for (unsigned v = 0; v < model.rest_positions().size(); ++v)
+    if (model.can_push(v))
+      probe.patch_vertices[0] = v;
+  irdm::Plane      floor;
+  irdm::StepInput  in;
+  irdm::StepOutput out;
+  in.probes   = &probe;
+  in.n_probes = 1;
+  in.planes   = &floor;
+  in.n_planes = 1;
+  EXPECT_FALSE(body.step(in, out));
+  EXPECT_NE(std::string(body.refusal()).find("not both"), std::string::npos) << body.refusal();
+  in.n_planes = 0;
+  in.n_probes = irdm::StepInput::max_probes + 1;
+  EXPECT_FALSE(body.step(in, out));
+  EXPECT_NE(std::string(body.refusal()).find("out of range"), std::string::npos);
+  in.n_probes = 1;
+  probe.patch_vertices[0] = static_cast<unsigned>(model.rest_positions().size()); // no such vertex
+  EXPECT_FALSE(body.step(in, out));
+  EXPECT_EQ(out.steps, 0);
+  for (unsigned v = 0; v < model.rest_positions().size(); ++v)
+    if (model.can_push(v))
+      probe.patch_vertices[0] = v;
+  probe.displacement = {0, 0, -1e-3};
+  ASSERT_TRUE(body.step(in, out)) << body.refusal();
+  EXPECT_STREQ(body.refusal(), "");
+  EXPECT_EQ(out.steps, 1);
+  EXPECT_LT(out.probe_force[0][2], 0); // the force on the body: down, as the device pushes
+  EXPECT_NEAR(out.probe_displacement[0][2], -1e-3, 1e-12);
+
+  EXPECT_THROW(body.set_motion({0, 0, 0}, {1, 0, 0, 0}, {0, 0, 0}, {0, 0, 0}), irdm::InputError);
+  irdm::BodyOptions spin;
+  spin.centrifugal = true;
+  EXPECT_THROW(irdm::Body(model, spin), irdm::InputError);
+  irdm::ModelOptions direct;
+  direct.direct = true;
+  const irdm::Model direct_model = irdm::Model::load(tmp("api_refusals.h5"), direct);
+  EXPECT_EQ(direct_model.kind(), "direct");
+  EXPECT_THROW(direct_model.make_surface_state(), irdm::InputError);
+  {
+    irdm::Body direct_body(direct_model);
+    irdm::AppliedForce applied{probe.patch_vertices[0], {0, 0, 1}};
+    irdm::StepInput    forces;
+    forces.forces   = &applied;
+    forces.n_forces = 1;
+    EXPECT_FALSE(direct_body.step(forces, out));
+    EXPECT_NE(std::string(direct_body.refusal()).find("applied forces"), std::string::npos);
+  }
+  // Not a model: an HDF5 file of another kind, and a text file.
+  {
+    h5::Writer w(tmp("api_not_a_model.h5"));
+    w.attribute("/", "format", std::string("something-else"));
+  }
+  EXPECT_THROW(irdm::Model::load(tmp("api_not_a_model.h5")), irdm::InputError);
+  std::ofstream(tmp("api_text.h5")) << "not hdf5\n";
+  EXPECT_THROW(irdm::Model::load(tmp("api_text.h5")), irdm::InputError);
+  EXPECT_THROW(irdm::Model::load(tmp("api_missing.h5")), irdm::InputError);
 }

@@ -1,6 +1,6 @@
 """How the plot scripts write what they make: under a part name, synced to disk, then renamed,
 so that a failed or interrupted run never leaves a half-written picture or table under its
-final name (the same rule as the C++ writers, common/include/irdm_common/files.h)."""
+final name (the same rule as the C++ writers, common/internal/irdm_common/files.h)."""
 import os
 import sys
 

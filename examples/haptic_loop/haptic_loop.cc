@@ -4,15 +4,13 @@
 //
 //   haptic_loop MODEL.h5 [steps] [depth_m]
 //
-// The probe presses the model's first input vertex along -z by depth_m (ramped over the first
+// The probe presses the model's first vertex it can push along -z by depth_m (ramped over the first
 // half of the run) and holds. Not real time: the point is the API. At the end it prints the
 // probe force and how far the surface the deformation thread computed at the probed vertex is
 // from the prescribed displacement (the surface update uses every mode, so this is the float
 // rounding of the stored surface shapes).
-#include <irdm/modal_model.h>
-#include <irdm/model.h>
+#include <irdm/irdm.h>
 #include <irdm/surface_exchange.h>
-#include <irdm_common/error.h>
 
 #include <atomic>
 #include <cmath>
@@ -39,36 +37,46 @@ main(int argc, char **argv)
     }
   try
     {
-      // Loading and building the modal runtime allocate: do both before the loops start.
-      const irdm::ImpulseResponseModel model = irdm::load_model(argv[1]);
-      irdm::ModalModelOptions          options;
-      options.surface_modes = model.modes.n_modes; // every mode: the exact surface
-      const irdm::ModalModel modal = irdm::make_modal_model(model, options);
-      irdm::ModalInteraction runtime(modal);
+      // Loading the model and making the body allocate: do both before the loops start.
+      irdm::ModelOptions options;
+      options.surface_modes = 0; // every mode: the exact surface
+      const irdm::Model model = irdm::Model::load(argv[1], options);
+      irdm::Body        body(model);
+      const auto       &rest = model.rest_positions();
+      unsigned          vertex = 0;
+      while (vertex < rest.size() && !model.can_push(vertex))
+        ++vertex;
+      if (vertex == rest.size())
+        throw irdm::InputError("the model has no input vertex to probe");
 
-      irdm::ProbeTarget probe;
+      irdm::Probe probe;
       probe.n_patch           = 1;
-      probe.patch_vertices[0] = model.input_output_index[0]; // output vertex of input vertex 0
+      probe.patch_vertices[0] = vertex;
       probe.patch_weights[0]  = 1;
+      irdm::StepInput input;
+      input.probes   = &probe;
+      input.n_probes = 1;
+      irdm::StepOutput output;
 
-      irdm::TripleBuffer<irdm::ModalSurfaceState> exchange(irdm::make_surface_state(modal));
-      std::atomic<bool>                           done{false};
-      std::vector<double>                         prescribed_z(steps);
+      irdm::TripleBuffer<irdm::SurfaceState> exchange(model.make_surface_state());
+      std::atomic<bool>                      done{false};
+      std::vector<double>                    prescribed_z(steps);
+      bool                                   refused = false;
 
-      // Force thread: one model step per tick (a real application sleeps to each deadline).
+      // Force thread: one step per tick (a real application sleeps to each deadline).
       std::thread force([&] {
-        for (long n = 0; n < steps; ++n)
+        for (long n = 0; n < steps && !refused; ++n)
           {
             probe.displacement = {0, 0, -depth * std::min(1.0, 2.0 * (n + 1) / steps)};
             prescribed_z[n]    = probe.displacement[2];
-            runtime.step(&probe, 1);
-            runtime.save_surface_state(exchange.back());
+            refused            = !body.step(input, output);
+            body.save_surface_state(exchange.back());
             exchange.publish();
           }
         done.store(true, std::memory_order_release);
       });
       // Deformation thread: the newest state, whenever one arrived.
-      std::vector<double> u(model.n_outputs);
+      std::vector<double> x(3 * rest.size());
       long long           last_step = 0;
       long                updates   = 0;
       std::thread         deformation([&] {
@@ -77,7 +85,7 @@ main(int argc, char **argv)
             const bool finished = done.load(std::memory_order_acquire);
             if (exchange.update())
               {
-                irdm::surface_displacement(modal, exchange.front(), u.data());
+                model.surface_positions(exchange.front(), x.data());
                 last_step = exchange.front().steps;
                 ++updates;
               }
@@ -88,14 +96,19 @@ main(int argc, char **argv)
       force.join();
       deformation.join();
 
-      const unsigned v     = probe.patch_vertices[0];
-      const double   error = std::abs(u[3 * v + 2] - prescribed_z[last_step - 1]);
+      if (refused || last_step < 1)
+        {
+          std::fprintf(stderr, "haptic_loop: a step was refused: %s\n", body.refusal());
+          return 3;
+        }
+      const double error =
+        std::abs(x[3 * vertex + 2] - rest[vertex][2] - prescribed_z[last_step - 1]);
       std::printf("steps %lld, surface updates %ld\n", last_step, updates);
-      std::printf("probe force (N): %.6g %.6g %.6g\n", runtime.force(0)[0], runtime.force(0)[1],
-                  runtime.force(0)[2]);
+      std::printf("probe force on the body (N): %.6g %.6g %.6g\n", output.probe_force[0][0],
+                  output.probe_force[0][1], output.probe_force[0][2]);
       std::printf("probe vertex displacement error (m): %.3g\n", error);
       // The surface shapes are stored in float (eps 6e-8): the surface meets the prescribed
-      // displacement to that rounding, not to double round-off (seen: 2e-8 of the depth).
+      // displacement to that rounding, not to double round-off.
       return error <= 1e-6 * std::max(depth, 1e-12) + 1e-15 ? 0 : 3;
     }
   catch (const irdm::InputError &e)

@@ -60,7 +60,7 @@ namespace irdm
 
   bool
   ModalDeformation::step(const PlaneTarget *body_planes, const int n_planes,
-                         const RigidStepCompliance &rigid, const AppliedForce *applied,
+                         const RigidStepCompliance &rigid, const InputForce *applied,
                          const int n_applied)
   {
     return interaction_.step(body_planes, n_planes, rigid, applied, n_applied);
@@ -120,7 +120,7 @@ namespace irdm
 
   bool
   VirtualDofDeformation::step(const PlaneTarget *body_planes, const int n_planes,
-                              const RigidStepCompliance &rigid, const AppliedForce *,
+                              const RigidStepCompliance &rigid, const InputForce *,
                               const int n_applied)
   {
     if (n_planes < 0 || n_planes > PlaneInteraction::max_walls || n_applied != 0)
@@ -194,14 +194,14 @@ namespace irdm
   template <class Deformation>
   bool
   FreeBody<Deformation>::step(const PlaneTarget *world_planes, const int n_planes,
-                              const PointForce *forces, const int n_forces)
+                              const AppliedForce *forces, const int n_forces)
   {
     if (n_planes < 0 || n_planes > contact::max_planes || n_forces < 0 ||
         n_forces > max_point_forces || (n_forces > 0 && !forces))
       return false;
     for (int a = 0; a < n_forces; ++a)
       if (forces[a].vertex >= deformation_.n_vertices() ||
-          deformation_.input_vertex(forces[a].vertex) < 0 || !forces[a].force.allFinite())
+          deformation_.input_vertex(forces[a].vertex) < 0 || !vec(forces[a].force).allFinite())
         return false;
     // The deformed body's inertia (its mass moved by the deformation at the step's start),
     // in the rigid step and in its compliance.
@@ -228,7 +228,7 @@ namespace irdm
     for (int a = 0; a < n_forces; ++a)
       {
         body_forces_[a].input_vertex = static_cast<unsigned>(deformation_.input_vertex(forces[a].vertex));
-        body_forces_[a].force        = arr(R.transpose() * forces[a].force);
+        body_forces_[a].force        = arr(R.transpose() * vec(forces[a].force));
       }
     // 2. The contact, rigid compliance and known forces included.
     if (!deformation_.step(body_planes_.data(), n_planes, compliance_, body_forces_.data(), n_forces))

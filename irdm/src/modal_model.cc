@@ -394,7 +394,7 @@ namespace irdm
                           n[2] * Vec(phi + 2 * stride_, N_);
       }
     double h = Vec(row, N_).dot(Vec(fu_.data(), N_));
-    // Known forces of this step (AppliedForce): their feed-through to this vertex.
+    // Known forces of this step (InputForce): their feed-through to this vertex.
     for (int a = 0; a < n_applied_; ++a)
       for (unsigned d = 0; d < 3; ++d)
         for (unsigned e = 0; e < 3; ++e)
@@ -536,7 +536,7 @@ namespace irdm
 
   bool
   ModalInteraction::step(const PlaneTarget *planes, const int n_planes,
-                         const RigidStepCompliance &rigid, const AppliedForce *applied,
+                         const RigidStepCompliance &rigid, const InputForce *applied,
                          const int n_applied)
   {
     if (n_applied < 0 || (n_applied > 0 && !applied))

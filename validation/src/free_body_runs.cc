@@ -527,7 +527,7 @@ namespace irdm::validation::free_body
       for (unsigned step = 1; step <= n; ++step)
         {
           const auto       t0 = Clock::now();
-          const PointForce probe{c.probe_vertex, vec(c.probe_history.at(step * tau))};
+          const AppliedForce probe{c.probe_vertex, c.probe_history.at(step * tau)};
           const bool ok = c.probed ? irdm.step(targets.data(), static_cast<int>(targets.size()), &probe, 1)
                                    : irdm.step(targets.data(), static_cast<int>(targets.size()));
           step_seconds += std::chrono::duration<double>(Clock::now() - t0).count();

@@ -10,6 +10,7 @@
 //     quasi-static), so the surface keeps H's static compliance exactly.
 // Memory: shapes at the inputs for all modes, at the outputs for M modes (float), H[0] among the
 // inputs, and E (inputs x outputs). Cost per step: O(N) + O(n_out M) + O(n_out n_active).
+#include <irdm/irdm.h>
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
 #include <irdm/rigid_body.h>
@@ -65,18 +66,10 @@ namespace irdm
   ModalModel
   make_modal_model(const ImpulseResponseModel &model, const ModalModelOptions &options);
 
-  /// What the full surface update needs of a modal runtime's state after a step: the M
-  /// surface modes' displacements and the step's forces (for the static correction). The
-  /// deformation thread of the two-loop runtime reads it (irdm/surface_exchange.h). Sized by
-  /// make_surface_state, so that filling it allocates nothing.
-  struct ModalSurfaceState
-  {
-    long long             steps = 0; // steps taken: the state at time steps * time_step
-    std::vector<double>   modal_displacement; // [surface mode]
-    std::vector<unsigned> pushed_inputs;      // input DoFs with force this step
-    std::vector<double>   pushed_forces;      // N, the force on each of them
-    unsigned              n_pushed = 0;
-  };
+  /// The public SurfaceState (irdm/irdm.h): what the full surface update needs of a modal
+  /// runtime's state after a step (the M surface modes' displacements, the step's forces for
+  /// the static correction, and a free body's pose).
+  using ModalSurfaceState = SurfaceState;
 
   ModalSurfaceState
   make_surface_state(const ModalModel &model);
@@ -101,8 +94,8 @@ namespace irdm
   warm_surface(const ModalModel &model, size_t part, size_t parts);
 
   /// A known force on an input vertex during one step (N, model frame): a probe's or a
-  /// device's, given rather than solved for.
-  struct AppliedForce
+  /// device's, given rather than solved for (AppliedForce's, in the model's input numbering).
+  struct InputForce
   {
     unsigned              input_vertex = 0;
     std::array<double, 3> force{};
@@ -135,7 +128,7 @@ namespace irdm
     /// range.
     bool
     step(const PlaneTarget *planes, int n_planes, const RigidStepCompliance &rigid,
-         const AppliedForce *applied, int n_applied);
+         const InputForce *applied, int n_applied);
     /// This step's forces: the input DoFs pushed and the force on one (N, model frame).
     const std::vector<unsigned> &
     pushed_inputs() const
@@ -249,7 +242,7 @@ namespace irdm
     // deformation_reach for a strain norm sqrt(strain_sum(0, N_)) already taken.
     double
     reach_of(double strain_all) const;
-    const AppliedForce        *applied_ = nullptr; // during a step with known forces
+    const InputForce        *applied_ = nullptr; // during a step with known forces
     int                        n_applied_ = 0;
 
     // The two halves of a step around its contact solve: the state with no force this step,

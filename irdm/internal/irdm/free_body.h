@@ -57,7 +57,7 @@
 // deformation's energy is not known from the responses: energy() is the rigid body's alone
 // for this kind.
 //
-// Probes: known point forces (PointForce, world frame) join the contact forces in the net
+// Probes: known point forces (AppliedForce of irdm/irdm.h, world frame) join the contact forces in the net
 // force and torque and, turned into the model frame by R', the deformation's force history;
 // the contact solve sees what they do within the step. Only the modal kind takes them.
 //
@@ -72,14 +72,6 @@
 
 namespace irdm
 {
-  /// A known force on a surface vertex during a step (a probe's or a haptic device's; N,
-  /// world frame, at the step's end). `vertex` indexes the surface as surface_positions does.
-  struct PointForce
-  {
-    unsigned        vertex = 0;
-    Eigen::Vector3d force  = Eigen::Vector3d::Zero();
-  };
-
   struct FreeBodyOptions
   {
     Eigen::Vector3d      gravity = Eigen::Vector3d(0, 0, -9.81); // m/s^2, world
@@ -117,7 +109,7 @@ namespace irdm
     /// compliance in its feed-through, and known forces (model frame, input vertices).
     bool
     step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid,
-         const AppliedForce *applied, int n_applied);
+         const InputForce *applied, int n_applied);
     /// The spin (rad/s, model frame) whose centrifugal force loads the next steps, if
     /// FreeBodyOptions::centrifugal.
     void
@@ -214,7 +206,7 @@ namespace irdm
     /// responses to walls only.
     bool
     step(const PlaneTarget *body_planes, int n_planes, const RigidStepCompliance &rigid,
-         const AppliedForce *applied, int n_applied);
+         const InputForce *applied, int n_applied);
     int
     input_vertex(unsigned) const
     {
@@ -295,7 +287,7 @@ namespace irdm
     /// if the contact cannot be solved or a point force cannot be applied (a vertex out of
     /// range or not an input of the model; the virtual-DOF kind takes none).
     bool
-    step(const PlaneTarget *world_planes, int n_planes, const PointForce *forces = nullptr,
+    step(const PlaneTarget *world_planes, int n_planes, const AppliedForce *forces = nullptr,
          int n_forces = 0);
 
     /// Force of plane p on the body at the latest step (N, world).
@@ -327,7 +319,7 @@ namespace irdm
     RigidStepCompliance                              compliance_;
     Deformation                                      deformation_;
     std::array<PlaneTarget, contact::max_planes>     body_planes_{};
-    std::array<AppliedForce, max_point_forces>       body_forces_{};
+    std::array<InputForce, max_point_forces>       body_forces_{};
     std::array<Eigen::Vector3d, contact::max_planes> world_force_{};
     mutable std::vector<double>                      u_; // surface displacement, model frame
   };
