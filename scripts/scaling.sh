@@ -5,8 +5,7 @@
 # scene's body and material (validation/scenes/press.json), inputs within 1 cm of the press
 # point, every surface vertex an output, T = 200 samples in float (the H file stays small on
 # the finest mesh). Dense route up to 12000 free DoFs, sparse route (200 lowest modes +
-# residual modes) beyond. Takes about 11 minutes on 2 cores (5 min 56 s without cat_lc5mm,
-# measured 2026-11-25).
+# residual modes) beyond. Its time on 2 cores: reports/scaling.
 # Usage: scripts/scaling.sh [build dir]   (the project built, e.g. by scripts/build.sh)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Install, build (warnings are errors) and run all tests with ctest, then the robustness tests
-# under the sanitizers. Disk: the three builds take about 2.8 GB (measured 2026-11-24); each
-# test removes its scratch folder when it passes (tests/scratch.h), so the tests add only what
-# two of them write at once (peak 0.66 GB).
+# under the sanitizers. Disk: the script prints what its three builds take; each test removes
+# its scratch folder when it passes (tests/scratch.h), so the tests add only what two of them
+# write at once.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 echo "test.sh: $(df -h --output=avail . | tail -1 | tr -d ' ') free on this disk at the start"

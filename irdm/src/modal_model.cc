@@ -22,10 +22,149 @@ namespace irdm
     using ArrMut = Eigen::Map<Eigen::ArrayXd>;
   } // namespace
 
+  namespace
+  {
+    using RowMajor  = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    using FloatRows = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+    // The force loop's feed-through among the inputs, [i][k]: H[0] from the file, or from
+    // the modes alone. With K < N modes the modes beyond K respond quasi-statically to this
+    // step's force (mode-acceleration method), so the feed-through trades their one-step
+    // response q_i[0] for their static compliance 1 / omega_i^2 (M-orthonormal shapes):
+    // H[0] + sum_{i >= K} phi_i l_i^T (1 / omega_i^2 - q_i[0]), l_i the load shape (phi_i
+    // itself unless a free body's rigid-fit route gave it its own). A held force then meets
+    // the body's full static compliance.
+    void
+    set_feed_through(ModalModel &out, const ImpulseResponseModel &m,
+                     const Eigen::Map<const RowMajor> &phi_in, const Eigen::Map<const RowMajor> &load_in)
+    {
+      const ModalData &md  = m.modes;
+      const unsigned   N   = md.n_modes, nin = m.n_inputs;
+      out.h0_inputs.resize(static_cast<size_t>(nin) * nin);
+      if (m.modal_only)
+        {
+          // H[0] = Phi_in diag(q[0]) L_in^T, q_i[0] the mode's displacement after one unit
+          // force sample from rest: the step's b_new for u (entry [0][3]).
+          Eigen::VectorXd q0(N);
+          for (unsigned i = 0; i < N; ++i)
+            q0[i] = md.step[15 * static_cast<size_t>(i) + 3];
+          Eigen::Map<RowMajor>(out.h0_inputs.data(), nin, nin).noalias() =
+            phi_in * q0.asDiagonal() * load_in.transpose();
+        }
+      else
+        for (unsigned k = 0; k < nin; ++k)
+          for (unsigned i = 0; i < nin; ++i)
+            out.h0_inputs[static_cast<size_t>(i) * nin + k] =
+              m.h(k, 0, 3 * m.input_output_index[i / 3] + i % 3);
+      if (out.force_modes == N)
+        return;
+      const unsigned  D = N - out.force_modes;
+      Eigen::VectorXd c(D);
+      for (unsigned i = 0; i < D; ++i)
+        {
+          const unsigned mode = out.force_modes + i;
+          if (!(out.w2[mode] > 0))
+            throw InputError("modal model: mode " + std::to_string(mode) +
+                             " has no positive frequency; keep every mode in the force loop");
+          c[i] = 1 / out.w2[mode] - md.step[15 * static_cast<size_t>(mode) + 3];
+        }
+      // h0_inputs[i][k]: to the output of input i (phi) from input DoF k (its load shape).
+      const RowMajor dropped_load = load_in.rightCols(D), dropped_phi = phi_in.rightCols(D);
+      Eigen::Map<RowMajor>(out.h0_inputs.data(), nin, nin).noalias() +=
+        dropped_phi * c.asDiagonal() * dropped_load.transpose();
+    }
+
+    // Static gain of each of the first n modes over the model's length T: sum_{s<T} q_i[s].
+    std::vector<double>
+    modal_gains(const ModalModel &out, const unsigned n, const unsigned T)
+    {
+      std::vector<double> gain(n, 0.0);
+      for (unsigned i = 0; i < n; ++i)
+        {
+          const double *A    = &out.step[15 * i];
+          double        x[3] = {0, 0, 0}, f_old = 0;
+          for (unsigned s = 0; s < T; ++s)
+            {
+              const double f_new = s == 0 ? 1.0 : 0.0, y[3] = {x[0], x[1], x[2]};
+              for (int r = 0; r < 3; ++r)
+                x[r] = A[5 * r] * y[0] + A[5 * r + 1] * y[1] + A[5 * r + 2] * y[2] +
+                       A[5 * r + 3] * f_new + A[5 * r + 4] * f_old;
+              f_old = f_new;
+              gain[i] += x[0];
+            }
+        }
+      return gain;
+    }
+
+    // The static correction E = sum_s H[s] - Phi_M diag(gain) Phi_M(inputs)^T (the load
+    // shapes on the right when they differ), [input DoF][output DoF], from a model without
+    // H: sum_s H[s] = Phi_out diag(gain) L_in^T over every mode, less the surface modes'
+    // share through their rounded shapes. The surface modes' terms cancel but for that
+    // rounding, so E^T = Phi_out,>M diag(gain_>M) L_in,>M^T + (Phi_M - Phi~_M) diag(gain_M)
+    // L_in,M^T: each mode once, no difference of two large products. In blocks of outputs, so
+    // that no outputs x inputs double matrix is held.
+    void
+    set_static_correction_from_modes(ModalModel &out, const ImpulseResponseModel &m,
+                                     const Eigen::Map<const RowMajor> &load_in,
+                                     const std::vector<double> &gain)
+    {
+      const unsigned N = m.modes.n_modes, M = out.surface_modes, nin = m.n_inputs,
+                     nout = m.n_outputs;
+      out.residual.resize(static_cast<size_t>(nin) * nout);
+      const Eigen::Map<const RowMajor>        phi_out(m.modes.shapes.data(), nout, N);
+      const Eigen::Map<const FloatRows>       phi_m(out.shapes.data(), nout, M);
+      const Eigen::Map<const Eigen::VectorXd> g(gain.data(), N);
+      const RowMajor     weighted = load_in * g.asDiagonal(); // nin x N
+      constexpr unsigned block    = 256;
+      for (unsigned j0 = 0; j0 < nout; j0 += block)
+        {
+          const unsigned nj       = std::min(block, nout - j0);
+          const auto     rows     = phi_out.middleRows(j0, nj);
+          const RowMajor rounding = rows.leftCols(M) - phi_m.middleRows(j0, nj).cast<double>();
+          // [input][output] for outputs j0 .. j0 + nj.
+          const RowMajor e = weighted.rightCols(N - M) * rows.rightCols(N - M).transpose() +
+                             weighted.leftCols(M) * rounding.transpose();
+          for (unsigned k = 0; k < nin; ++k)
+            for (unsigned j = 0; j < nj; ++j)
+              out.residual[static_cast<size_t>(k) * nout + j0 + j] = static_cast<float>(e(k, j));
+        }
+    }
+
+    // The same from the file's H: its sum over the length, less the surface modes' share.
+    void
+    set_static_correction_from_h(ModalModel &out, const ImpulseResponseModel &m,
+                                 const std::vector<double> &gain)
+    {
+      const unsigned N = m.modes.n_modes, M = out.surface_modes, nin = m.n_inputs,
+                     nout = m.n_outputs;
+      out.residual.resize(static_cast<size_t>(nin) * nout);
+      const std::vector<double> &load =
+        out.input_load_shapes.empty() ? out.input_shapes : out.input_load_shapes;
+      std::vector<double> h(nout), w(M);
+      for (unsigned k = 0; k < nin; ++k)
+        {
+          std::fill(h.begin(), h.end(), 0.0);
+          for (unsigned s = 0; s < m.length; ++s)
+            for (unsigned j = 0; j < nout; ++j)
+              h[j] += m.h(k, s, j);
+          for (unsigned i = 0; i < M; ++i)
+            w[i] = load[static_cast<size_t>(k) * N + i] * gain[i];
+          for (unsigned j = 0; j < nout; ++j)
+            {
+              const float *pj  = &out.shapes[static_cast<size_t>(j) * M];
+              double       sum = 0;
+              for (unsigned i = 0; i < M; ++i)
+                sum += static_cast<double>(pj[i]) * w[i];
+              out.residual[static_cast<size_t>(k) * nout + j] = static_cast<float>(h[j] - sum);
+            }
+        }
+    }
+  } // namespace
+
   ModalModel
   make_modal_model(const ImpulseResponseModel &m, const ModalModelOptions &o)
   {
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto       t0 = std::chrono::steady_clock::now();
     const ModalData &md = m.modes;
     if (md.n_modes == 0)
       throw InputError("modal model: the model file holds no modal realization (/modes/shapes); "
@@ -39,7 +178,7 @@ namespace irdm
     ModalModel out;
     out.force_modes = force_modes;
     static_cast<ModelFrame &>(out) = m;
-    const unsigned N = md.n_modes, M = o.surface_modes, T = m.length;
+    const unsigned N = md.n_modes, M = o.surface_modes;
     const unsigned nin = m.n_inputs, nout = m.n_outputs;
     out.n_modes              = N;
     out.surface_modes        = M;
@@ -52,10 +191,10 @@ namespace irdm
         const double omega = 2 * 3.141592653589793 * md.frequency_hz[i];
         out.w2[i]          = omega * omega;
       }
-    // The surface shapes in single precision: the full surface update streams them (1554 x
-    // 100 for the cat), and half the bytes is what makes it fast with cold caches. The static
-    // correction below is computed from these rounded shapes, so the surface keeps H's static
-    // compliance to E's own (float) rounding.
+    // The surface shapes in single precision: the full surface update streams them, and half
+    // the bytes is what makes it fast with cold caches. The static correction is computed
+    // from these rounded shapes, so the surface keeps H's static compliance to E's own
+    // (float) rounding.
     out.shapes.resize(static_cast<size_t>(nout) * M);
     for (unsigned j = 0; j < nout; ++j)
       for (unsigned i = 0; i < M; ++i)
@@ -73,121 +212,17 @@ namespace irdm
           std::copy_n(&md.load_shapes[static_cast<size_t>(output_of(k)) * N], N,
                       &out.input_load_shapes[static_cast<size_t>(k) * N]);
       }
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     const std::vector<double> &input_load =
       out.input_load_shapes.empty() ? out.input_shapes : out.input_load_shapes;
     const Eigen::Map<const RowMajor> phi_in(out.input_shapes.data(), nin, N),
       load_in(input_load.data(), nin, N);
-    out.h0_inputs.resize(static_cast<size_t>(nin) * nin);
+    set_feed_through(out, m, phi_in, load_in);
+    // The surface modes' gains; every mode's when H is not stored, to sum H from the modes.
+    const std::vector<double> gain = modal_gains(out, m.modal_only ? N : M, m.length);
     if (m.modal_only)
-      {
-        // H[0] = Phi_in diag(q[0]) L_in^T, q_i[0] the mode's displacement after one unit
-        // force sample from rest: the step's b_new for u (entry [0][3]).
-        Eigen::VectorXd q0(N);
-        for (unsigned i = 0; i < N; ++i)
-          q0[i] = md.step[15 * static_cast<size_t>(i) + 3];
-        Eigen::Map<RowMajor>(out.h0_inputs.data(), nin, nin).noalias() =
-          phi_in * q0.asDiagonal() * load_in.transpose();
-      }
+      set_static_correction_from_modes(out, m, load_in, gain);
     else
-      for (unsigned k = 0; k < nin; ++k)
-        for (unsigned i = 0; i < nin; ++i)
-          out.h0_inputs[static_cast<size_t>(i) * nin + k] = m.h(k, 0, output_of(i));
-    // A force loop with K < N modes: the modes beyond K respond quasi-statically to this
-    // step's force (mode-acceleration method), so the feed-through trades their one-step
-    // response q_i[0] for their static compliance 1 / omega_i^2 (M-orthonormal shapes):
-    // H[0] + sum_{i >= K} phi_i l_i^T (1 / omega_i^2 - q_i[0]), l_i the load shape (phi_i
-    // itself unless a free body's rigid-fit route gave it its own). A held force then meets
-    // the body's full static compliance.
-    if (force_modes < N)
-      {
-        const unsigned  D = N - force_modes;
-        Eigen::VectorXd c(D);
-        for (unsigned i = 0; i < D; ++i)
-          {
-            const unsigned mode = force_modes + i;
-            if (!(out.w2[mode] > 0))
-              throw InputError("modal model: mode " + std::to_string(mode) +
-                               " has no positive frequency; keep every mode in the force loop");
-            c[i] = 1 / out.w2[mode] - md.step[15 * static_cast<size_t>(mode) + 3];
-          }
-        // h0_inputs[i][k]: to the output of input i (phi) from input DoF k (its load shape).
-        const RowMajor dropped_load = load_in.rightCols(D), dropped_phi = phi_in.rightCols(D);
-        Eigen::Map<RowMajor>(out.h0_inputs.data(), nin, nin).noalias() +=
-          dropped_phi * c.asDiagonal() * dropped_load.transpose();
-      }
-
-    // Static gain of each mode over the model's length: sum_{s<T} q_i[s] (the surface modes';
-    // every mode's when H is not stored, to sum H from the modes).
-    const unsigned      n_gain = m.modal_only ? N : M;
-    std::vector<double> gain(n_gain, 0.0);
-    for (unsigned i = 0; i < n_gain; ++i)
-      {
-        const double *A = &out.step[15 * i];
-        double        x[3] = {0, 0, 0}, f_old = 0;
-        for (unsigned s = 0; s < T; ++s)
-          {
-            const double f_new = s == 0 ? 1.0 : 0.0, y[3] = {x[0], x[1], x[2]};
-            for (int r = 0; r < 3; ++r)
-              x[r] = A[5 * r] * y[0] + A[5 * r + 1] * y[1] + A[5 * r + 2] * y[2] +
-                     A[5 * r + 3] * f_new + A[5 * r + 4] * f_old;
-            f_old = f_new;
-            gain[i] += x[0];
-          }
-      }
-    // E = sum_s H[s] - Phi_M diag(gain) Phi_M(inputs)^T (the load shapes on the right when
-    // they differ).
-    out.residual.resize(static_cast<size_t>(nin) * nout);
-    if (m.modal_only)
-      {
-        // sum_s H[s] = Phi_out diag(gain) L_in^T over every mode, less the surface modes'
-        // share through their rounded shapes (as below). The surface modes' terms cancel but
-        // for that rounding, so E^T = Phi_out,>M diag(gain_>M) L_in,>M^T + (Phi_M - Phi~_M)
-        // diag(gain_M) L_in,M^T: each mode once, no difference of two large products. In
-        // blocks of outputs, so that no nout x nin double matrix is held (7 GB at 30000 DoFs
-        // each way).
-        const Eigen::Map<const RowMajor> phi_out(md.shapes.data(), nout, N);
-        const Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
-                        phi_m(out.shapes.data(), nout, M);
-        const Eigen::Map<const Eigen::VectorXd> g(gain.data(), N);
-        const RowMajor  weighted = load_in * g.asDiagonal(); // nin x N
-        constexpr unsigned block = 256;
-        for (unsigned j0 = 0; j0 < nout; j0 += block)
-          {
-            const unsigned nj = std::min(block, nout - j0);
-            const auto     rows = phi_out.middleRows(j0, nj);
-            const RowMajor rounding = rows.leftCols(M) - phi_m.middleRows(j0, nj).cast<double>();
-            // [input][output] for outputs j0 .. j0 + nj.
-            const RowMajor e = weighted.rightCols(N - M) * rows.rightCols(N - M).transpose() +
-                               weighted.leftCols(M) * rounding.transpose();
-            for (unsigned k = 0; k < nin; ++k)
-              for (unsigned j = 0; j < nj; ++j)
-                out.residual[static_cast<size_t>(k) * nout + j0 + j] = static_cast<float>(e(k, j));
-          }
-        out.build_seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        return out;
-      }
-    std::vector<double> h(nout), w(M);
-    for (unsigned k = 0; k < nin; ++k)
-      {
-        std::fill(h.begin(), h.end(), 0.0);
-        for (unsigned s = 0; s < T; ++s)
-          for (unsigned j = 0; j < nout; ++j)
-            h[j] += m.h(k, s, j);
-        const std::vector<double> &load =
-          out.input_load_shapes.empty() ? out.input_shapes : out.input_load_shapes;
-        for (unsigned i = 0; i < M; ++i)
-          w[i] = load[static_cast<size_t>(k) * N + i] * gain[i];
-        for (unsigned j = 0; j < nout; ++j)
-          {
-            const float *pj  = &out.shapes[static_cast<size_t>(j) * M];
-            double       sum = 0;
-            for (unsigned i = 0; i < M; ++i)
-              sum += static_cast<double>(pj[i]) * w[i];
-            out.residual[static_cast<size_t>(k) * nout + j] = static_cast<float>(h[j] - sum);
-          }
-      }
+      set_static_correction_from_h(out, m, gain);
     out.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;
   }

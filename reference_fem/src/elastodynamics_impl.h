@@ -93,6 +93,13 @@ namespace irdm::fem
     stepper() const;
     RunResult
     run(const std::function<void(double)> &progress, const SampleSink &sink, unsigned batch);
+    // run()'s start: the state at t = 0 (static equilibrium under the loads, or unstrained
+    // and moving) with the probes' forces in f, and the probes' and planes' state then.
+    void
+    initial_state(Vector<double> &u, Vector<double> &v, Vector<double> &a, Vector<double> &f,
+                  Vector<double> &lambda) const;
+    void
+    start_contacts(const Vector<double> &u);
     RunResult
     solve_static(double t) const;
     std::vector<double>

@@ -113,26 +113,10 @@ namespace irdm::fem
 
 namespace irdm::fem
 {
-  RunResult
-  ElasticDynamics::Impl::run(const std::function<void(double)> &progress, const SampleSink &sink,
-                             const unsigned batch)
+  void
+  ElasticDynamics::Impl::initial_state(Vector<double> &u, Vector<double> &v, Vector<double> &a,
+                                       Vector<double> &f, Vector<double> &lambda) const
   {
-    if (!(scene.duration > 0))
-      throw InputError("scene '" + scene.name + "' gives no time.duration_s: nothing to run");
-    RunResult out;
-    init_result(out);
-    for (const auto &p : scene.planes)
-      out.plane_vertex_stiffness[p.name] = p.vertex_stiffness;
-    out.setup_seconds         = setup_seconds;
-    stepper(); // factorized before the clock of the steps starts
-    out.factorization_seconds = factorization_seconds;
-
-    const unsigned n_dofs = dof_handler.n_dofs();
-    const double   dt     = scene.time_step;
-    const unsigned N      = scene.n_steps();
-    const auto    &c      = coeffs;
-
-    Vector<double> u(n_dofs), v(n_dofs), a(n_dofs), f(n_dofs), lambda(probe_dofs.size());
     external_force(0.0, f);
     if (scene.initial == InitialState::static_equilibrium && !scene.probes.empty())
       throw InputError("probes need initial_state 'rest'");
@@ -157,7 +141,7 @@ namespace irdm::fem
         a = f;
         if (scene.rayleigh_alpha > 0 && v.l2_norm() > 0)
           {
-            Vector<double> Mv(n_dofs);
+            Vector<double> Mv(dof_handler.n_dofs());
             mass.vmult(Mv, v);
             a.add(-scene.rayleigh_alpha, Mv);
           }
@@ -170,6 +154,11 @@ namespace irdm::fem
             m_inverse.solve(a);
           }
       }
+  }
+
+  void
+  ElasticDynamics::Impl::start_contacts(const Vector<double> &u)
+  {
     last_probe.assign(scene.probes.size(), {});
     for (unsigned p = 0; p < scene.probes.size(); ++p)
       {
@@ -189,7 +178,7 @@ namespace irdm::fem
       plate_before.push_back(plane.position.at(0.0));
     {
       // At rest: no plane force; the penetration is the undeformed surface's.
-      Vector<double> u0(u), f0(n_dofs);
+      Vector<double> u0(u), f0(dof_handler.n_dofs());
       last_planes = solve_planes(0.0, 1.0, u0, f0);
       for (auto &p : last_planes)
         p.force = {0, 0, 0};
@@ -198,6 +187,30 @@ namespace irdm::fem
           throw InputError("plane '" + scene.planes[p].name + "' starts inside the body (by " +
                            std::to_string(last_planes[p].penetration) + " m at t = 0)");
     }
+  }
+
+  RunResult
+  ElasticDynamics::Impl::run(const std::function<void(double)> &progress, const SampleSink &sink,
+                             const unsigned batch)
+  {
+    if (!(scene.duration > 0))
+      throw InputError("scene '" + scene.name + "' gives no time.duration_s: nothing to run");
+    RunResult out;
+    init_result(out);
+    for (const auto &p : scene.planes)
+      out.plane_vertex_stiffness[p.name] = p.vertex_stiffness;
+    out.setup_seconds         = setup_seconds;
+    stepper(); // factorized before the clock of the steps starts
+    out.factorization_seconds = factorization_seconds;
+
+    const unsigned n_dofs = dof_handler.n_dofs();
+    const double   dt     = scene.time_step;
+    const unsigned N      = scene.n_steps();
+    const auto    &c      = coeffs;
+
+    Vector<double> u(n_dofs), v(n_dofs), a(n_dofs), f(n_dofs), lambda(probe_dofs.size());
+    initial_state(u, v, a, f, lambda);
+    start_contacts(u);
     record(u, v, a, f, lambda, 0.0, out);
     std::vector<std::pair<double, std::string>> vtu_records;
     if (scene.outputs.vtu_every > 0 && !scene.outputs.directory.empty())

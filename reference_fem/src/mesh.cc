@@ -151,302 +151,368 @@ namespace irdm::fem
                      std::to_string(tag));
   }
 
+  namespace
+  {
+    // The sections of an ASCII gmsh file (MSH 2.2 or 4.1) read into nodes, raw elements and
+    // names; then the tetrahedra and tagged triangles checked and indexed (TetMesh). Every
+    // count in the file is checked against the file's size before anything is sized by it:
+    // each node, element or name takes at least 2 bytes, so no honest count exceeds the size.
+    // A header claiming 1e18 nodes is refused at once instead of looping.
+    class GmshReader
+    {
+    public:
+      explicit GmshReader(const std::string &path)
+        : path_(path)
+        , in_(path)
+      {
+        if (!in_)
+          fail(path, "cannot open the file");
+        std::error_code size_error;
+        file_size_ = std::filesystem::file_size(path, size_error);
+        if (size_error)
+          fail(path, "cannot read its size: " + size_error.message());
+        mesh_.file = path;
+      }
+
+      TetMesh
+      read()
+      {
+        std::string line;
+        while (std::getline(in_, line))
+          {
+            if (!line.empty() && line.back() == '\r')
+              line.pop_back();
+            if (line == "$MeshFormat")
+              read_format();
+            else if (line == "$PhysicalNames")
+              read_physical_names();
+            else if (line == "$Entities" && version_ >= 4)
+              read_entities();
+            else if (line == "$Nodes")
+              read_nodes();
+            else if (line == "$Elements")
+              read_elements();
+          }
+        if (version_ == 0)
+          fail(path_, "no $MeshFormat section: not a gmsh .msh file");
+        add_tetrahedra();
+        add_triangles();
+        return std::move(mesh_);
+      }
+
+    private:
+      std::string                                          path_;
+      std::ifstream                                        in_;
+      std::size_t                                          file_size_ = 0;
+      double                                               version_   = 0;
+      std::unordered_map<long long, std::array<double, 3>> nodes_;
+      std::vector<RawElement>                              elements_;
+      std::map<std::pair<int, int>, int>                   entity_tag_; // (dim, entity) -> physical
+      std::unordered_map<long long, unsigned>              index_of_tag_;
+      TetMesh                                              mesh_;
+
+      void
+      check_count(const long long n, const char *what) const
+      {
+        if (n < 0 || static_cast<unsigned long long>(n) > file_size_ / 2)
+          fail(path_, std::string("the file claims ") + std::to_string(n) + " " + what +
+                        ", which a file of " + std::to_string(file_size_) + " bytes cannot hold");
+      }
+      void
+      expect(const std::istream &s, const char *what) const
+      {
+        if (!s)
+          fail(path_, std::string("malformed ") + what + " section");
+      }
+
+      void
+      read_format()
+      {
+        int file_type = 0, data_size = 0;
+        in_ >> version_ >> file_type >> data_size;
+        expect(in_, "$MeshFormat");
+        if (file_type != 0)
+          fail(path_, "binary .msh is not supported; save as ASCII");
+        if (version_ != 2.2 && !(version_ >= 4.0 && version_ < 4.2))
+          fail(path_, "MSH version " + std::to_string(version_) + " is not supported (2.2 or 4.1)");
+      }
+
+      void
+      read_physical_names()
+      {
+        long long n = 0;
+        in_ >> n;
+        expect(in_, "$PhysicalNames");
+        check_count(n, "physical names");
+        std::string line;
+        std::getline(in_, line);
+        for (long long i = 0; i < n; ++i)
+          {
+            if (!std::getline(in_, line))
+              fail(path_, "the $PhysicalNames section ends early");
+            std::istringstream s(line);
+            int                dim = 0, tag = 0;
+            s >> dim >> tag;
+            const auto q1 = line.find('"'), q2 = line.rfind('"');
+            if (!s || q1 == std::string::npos || q2 <= q1)
+              fail(path_, "malformed $PhysicalNames line '" + line + "'");
+            const std::string name = line.substr(q1 + 1, q2 - q1 - 1);
+            (dim == 2 ? mesh_.surface_names : mesh_.volume_names)[name] = tag;
+          }
+      }
+
+      // MSH 4: only the physical tag of each surface and volume entity matters here.
+      void
+      read_entities()
+      {
+        long long n[4] = {0, 0, 0, 0};
+        in_ >> n[0] >> n[1] >> n[2] >> n[3];
+        expect(in_, "$Entities");
+        for (const long long c : n)
+          check_count(c, "entities");
+        std::string line;
+        std::getline(in_, line);
+        for (int dim = 0; dim < 4; ++dim)
+          for (long long i = 0; i < n[dim]; ++i)
+            {
+              if (!std::getline(in_, line))
+                fail(path_, "the $Entities section ends early");
+              std::istringstream s(line);
+              int                tag = 0;
+              double             box;
+              s >> tag;
+              for (int k = 0; k < (dim == 0 ? 3 : 6); ++k)
+                s >> box;
+              long long n_phys = 0;
+              s >> n_phys;
+              if (n_phys < 0)
+                fail(path_, "an entity has a negative number of physical tags");
+              int phys = 0;
+              if (n_phys > 1)
+                fail(path_, "an entity has more than one physical tag");
+              if (n_phys == 1)
+                s >> phys;
+              expect(s, "$Entities");
+              entity_tag_[{dim, tag}] = phys;
+            }
+      }
+
+      void
+      add_node(const long long tag, const std::array<double, 3> &x)
+      {
+        expect(in_, "$Nodes");
+        if (!std::isfinite(x[0]) || !std::isfinite(x[1]) || !std::isfinite(x[2]))
+          fail(path_, "node " + std::to_string(tag) + " has a coordinate that is not finite");
+        if (!nodes_.emplace(tag, x).second)
+          fail(path_, "node tag " + std::to_string(tag) + " is defined twice");
+      }
+
+      void
+      read_nodes()
+      {
+        if (version_ < 4)
+          {
+            long long n = 0;
+            in_ >> n;
+            expect(in_, "$Nodes");
+            check_count(n, "nodes");
+            for (long long i = 0; i < n; ++i)
+              {
+                long long             tag = 0;
+                std::array<double, 3> x{};
+                in_ >> tag >> x[0] >> x[1] >> x[2];
+                add_node(tag, x);
+              }
+            return;
+          }
+        long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
+        in_ >> blocks >> n >> min_tag >> max_tag;
+        expect(in_, "$Nodes");
+        check_count(blocks, "node blocks");
+        check_count(n, "nodes");
+        for (long long b = 0; b < blocks; ++b)
+          {
+            int       dim = 0, ent = 0, parametric = 0;
+            long long count = 0;
+            in_ >> dim >> ent >> parametric >> count;
+            expect(in_, "$Nodes");
+            check_count(count, "nodes in a block");
+            if (parametric)
+              fail(path_, "parametric nodes are not supported");
+            std::vector<long long> tags(static_cast<std::size_t>(count));
+            for (auto &t : tags)
+              in_ >> t;
+            for (const auto t : tags)
+              {
+                std::array<double, 3> x{};
+                in_ >> x[0] >> x[1] >> x[2];
+                add_node(t, x);
+              }
+          }
+      }
+
+      void
+      read_element_nodes(std::istream &s, RawElement &e) const
+      {
+        const int nn = nodes_of_type(e.type);
+        if (nn < 0)
+          fail(path_, "unsupported gmsh element type " + std::to_string(e.type));
+        e.nodes.resize(nn);
+        for (auto &v : e.nodes)
+          s >> v;
+        expect(s, "$Elements");
+      }
+
+      void
+      read_elements()
+      {
+        if (version_ < 4)
+          {
+            long long n = 0;
+            in_ >> n;
+            expect(in_, "$Elements");
+            check_count(n, "elements");
+            for (long long i = 0; i < n; ++i)
+              {
+                long long  tag = 0;
+                int        n_tags = 0;
+                RawElement e;
+                in_ >> tag >> e.type >> n_tags;
+                expect(in_, "$Elements");
+                if (n_tags < 0 || n_tags > 64)
+                  fail(path_, "an element has " + std::to_string(n_tags) + " tags (0 to 64)");
+                std::vector<int> tags(static_cast<std::size_t>(n_tags));
+                for (auto &t : tags)
+                  in_ >> t;
+                e.tag = n_tags > 0 ? tags[0] : 0;
+                read_element_nodes(in_, e);
+                elements_.push_back(std::move(e));
+              }
+            expect(in_, "$Elements");
+            return;
+          }
+        long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
+        in_ >> blocks >> n >> min_tag >> max_tag;
+        expect(in_, "$Elements");
+        check_count(blocks, "element blocks");
+        check_count(n, "elements");
+        for (long long b = 0; b < blocks; ++b)
+          {
+            int       dim = 0, ent = 0, type = 0;
+            long long count = 0;
+            in_ >> dim >> ent >> type >> count;
+            expect(in_, "$Elements");
+            check_count(count, "elements in a block");
+            const auto it   = entity_tag_.find({dim, ent});
+            const int  phys = it == entity_tag_.end() ? 0 : it->second;
+            for (long long i = 0; i < count; ++i)
+              {
+                long long  tag = 0;
+                RawElement e;
+                e.type = type;
+                e.tag  = phys;
+                in_ >> tag;
+                read_element_nodes(in_, e);
+                elements_.push_back(std::move(e));
+              }
+          }
+        expect(in_, "$Elements");
+      }
+
+      // The mesh's vertex of a node tag, added at its first use by a tetrahedron.
+      unsigned
+      vertex_index(const long long tag)
+      {
+        const auto it = index_of_tag_.find(tag);
+        if (it != index_of_tag_.end())
+          return it->second;
+        const auto nt = nodes_.find(tag);
+        if (nt == nodes_.end())
+          fail(path_, "an element refers to the missing node " + std::to_string(tag));
+        const unsigned i = static_cast<unsigned>(mesh_.vertices.size());
+        mesh_.vertices.push_back(nt->second);
+        mesh_.node_tags.push_back(tag);
+        index_of_tag_[tag] = i;
+        return i;
+      }
+
+      // Volume elements: linear tetrahedra only, none flat, inverted or repeated.
+      void
+      add_tetrahedra()
+      {
+        std::size_t element_no = 0;
+        std::map<std::array<unsigned, 4>, std::size_t> tet_of_vertices; // sorted vertices -> number
+        for (const auto &e : elements_)
+          {
+            ++element_no;
+            if (e.type == 11 || e.type == 9 || e.type == 8)
+              fail(path_, "second-order elements found: export linear tetrahedra "
+                          "(Mesh.ElementOrder = 1); the FEM adds P2 itself");
+            if (e.type == 5 || e.type == 6 || e.type == 7)
+              fail(path_, "only tetrahedra are supported as volume elements");
+            if (e.type != 4)
+              continue;
+            std::array<unsigned, 4> t;
+            for (int k = 0; k < 4; ++k)
+              t[k] = vertex_index(e.nodes[k]);
+            const auto &a = mesh_.vertices[t[0]], &b = mesh_.vertices[t[1]],
+                       &c = mesh_.vertices[t[2]], &d = mesh_.vertices[t[3]];
+            const double vol     = signed_volume(a, b, c, d);
+            double       longest = 0;
+            for (int i = 0; i < 4; ++i)
+              for (int j = i + 1; j < 4; ++j)
+                {
+                  const auto &p = mesh_.vertices[t[i]], &q = mesh_.vertices[t[j]];
+                  longest = std::max(longest, std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]));
+                }
+            // A regular tetrahedron has V = 0.118 L^3; 1e-6 L^3 is flat by any standard.
+            if (std::abs(vol) <= 1e-6 * longest * longest * longest)
+              fail(path_, "tetrahedron " + std::to_string(element_no) + " is degenerate (volume " +
+                            std::to_string(vol) + " m^3)");
+            if (vol < 0)
+              fail(path_, "tetrahedron " + std::to_string(element_no) +
+                            " is inverted (negative volume); the mesh is corrupt");
+            std::array<unsigned, 4> key = t;
+            std::sort(key.begin(), key.end());
+            const auto [seen, is_new] = tet_of_vertices.emplace(key, element_no);
+            if (!is_new)
+              fail(path_, "tetrahedron " + std::to_string(element_no) + " repeats element " +
+                            std::to_string(seen->second) + " (the same four nodes)");
+            mesh_.tets.push_back(t);
+            mesh_.tet_tags.push_back(e.tag);
+          }
+        if (mesh_.tets.empty())
+          fail(path_, "no tetrahedra (with physical groups defined, gmsh saves only "
+                      "elements in a Physical Volume)");
+      }
+
+      // Triangles in a physical surface, on the tetrahedra's vertices.
+      void
+      add_triangles()
+      {
+        for (const auto &e : elements_)
+          if (e.type == 2 && e.tag != 0)
+            {
+              std::array<unsigned, 3> t;
+              for (int k = 0; k < 3; ++k)
+                {
+                  const auto it = index_of_tag_.find(e.nodes[k]);
+                  if (it == index_of_tag_.end())
+                    fail(path_, "a tagged triangle has a node on no tetrahedron");
+                  t[k] = it->second;
+                }
+              if (e.tag < 1 || e.tag > 250)
+                fail(path_, "physical surface tag " + std::to_string(e.tag) + " outside 1..250");
+              mesh_.triangles.push_back(t);
+              mesh_.triangle_tags.push_back(e.tag);
+            }
+      }
+    };
+  } // namespace
+
   TetMesh
   read_gmsh(const std::string &path)
   {
-    std::ifstream in(path);
-    if (!in)
-      fail(path, "cannot open the file");
-    // Every count in the file is checked against the file's size before anything is sized
-    // by it: each node, element or name takes at least 2 bytes, so no honest count exceeds
-    // the size. A header claiming 1e18 nodes is refused at once instead of looping.
-    std::error_code   size_error;
-    const std::size_t file_size = std::filesystem::file_size(path, size_error);
-    if (size_error)
-      fail(path, "cannot read its size: " + size_error.message());
-    const auto check_count = [&](const long long n, const char *what) {
-      if (n < 0 || static_cast<unsigned long long>(n) > file_size / 2)
-        fail(path, std::string("the file claims ") + std::to_string(n) + " " + what +
-                     ", which a file of " + std::to_string(file_size) + " bytes cannot hold");
-    };
-    std::string line;
-    double      version = 0;
-    std::unordered_map<long long, std::array<double, 3>> nodes;
-    std::vector<RawElement>                              elements;
-    std::map<std::pair<int, int>, int>                   entity_tag; // (dim, entity) -> physical
-    TetMesh                                              mesh;
-    mesh.file = path;
-
-    const auto expect = [&](std::istream &s, const char *what) {
-      if (!s)
-        fail(path, std::string("malformed ") + what + " section");
-    };
-
-    while (std::getline(in, line))
-      {
-        if (!line.empty() && line.back() == '\r')
-          line.pop_back();
-        if (line == "$MeshFormat")
-          {
-            int file_type = 0, data_size = 0;
-            in >> version >> file_type >> data_size;
-            expect(in, "$MeshFormat");
-            if (file_type != 0)
-              fail(path, "binary .msh is not supported; save as ASCII");
-            if (version != 2.2 && !(version >= 4.0 && version < 4.2))
-              fail(path, "MSH version " + std::to_string(version) +
-                           " is not supported (2.2 or 4.1)");
-          }
-        else if (line == "$PhysicalNames")
-          {
-            long long n = 0;
-            in >> n;
-            expect(in, "$PhysicalNames");
-            check_count(n, "physical names");
-            std::getline(in, line);
-            for (long long i = 0; i < n; ++i)
-              {
-                if (!std::getline(in, line))
-                  fail(path, "the $PhysicalNames section ends early");
-                std::istringstream s(line);
-                int                dim = 0, tag = 0;
-                s >> dim >> tag;
-                const auto q1 = line.find('"'), q2 = line.rfind('"');
-                if (!s || q1 == std::string::npos || q2 <= q1)
-                  fail(path, "malformed $PhysicalNames line '" + line + "'");
-                const std::string name = line.substr(q1 + 1, q2 - q1 - 1);
-                (dim == 2 ? mesh.surface_names : mesh.volume_names)[name] = tag;
-              }
-          }
-        else if (line == "$Entities" && version >= 4)
-          {
-            // Only the physical tag of each surface and volume entity matters here.
-            long long n[4] = {0, 0, 0, 0};
-            in >> n[0] >> n[1] >> n[2] >> n[3];
-            expect(in, "$Entities");
-            for (const long long c : n)
-              check_count(c, "entities");
-            std::getline(in, line);
-            for (int dim = 0; dim < 4; ++dim)
-              for (long long i = 0; i < n[dim]; ++i)
-                {
-                  if (!std::getline(in, line))
-                    fail(path, "the $Entities section ends early");
-                  std::istringstream s(line);
-                  int                tag = 0;
-                  double             box;
-                  s >> tag;
-                  for (int k = 0; k < (dim == 0 ? 3 : 6); ++k)
-                    s >> box;
-                  long long n_phys = 0;
-                  s >> n_phys;
-                  if (n_phys < 0)
-                    fail(path, "an entity has a negative number of physical tags");
-                  int phys = 0;
-                  if (n_phys > 1)
-                    fail(path, "an entity has more than one physical tag");
-                  if (n_phys == 1)
-                    s >> phys;
-                  expect(s, "$Entities");
-                  entity_tag[{dim, tag}] = phys;
-                }
-          }
-        else if (line == "$Nodes")
-          {
-            const auto add_node = [&](const long long tag, const std::array<double, 3> &x) {
-              expect(in, "$Nodes");
-              if (!std::isfinite(x[0]) || !std::isfinite(x[1]) || !std::isfinite(x[2]))
-                fail(path, "node " + std::to_string(tag) + " has a coordinate that is not finite");
-              if (!nodes.emplace(tag, x).second)
-                fail(path, "node tag " + std::to_string(tag) + " is defined twice");
-            };
-            if (version < 4)
-              {
-                long long n = 0;
-                in >> n;
-                expect(in, "$Nodes");
-                check_count(n, "nodes");
-                for (long long i = 0; i < n; ++i)
-                  {
-                    long long             tag = 0;
-                    std::array<double, 3> x{};
-                    in >> tag >> x[0] >> x[1] >> x[2];
-                    add_node(tag, x);
-                  }
-              }
-            else
-              {
-                long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
-                in >> blocks >> n >> min_tag >> max_tag;
-                expect(in, "$Nodes");
-                check_count(blocks, "node blocks");
-                check_count(n, "nodes");
-                for (long long b = 0; b < blocks; ++b)
-                  {
-                    int       dim = 0, ent = 0, parametric = 0;
-                    long long count = 0;
-                    in >> dim >> ent >> parametric >> count;
-                    expect(in, "$Nodes");
-                    check_count(count, "nodes in a block");
-                    if (parametric)
-                      fail(path, "parametric nodes are not supported");
-                    std::vector<long long> tags(static_cast<std::size_t>(count));
-                    for (auto &t : tags)
-                      in >> t;
-                    for (const auto t : tags)
-                      {
-                        std::array<double, 3> x{};
-                        in >> x[0] >> x[1] >> x[2];
-                        add_node(t, x);
-                      }
-                  }
-              }
-          }
-        else if (line == "$Elements")
-          {
-            const auto read_nodes = [&](std::istream &s, RawElement &e) {
-              const int nn = nodes_of_type(e.type);
-              if (nn < 0)
-                fail(path, "unsupported gmsh element type " + std::to_string(e.type));
-              e.nodes.resize(nn);
-              for (auto &v : e.nodes)
-                s >> v;
-              expect(s, "$Elements");
-            };
-            if (version < 4)
-              {
-                long long n = 0;
-                in >> n;
-                expect(in, "$Elements");
-                check_count(n, "elements");
-                for (long long i = 0; i < n; ++i)
-                  {
-                    long long  tag = 0;
-                    int        n_tags = 0;
-                    RawElement e;
-                    in >> tag >> e.type >> n_tags;
-                    expect(in, "$Elements");
-                    if (n_tags < 0 || n_tags > 64)
-                      fail(path, "an element has " + std::to_string(n_tags) + " tags (0 to 64)");
-                    std::vector<int> tags(static_cast<std::size_t>(n_tags));
-                    for (auto &t : tags)
-                      in >> t;
-                    e.tag = n_tags > 0 ? tags[0] : 0;
-                    read_nodes(in, e);
-                    elements.push_back(std::move(e));
-                  }
-                expect(in, "$Elements");
-              }
-            else
-              {
-                long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
-                in >> blocks >> n >> min_tag >> max_tag;
-                expect(in, "$Elements");
-                check_count(blocks, "element blocks");
-                check_count(n, "elements");
-                for (long long b = 0; b < blocks; ++b)
-                  {
-                    int       dim = 0, ent = 0, type = 0;
-                    long long count = 0;
-                    in >> dim >> ent >> type >> count;
-                    expect(in, "$Elements");
-                    check_count(count, "elements in a block");
-                    const auto it   = entity_tag.find({dim, ent});
-                    const int  phys = it == entity_tag.end() ? 0 : it->second;
-                    for (long long i = 0; i < count; ++i)
-                      {
-                        long long  tag = 0;
-                        RawElement e;
-                        e.type = type;
-                        e.tag  = phys;
-                        in >> tag;
-                        read_nodes(in, e);
-                        elements.push_back(std::move(e));
-                      }
-                  }
-                expect(in, "$Elements");
-              }
-          }
-      }
-    if (version == 0)
-      fail(path, "no $MeshFormat section: not a gmsh .msh file");
-
-    // Volume elements: linear tetrahedra only.
-    std::unordered_map<long long, unsigned> index_of_tag;
-    const auto vertex_index = [&](const long long tag) {
-      const auto it = index_of_tag.find(tag);
-      if (it != index_of_tag.end())
-        return it->second;
-      const auto nt = nodes.find(tag);
-      if (nt == nodes.end())
-        fail(path, "an element refers to the missing node " + std::to_string(tag));
-      const unsigned i = static_cast<unsigned>(mesh.vertices.size());
-      mesh.vertices.push_back(nt->second);
-      mesh.node_tags.push_back(tag);
-      index_of_tag[tag] = i;
-      return i;
-    };
-    std::size_t element_no = 0;
-    std::map<std::array<unsigned, 4>, std::size_t> tet_of_vertices; // sorted vertices -> number
-    for (const auto &e : elements)
-      {
-        ++element_no;
-        if (e.type == 11 || e.type == 9 || e.type == 8)
-          fail(path, "second-order elements found: export linear tetrahedra "
-                     "(Mesh.ElementOrder = 1); the FEM adds P2 itself");
-        if (e.type == 5 || e.type == 6 || e.type == 7)
-          fail(path, "only tetrahedra are supported as volume elements");
-        if (e.type != 4)
-          continue;
-        std::array<unsigned, 4> t;
-        for (int k = 0; k < 4; ++k)
-          t[k] = vertex_index(e.nodes[k]);
-        const auto &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]],
-                   &c = mesh.vertices[t[2]], &d = mesh.vertices[t[3]];
-        const double vol = signed_volume(a, b, c, d);
-        double       longest = 0;
-        for (int i = 0; i < 4; ++i)
-          for (int j = i + 1; j < 4; ++j)
-            {
-              const auto &p = mesh.vertices[t[i]], &q = mesh.vertices[t[j]];
-              longest = std::max(longest, std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]));
-            }
-        // A regular tetrahedron has V = 0.118 L^3; 1e-6 L^3 is flat by any standard.
-        if (std::abs(vol) <= 1e-6 * longest * longest * longest)
-          fail(path, "tetrahedron " + std::to_string(element_no) +
-                       " is degenerate (volume " + std::to_string(vol) + " m^3)");
-        if (vol < 0)
-          fail(path, "tetrahedron " + std::to_string(element_no) +
-                       " is inverted (negative volume); the mesh is corrupt");
-        std::array<unsigned, 4> key = t;
-        std::sort(key.begin(), key.end());
-        const auto [seen, is_new] = tet_of_vertices.emplace(key, element_no);
-        if (!is_new)
-          fail(path, "tetrahedron " + std::to_string(element_no) + " repeats element " +
-                       std::to_string(seen->second) + " (the same four nodes)");
-        mesh.tets.push_back(t);
-        mesh.tet_tags.push_back(e.tag);
-      }
-    if (mesh.tets.empty())
-      fail(path, "no tetrahedra (with physical groups defined, gmsh saves only "
-                 "elements in a Physical Volume)");
-    for (const auto &e : elements)
-      if (e.type == 2 && e.tag != 0)
-        {
-          std::array<unsigned, 3> t;
-          for (int k = 0; k < 3; ++k)
-            {
-              const auto it = index_of_tag.find(e.nodes[k]);
-              if (it == index_of_tag.end())
-                fail(path, "a tagged triangle has a node on no tetrahedron");
-              t[k] = it->second;
-            }
-          if (e.tag < 1 || e.tag > 250)
-            fail(path, "physical surface tag " + std::to_string(e.tag) +
-                         " outside 1..250");
-          mesh.triangles.push_back(t);
-          mesh.triangle_tags.push_back(e.tag);
-        }
-    return mesh;
+    return GmshReader(path).read();
   }
 } // namespace irdm::fem

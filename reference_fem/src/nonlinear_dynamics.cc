@@ -119,6 +119,352 @@ namespace irdm::fem
     return s;
   }
 
+  // The time loop of one run: the state (u, v, a) and its loads at the last sample, the
+  // trial state of the step being solved, and the step's residual, Newton's method and
+  // cut-back. The generalized-alpha balance at the alpha levels:
+  //   M a_{1-am} + C v_{1-af} + f_int(u_{1-af}) = f_{1-af} + f_c,{1-af}.
+  class NonlinearElasticity::TimeLoop
+  {
+  public:
+    TimeLoop(const NonlinearElasticity::Impl &impl, RunResult &out)
+      : I(impl)
+      , L(impl.linear)
+      , sc(impl.linear.scene)
+      , c(impl.linear.coeffs)
+      , out(out)
+      , n(impl.linear.dof_handler.n_dofs())
+      , dt(sc.time_step)
+      , af(c.alpha_f)
+      , am(c.alpha_m)
+      , h(dt)
+      , k(c, h)
+      , tangent(L.sparsity)
+      , K_T(L.sparsity)
+      , K_D(L.sparsity)
+      , K_Du(L.sparsity)
+    {
+      for (Vector<double> *x : {&u, &v, &a, &f, &f_c, &u_new, &v_new, &a_new, &f_new, &f_c_new,
+                                &f_int, &r, &du, &trial, &r_trial, &tmp, &w, &u_alpha})
+        x->reinit(n);
+    }
+
+    void
+    start();
+    void
+    record(double t);
+    // Steps from t0 by dt / 2^cuts, cut back where Newton fails (below).
+    void
+    advance(double t0, unsigned cuts);
+
+  private:
+    const NonlinearElasticity::Impl &I;
+    const ElasticDynamics::Impl     &L;
+    const Scene                     &sc;
+    const IntegratorCoefficients    &c;
+    RunResult                       &out;
+    const unsigned                   n;
+    const double                     dt, af, am;
+    // The length of the step being solved: tau, or a part of it where Newton failed at tau
+    // (cut back); the residual and its tangent follow it.
+    double           h;
+    StepCoefficients k;
+
+    Vector<double> u, v, a, f, f_c; // state n and its loads
+    Vector<double> u_new, v_new, a_new, f_new, f_c_new;
+    Vector<double> f_int, r, du, trial, r_trial, tmp, w, u_alpha;
+    SparseMatrix<double> tangent, K_T, K_D, K_Du;
+    PlaneContactState    contact;
+    // The latest factorized tangent, reused while it makes the residual contract (null: use
+    // the linear solver's K_eff, factored for tau).
+    std::unique_ptr<DirectSolver> tangent_solver;
+    // Scene::body_frame_law: the body frame's rotation, held over a step (the law is then
+    // linear in u within it), taken at the alpha level of the step's constant-velocity
+    // predictor, u + (1 - alpha_f) h v: the turn within the step is then off by O((w h)^2).
+    Tensor<2, 3> frame = I.identity();
+    double       scale = 0; // a force scale of the latest residual, for the convergence test
+    double       total_mass   = sc.density * L.total_volume; // kg
+    double       energy_start = 0; // J, the total energy of the first sample
+
+    bool
+    residual(double t1, const Vector<double> &x, Vector<double> &res, SparseMatrix<double> *T,
+             PlaneContactState &cs);
+    std::string
+    newton_step(double t1);
+    void
+    accept()
+    {
+      u.swap(u_new);
+      v.swap(v_new);
+      a.swap(a_new);
+      f.swap(f_new);
+      f_c.swap(f_c_new);
+    }
+    static void
+    combine(Vector<double> &x, const double p, const Vector<double> &y, const double q,
+            const Vector<double> &z)
+    {
+      x.equ(p, y);
+      x.add(q, z);
+    }
+  };
+
+  // The initial state: the scene's velocity, its loads and contact at t = 0, and the
+  // acceleration that balances them, M a0 = f(0) + f_c(0) - C v0 (f_int(0) = 0).
+  void
+  NonlinearElasticity::TimeLoop::start()
+  {
+    v = L.initial_velocity();
+    L.external_force(0.0, f);
+    contact            = I.plane_contact(u, 0.0, f_c, nullptr);
+    Vector<double> rhs = f;
+    rhs += f_c;
+    L.mass.vmult(tmp, v);
+    rhs.add(-sc.rayleigh_alpha, tmp);
+    L.stiffness.vmult(tmp, v);
+    rhs.add(-sc.rayleigh_beta, tmp);
+    L.constraints.set_zero(rhs);
+    if (rhs.l2_norm() > 0)
+      {
+        DirectSolver m_inverse;
+        m_inverse.initialize(L.condensed(L.mass));
+        m_inverse.solve(rhs);
+        a = rhs;
+      }
+  }
+
+  void
+  NonlinearElasticity::TimeLoop::record(const double t)
+  {
+    const PlaneContactState &cs = contact;
+    // The linear record() takes the fixed reactions as M a + C v + K_0 u - f; passing
+    // f + f_c + K_0 u - f_int(u) makes them the nonlinear balance M a + C v + f_int - f - f_c.
+    double                                   W = 0;
+    NonlinearElasticity::Impl::StrainMeasure strain;
+    I.assemble(u, f_int, nullptr, false, &W, &strain,
+               sc.body_frame_law ? I.body_rotation(u) : I.identity());
+    out.largest_strain.push_back(strain.largest);
+    out.strained_volume_fraction.push_back(strain.strained_volume_fraction);
+    Vector<double> balance(n);
+    L.stiffness.vmult(balance, u);
+    balance += f;
+    balance += f_c;
+    balance -= f_int;
+    const Vector<double> no_lambda;
+    L.record(u, v, a, balance, no_lambda, t, out);
+    out.strain_energy.back() = W;
+    out.contact_energy.push_back(cs.energy);
+    out.gravity_energy.push_back(-(L.gravity_force * u));
+    const double mechanical = out.kinetic_energy.back() + W + cs.energy;
+    const double total      = mechanical + out.gravity_energy.back();
+    if (t == 0)
+      energy_start = total;
+    out.energy_rise  = std::max(out.energy_rise, total - energy_start);
+    out.energy_scale = std::max(out.energy_scale, mechanical);
+    L.mass.vmult(balance, v);
+    Vec3 momentum = {0, 0, 0};
+    for (unsigned i = 0; i < n; ++i)
+      momentum[L.dof_component[i]] += balance[i];
+    out.linear_momentum.push_back(momentum);
+    // Centre-of-mass displacement: 1^T M u per axis over the mass (M consistent).
+    L.mass.vmult(balance, u);
+    Vec3 moment = {0, 0, 0};
+    for (unsigned i = 0; i < n; ++i)
+      moment[L.dof_component[i]] += balance[i];
+    out.center_of_mass_displacement.push_back(
+      {moment[0] / total_mass, moment[1] / total_mass, moment[2] / total_mass});
+    for (unsigned p = 0; p < sc.planes.size(); ++p)
+      {
+        out.plane_force[sc.planes[p].name].push_back(cs.force[p]);
+        out.plane_penetration[sc.planes[p].name].push_back(cs.penetration[p]);
+      }
+  }
+
+  // The residual of the step to t1 at the trial u_new = x (a_new, v_new follow from x by
+  // Newmark). With `T`, also the tangent dR/dx, condensed. Returns false if an element
+  // inverted; `scale` gets a force scale for the convergence test.
+  bool
+  NonlinearElasticity::TimeLoop::residual(const double t1, const Vector<double> &x, Vector<double> &res,
+                     SparseMatrix<double> *T, PlaneContactState &cs)
+  {
+    a_new = x;
+    a_new -= u;
+    a_new.add(-h, v);
+    a_new *= 1 / (c.beta * h * h);
+    a_new.add(-(1 / (2 * c.beta) - 1), a);
+    v_new = v;
+    v_new.add(h * (1 - c.gamma), a, h * c.gamma, a_new);
+    combine(u_alpha, 1 - af, x, af, u); // u at the alpha level
+    const bool ok = I.assemble(u_alpha, f_int, T ? &K_T : nullptr, false, nullptr, nullptr, frame);
+    cs            = I.plane_contact(x, t1, f_c_new, T ? &K_T : nullptr);
+    combine(w, 1 - am, a_new, am, a);
+    L.mass.vmult(res, w);
+    scale = std::max({res.l2_norm(), f_int.l2_norm(), f_new.l2_norm(), f_c_new.l2_norm()});
+    combine(w, 1 - af, v_new, af, v); // Rayleigh damping at the alpha level
+    L.mass.vmult(tmp, w);
+    res.add(sc.rayleigh_alpha, tmp);
+    if (sc.rayleigh_beta != 0)
+      {
+        // Objective: no damping of rigid motion however far the body has turned.
+        I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr, T ? &K_Du : nullptr, frame);
+        res.add(sc.rayleigh_beta, tmp);
+      }
+    res += f_int;
+    res.add(-(1 - af), f_new, -(1 - af), f_c_new);
+    res.add(-af, f, -af, f_c);
+    L.constraints.set_zero(res);
+    if (T)
+      {
+        // dR/dx = c_m M + c_c C(u_alpha) + (1 - af)(K_T(u_alpha) + beta sym(dC/du v) +
+        // K_contact(x)), C v the objective damping force.
+        T->copy_from(L.mass);
+        *T *= k.c_m + k.c_c * sc.rayleigh_alpha;
+        if (sc.rayleigh_beta != 0)
+          {
+            T->add(k.c_c * sc.rayleigh_beta, K_D);
+            T->add((1 - af) * sc.rayleigh_beta, K_Du);
+          }
+        T->add(1 - af, K_T);
+        *T = L.condensed(*T);
+      }
+    return ok;
+  }
+
+  // Newton's method for the step of length h that ends at t1, from the state (u, v, a, f,
+  // f_c). On success the new state is in u_new, v_new, a_new, f_new, f_c_new and `contact`,
+  // and it returns an empty string; on failure it returns why and leaves the state as it
+  // was (the residual reads it, never writes it).
+  std::string
+  NonlinearElasticity::TimeLoop::newton_step(const double t1)
+  {
+    k = StepCoefficients(c, h);
+    L.external_force(t1, f_new);
+    // Constant-velocity predictor: the acceleration of a body in penalty contact changes
+    // sign from step to step, so extrapolating it overshoots.
+    if (sc.body_frame_law)
+      {
+        u_alpha = u;
+        u_alpha.add((1 - af) * h, v);
+        frame = I.body_rotation(u_alpha);
+      }
+    u_new = u;
+    u_new.add(h, v);
+    L.constraints.set_zero(u_new);
+    if (!residual(t1, u_new, r, nullptr, contact))
+      {
+        u_new = u; // the predictor inverted an element: start from the last state
+        residual(t1, u_new, r, nullptr, contact);
+      }
+    // Newton iterations per step: the damping's tangent is only its symmetric part, so
+    // a fast, soft body can need more than the quadratic rate would. Counted as the index
+    // of the iteration that found convergence; a failed attempt adds the iterations it
+    // spent.
+    constexpr unsigned max_newton = 100;
+    for (unsigned it = 0; it < max_newton; ++it)
+      {
+        const double r_norm = r.l2_norm();
+        if (r_norm <= 1e-7 * scale || scale == 0)
+          {
+            out.newton_iterations += it;
+            return {};
+          }
+        PlaneContactState cs_trial;
+        // First a step with the factors we have (the latest tangent, at first the linear
+        // K_eff): kept if it contracts the residual well, which it does in smooth motion.
+        du = r;
+        du *= -1;
+        if (tangent_solver)
+          tangent_solver->solve(du);
+        else
+          L.stepper().inverse.solve(du);
+        trial = u_new;
+        trial += du;
+        if (residual(t1, trial, r_trial, nullptr, cs_trial) && r_trial.l2_norm() <= 0.1 * r_norm)
+          {
+            u_new.swap(trial);
+            r.swap(r_trial);
+            contact = cs_trial;
+            if (du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
+              {
+                out.newton_iterations += it;
+                return {};
+              }
+            continue;
+          }
+        // Otherwise Newton's step with the tangent at u_new, and a line search.
+        residual(t1, u_new, r, &tangent, contact);
+        tangent_solver = std::make_unique<DirectSolver>();
+        tangent_solver->initialize(tangent);
+        ++out.tangent_factorizations;
+        du = r;
+        du *= -1;
+        tangent_solver->solve(du);
+        double alpha    = 1;
+        bool   accepted = false;
+        for (unsigned cut = 0; cut < 12; ++cut, alpha /= 2)
+          {
+            trial = u_new;
+            trial.add(alpha, du);
+            const bool ok = residual(t1, trial, r_trial, nullptr, cs_trial);
+            if (ok && r_trial.l2_norm() < (1 - 1e-4 * alpha) * r_norm)
+              {
+                accepted = true;
+                break;
+              }
+          }
+        if (!accepted)
+          {
+            // No decrease: round-off if the step is negligible against the motion.
+            if (du.linfty_norm() <= 1e-9 * std::max(u_new.linfty_norm(), 1e-300))
+              {
+                residual(t1, u_new, r, nullptr, contact);
+                out.newton_iterations += it;
+                return {};
+              }
+            out.newton_iterations += it + 1;
+            return "the line search found no decrease";
+          }
+        u_new.swap(trial);
+        r.swap(r_trial);
+        contact = cs_trial;
+        if (alpha == 1 && du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
+          {
+            out.newton_iterations += it;
+            return {};
+          }
+      }
+    out.newton_iterations += max_newton;
+    return "Newton did not converge in " + std::to_string(max_newton) + " iterations (residual " +
+           std::to_string(r.l2_norm() / scale) + " of the force scale)";
+  }
+
+  // Cut-back: where Newton fails at a step (a soft body hit hard: an element close to
+  // inverting makes the tangent indefinite, and the step's incremental problem is no longer
+  // convex), that step is solved again as two halves, each halved again where it fails,
+  // down to tau / 2^max_cuts. The samples stay at tau; only the failed steps are refined,
+  // and a finer step is the same integrator, more accurate. Counted in out.cut_steps.
+  void
+  NonlinearElasticity::TimeLoop::advance(const double t0, const unsigned cuts)
+  {
+    constexpr unsigned max_cuts = 5;
+    const double       length   = dt / static_cast<double>(1u << cuts);
+    h                           = length;
+    const std::string error     = newton_step(t0 + length);
+    if (error.empty())
+      {
+        accept();
+        return;
+      }
+    if (cuts == max_cuts)
+      throw InputError("nonlinear dynamics: " + error + " at t = " + std::to_string(t0 + length) +
+                       " s, with the step cut back " + std::to_string(max_cuts) + " times to " +
+                       std::to_string(length) + " s; a smaller time step or a softer penalty may help");
+    if (cuts == 0)
+      ++out.cut_steps;
+    out.smallest_step = std::min(out.smallest_step, length / 2);
+    advance(t0, cuts + 1);
+    advance(t0 + length / 2, cuts + 1);
+  }
+
   RunResult
   NonlinearElasticity::run(const std::function<void(double)> &progress, const SampleSink &sink,
                            const unsigned batch) const
@@ -137,309 +483,27 @@ namespace irdm::fem
 
     RunResult out;
     L.init_result(out);
-    out.setup_seconds         = L.setup_seconds;
+    out.setup_seconds = L.setup_seconds;
     L.stepper();
     out.factorization_seconds = L.factorization_seconds;
     for (unsigned p = 0; p < sc.planes.size(); ++p)
       out.plane_penalty[sc.planes[p].name] = I.penalty[p];
 
-    const unsigned n  = L.dof_handler.n_dofs();
     const double   dt = sc.time_step;
     const unsigned N  = sc.n_steps();
-    const auto    &c  = L.coeffs;
-    const double   af = c.alpha_f, am = c.alpha_m;
-    // The length of the step being solved: tau, or a part of it where Newton failed at tau
-    // (cut back below); the residual and its tangent follow it.
-    double           h = dt;
-    StepCoefficients k(c, h);
-
-    Vector<double> u(n), v(n), a(n), f(n), f_c(n);         // state n and its loads
-    Vector<double> u_new(n), v_new(n), a_new(n), f_new(n), f_c_new(n);
-    Vector<double> f_int(n), r(n), du(n), trial(n), r_trial(n), tmp(n), w(n);
-    SparseMatrix<double> tangent(L.sparsity), K_T(L.sparsity), K_D(L.sparsity), K_Du(L.sparsity);
-    Vector<double>       u_alpha(n);
-
-    v = L.initial_velocity();
-    L.external_force(0.0, f);
-    PlaneContactState contact = I.plane_contact(u, 0.0, f_c, nullptr);
-    {
-      // M a0 = f(0) + f_c(0) - C v0 (f_int(0) = 0).
-      Vector<double> rhs = f;
-      rhs += f_c;
-      L.mass.vmult(tmp, v);
-      rhs.add(-sc.rayleigh_alpha, tmp);
-      L.stiffness.vmult(tmp, v);
-      rhs.add(-sc.rayleigh_beta, tmp);
-      L.constraints.set_zero(rhs);
-      if (rhs.l2_norm() > 0)
-        {
-          DirectSolver m_inverse;
-          m_inverse.initialize(L.condensed(L.mass));
-          m_inverse.solve(rhs);
-          a = rhs;
-        }
-    }
-
-    const double total_mass   = sc.density * L.total_volume; // kg
-    double       energy_start = 0; // J, the total energy of the first sample
-    const auto record = [&](const double t, const PlaneContactState &cs) {
-      // The linear record() takes the fixed reactions as M a + C v + K_0 u - f; passing
-      // f + f_c + K_0 u - f_int(u) makes them the nonlinear balance M a + C v + f_int - f - f_c.
-      double                               W = 0;
-      NonlinearElasticity::Impl::StrainMeasure strain;
-      I.assemble(u, f_int, nullptr, false, &W, &strain,
-                 sc.body_frame_law ? I.body_rotation(u) : I.identity());
-      out.largest_strain.push_back(strain.largest);
-      out.strained_volume_fraction.push_back(strain.strained_volume_fraction);
-      Vector<double> balance(n);
-      L.stiffness.vmult(balance, u);
-      balance += f;
-      balance += f_c;
-      balance -= f_int;
-      const Vector<double> no_lambda;
-      L.record(u, v, a, balance, no_lambda, t, out);
-      out.strain_energy.back() = W;
-      out.contact_energy.push_back(cs.energy);
-      out.gravity_energy.push_back(-(L.gravity_force * u));
-      const double mechanical = out.kinetic_energy.back() + W + cs.energy;
-      const double total      = mechanical + out.gravity_energy.back();
-      if (t == 0)
-        energy_start = total;
-      out.energy_rise  = std::max(out.energy_rise, total - energy_start);
-      out.energy_scale = std::max(out.energy_scale, mechanical);
-      L.mass.vmult(balance, v);
-      Vec3 momentum = {0, 0, 0};
-      for (unsigned i = 0; i < n; ++i)
-        momentum[L.dof_component[i]] += balance[i];
-      out.linear_momentum.push_back(momentum);
-      // Centre-of-mass displacement: 1^T M u per axis over the mass (M consistent).
-      L.mass.vmult(balance, u);
-      Vec3 moment = {0, 0, 0};
-      for (unsigned i = 0; i < n; ++i)
-        moment[L.dof_component[i]] += balance[i];
-      out.center_of_mass_displacement.push_back(
-        {moment[0] / total_mass, moment[1] / total_mass, moment[2] / total_mass});
-      for (unsigned p = 0; p < sc.planes.size(); ++p)
-        {
-          out.plane_force[sc.planes[p].name].push_back(cs.force[p]);
-          out.plane_penetration[sc.planes[p].name].push_back(cs.penetration[p]);
-        }
-    };
-    record(0.0, contact);
-
-    // Scene::body_frame_law: the body frame's rotation, held over a step (the law is then
-    // linear in u within it), taken at the alpha level of the step's constant-velocity
-    // predictor, u + (1 - alpha_f) h v: the turn within the step is then off by O((w h)^2).
-    Tensor<2, 3> frame = I.identity();
-    // The residual of the step to t1 at the trial u_new = x (a_new, v_new follow from x by
-    // Newmark). With `T`, also the tangent dR/dx, condensed. Returns false if an element
-    // inverted; `scale` gets a force scale for the convergence test.
-    double     scale = 0;
-    const auto combine = [](Vector<double> &out, const double p, const Vector<double> &x,
-                            const double q, const Vector<double> &y) {
-      out.equ(p, x);
-      out.add(q, y);
-    };
-    const auto residual = [&](const double t1, const Vector<double> &x, Vector<double> &res,
-                              SparseMatrix<double> *T, PlaneContactState &cs) {
-      a_new = x;
-      a_new -= u;
-      a_new.add(-h, v);
-      a_new *= 1 / (c.beta * h * h);
-      a_new.add(-(1 / (2 * c.beta) - 1), a);
-      v_new = v;
-      v_new.add(h * (1 - c.gamma), a, h * c.gamma, a_new);
-      combine(u_alpha, 1 - af, x, af, u); // u at the alpha level
-      const bool ok = I.assemble(u_alpha, f_int, T ? &K_T : nullptr, false, nullptr, nullptr, frame);
-      cs            = I.plane_contact(x, t1, f_c_new, T ? &K_T : nullptr);
-      combine(w, 1 - am, a_new, am, a);
-      L.mass.vmult(res, w);
-      scale = std::max({res.l2_norm(), f_int.l2_norm(), f_new.l2_norm(), f_c_new.l2_norm()});
-      combine(w, 1 - af, v_new, af, v); // Rayleigh damping at the alpha level
-      L.mass.vmult(tmp, w);
-      res.add(sc.rayleigh_alpha, tmp);
-      if (sc.rayleigh_beta != 0)
-        {
-          // Objective: no damping of rigid motion however far the body has turned.
-          I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr, T ? &K_Du : nullptr, frame);
-          res.add(sc.rayleigh_beta, tmp);
-        }
-      res += f_int;
-      res.add(-(1 - af), f_new, -(1 - af), f_c_new);
-      res.add(-af, f, -af, f_c);
-      L.constraints.set_zero(res);
-      if (T)
-        {
-          // dR/dx = c_m M + c_c C(u_alpha) + (1 - af)(K_T(u_alpha) + beta sym(dC/du v) +
-          // K_contact(x)), C v the objective damping force.
-          T->copy_from(L.mass);
-          *T *= k.c_m + k.c_c * sc.rayleigh_alpha;
-          if (sc.rayleigh_beta != 0)
-            {
-              T->add(k.c_c * sc.rayleigh_beta, K_D);
-              T->add((1 - af) * sc.rayleigh_beta, K_Du);
-            }
-          T->add(1 - af, K_T);
-          *T = L.condensed(*T);
-        }
-      return ok;
-    };
-
-    // The latest factorized tangent, reused while it makes the residual contract (null: use
-    // the linear solver's K_eff, factored for tau).
-    std::unique_ptr<DirectSolver> tangent_solver;
-    // Newton's method for the step of length h that ends at t1, from the state (u, v, a, f,
-    // f_c). On success the new state is in u_new, v_new, a_new, f_new, f_c_new and `contact`,
-    // and it returns an empty string; on failure it returns why and leaves the state as it
-    // was (the residual reads it, never writes it).
-    const auto newton_step = [&](const double t1) -> std::string {
-      k = StepCoefficients(c, h);
-      L.external_force(t1, f_new);
-      // Constant-velocity predictor: the acceleration of a body in penalty contact changes
-      // sign from step to step, so extrapolating it overshoots.
-      if (sc.body_frame_law)
-        {
-          u_alpha = u;
-          u_alpha.add((1 - af) * h, v);
-          frame = I.body_rotation(u_alpha);
-        }
-      u_new = u;
-      u_new.add(h, v);
-      L.constraints.set_zero(u_new);
-      if (!residual(t1, u_new, r, nullptr, contact))
-        {
-          u_new = u; // the predictor inverted an element: start from the last state
-          residual(t1, u_new, r, nullptr, contact);
-        }
-      // Newton iterations per step: the damping's tangent is only its symmetric part, so
-      // a fast, soft body can need more than the quadratic rate would. Counted as before the
-      // cut-back existed (the index of the iteration that found convergence); a failed
-      // attempt adds the iterations it spent.
-      constexpr unsigned max_newton = 100;
-      for (unsigned it = 0; it < max_newton; ++it)
-        {
-          const double r_norm = r.l2_norm();
-          if (r_norm <= 1e-7 * scale || scale == 0)
-            {
-              out.newton_iterations += it;
-              return {};
-            }
-          PlaneContactState cs_trial;
-          // First a step with the factors we have (the latest tangent, at first the linear
-          // K_eff): kept if it contracts the residual well, which it does in smooth motion.
-          du = r;
-          du *= -1;
-          if (tangent_solver)
-            tangent_solver->solve(du);
-          else
-            L.stepper().inverse.solve(du);
-          trial = u_new;
-          trial += du;
-          if (residual(t1, trial, r_trial, nullptr, cs_trial) &&
-              r_trial.l2_norm() <= 0.1 * r_norm)
-            {
-              u_new.swap(trial);
-              r.swap(r_trial);
-              contact = cs_trial;
-              if (du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
-                {
-                  out.newton_iterations += it;
-                  return {};
-                }
-              continue;
-            }
-          // Otherwise Newton's step with the tangent at u_new, and a line search.
-          residual(t1, u_new, r, &tangent, contact);
-          tangent_solver = std::make_unique<DirectSolver>();
-          tangent_solver->initialize(tangent);
-          ++out.tangent_factorizations;
-          du = r;
-          du *= -1;
-          tangent_solver->solve(du);
-          double alpha    = 1;
-          bool   accepted = false;
-          for (unsigned cut = 0; cut < 12; ++cut, alpha /= 2)
-            {
-              trial = u_new;
-              trial.add(alpha, du);
-              const bool ok = residual(t1, trial, r_trial, nullptr, cs_trial);
-              if (ok && r_trial.l2_norm() < (1 - 1e-4 * alpha) * r_norm)
-                {
-                  accepted = true;
-                  break;
-                }
-            }
-          if (!accepted)
-            {
-              // No decrease: round-off if the step is negligible against the motion.
-              if (du.linfty_norm() <= 1e-9 * std::max(u_new.linfty_norm(), 1e-300))
-                {
-                  residual(t1, u_new, r, nullptr, contact);
-                  out.newton_iterations += it;
-                  return {};
-                }
-              out.newton_iterations += it + 1;
-              return "the line search found no decrease";
-            }
-          u_new.swap(trial);
-          r.swap(r_trial);
-          contact = cs_trial;
-          if (alpha == 1 && du.linfty_norm() <= 1e-12 * std::max(u_new.linfty_norm(), 1e-300))
-            {
-              out.newton_iterations += it;
-              return {};
-            }
-        }
-      out.newton_iterations += max_newton;
-      return "Newton did not converge in " + std::to_string(max_newton) +
-             " iterations (residual " + std::to_string(r.l2_norm() / scale) +
-             " of the force scale)";
-    };
-    const auto accept = [&]() {
-      u.swap(u_new);
-      v.swap(v_new);
-      a.swap(a_new);
-      f.swap(f_new);
-      f_c.swap(f_c_new);
-    };
-    // Cut-back: where Newton fails at a step (a soft body hit hard: an element close to
-    // inverting makes the tangent indefinite, and the step's incremental problem is no longer
-    // convex), that step is solved again as two halves, each halved again where it fails,
-    // down to tau / 2^max_cuts. The samples stay at tau; only the failed steps are refined,
-    // and a finer step is the same integrator, more accurate. Counted in out.cut_steps.
-    constexpr unsigned max_cuts = 5;
-    const std::function<void(double, unsigned)> advance = [&](const double t0,
-                                                              const unsigned cuts) {
-      const double length = dt / static_cast<double>(1u << cuts);
-      h                   = length;
-      const std::string error = newton_step(t0 + length);
-      if (error.empty())
-        {
-          accept();
-          return;
-        }
-      if (cuts == max_cuts)
-        throw InputError("nonlinear dynamics: " + error + " at t = " +
-                         std::to_string(t0 + length) + " s, with the step cut back " +
-                         std::to_string(max_cuts) + " times to " + std::to_string(length) +
-                         " s; a smaller time step or a softer penalty may help");
-      if (cuts == 0)
-        ++out.cut_steps;
-      out.smallest_step = std::min(out.smallest_step, length / 2);
-      advance(t0, cuts + 1);
-      advance(t0 + length / 2, cuts + 1);
-    };
-
-    const auto     t_start     = std::chrono::steady_clock::now();
-    unsigned       last_report = 0;
-    out.smallest_step          = dt;
+    TimeLoop       loop(I, out);
+    loop.start();
+    loop.record(0.0);
+    const auto t_start     = std::chrono::steady_clock::now();
+    unsigned   last_report = 0;
+    out.smallest_step      = dt;
     for (unsigned step = 1; step <= N; ++step)
       {
         const double t1 = step * dt;
-        advance(t1 - dt, 0);
+        loop.advance(t1 - dt, 0);
         if (step % sc.outputs.every == 0 || step == N)
           {
-            record(t1, contact);
+            loop.record(t1);
             if (sink && (out.time.size() >= batch || step == N))
               {
                 sink(out);

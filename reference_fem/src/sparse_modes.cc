@@ -224,6 +224,315 @@ namespace irdm::fem
         }
       return out;
     }
+
+    // The free DoFs' K and M as PETSc matrices, and products with them.
+    struct FreeSystem
+    {
+      PetscInt n         = 0;
+      bool     free_body = false; // nothing fixed: six rigid-body modes
+      OwnedMat K, M;
+
+      // A V for all columns of V at once: PETSc's sparse x dense product reads A once per few
+      // columns, where one MatMult per column reads it once per column (both bound by memory).
+      Eigen::MatrixXd
+      apply(const Mat A, const ConstBlock &V) const
+      {
+        const PetscInt nb = static_cast<PetscInt>(V.cols());
+        if (nb == 0)
+          return Eigen::MatrixXd(n, 0);
+        if (V.outerStride() != n)
+          throw std::logic_error("apply: the columns must be contiguous");
+        OwnedMat v, av; // v wraps V's storage (column-major, leading dimension n): A V reads it
+        check(MatCreateSeqDense(PETSC_COMM_SELF, n, nb, const_cast<PetscScalar *>(V.data()), &v.h),
+              "MatCreateSeqDense");
+        check(MatMatMult(A, v, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &av.h), "MatMatMult");
+        return columns_of(av, n, nb);
+      }
+      // The same for many columns, a block at a time into one result: a single product would
+      // hold PETSc's result and its copy at once (two n x columns matrices, gigabytes for the
+      // trace region's residual vectors on the fine cat).
+      static constexpr Eigen::Index column_block = 256;
+      Eigen::MatrixXd
+      apply_blocked(const Mat A, const Eigen::MatrixXd &V) const
+      {
+        Eigen::MatrixXd AV(n, V.cols());
+        for (Eigen::Index c0 = 0; c0 < V.cols(); c0 += column_block)
+          {
+            const Eigen::Index nb = std::min(column_block, V.cols() - c0);
+            AV.middleCols(c0, nb) = apply(A, V.middleCols(c0, nb));
+          }
+        return AV;
+      }
+    };
+
+    // The free body's shift eps: 1e-9 of the largest diagonal ratio K_ii / M_ii (about the
+    // highest w2), so that K + eps M is factored with a condition number near 1e9 while eps is
+    // far below the first elastic w2 (the refinement of the static responses then converges
+    // in a few passes).
+    double
+    rigid_shift_of(const FreeSystem &sys)
+    {
+      OwnedVec kd, md;
+      check(VecCreateSeq(PETSC_COMM_SELF, sys.n, &kd.h), "VecCreateSeq");
+      check(VecCreateSeq(PETSC_COMM_SELF, sys.n, &md.h), "VecCreateSeq");
+      check(MatGetDiagonal(sys.K, kd), "MatGetDiagonal");
+      check(MatGetDiagonal(sys.M, md), "MatGetDiagonal");
+      const PetscScalar *pk, *pm;
+      double             shift = 0;
+      check(VecGetArrayRead(kd, &pk), "VecGetArrayRead");
+      check(VecGetArrayRead(md, &pm), "VecGetArrayRead");
+      for (PetscInt i = 0; i < sys.n; ++i)
+        shift = std::max(shift, pk[i] / pm[i]);
+      check(VecRestoreArrayRead(kd, &pk), "VecRestoreArrayRead");
+      check(VecRestoreArrayRead(md, &pm), "VecRestoreArrayRead");
+      shift *= 1e-9;
+      if (!(shift > 0))
+        throw InputError("modes: the free body's stiffness has no positive diagonal");
+      return shift;
+    }
+
+    // Every eigenpair found (the rigid ones first): the vectors, M times them, and w2.
+    struct Eigenpairs
+    {
+      Eigen::MatrixXd     vectors, m_vectors;
+      std::vector<double> w2;
+    };
+
+    // The Lanczos pairs as eigenpairs: w2 = 1 / theta - eps, each vector M-normalized (the
+    // sign is free: H uses phi phi^T) and its relative residual |K x - w2 M x| / |K x|
+    // measured into out, a block at a time; a free body's six lowest checked to be rigid.
+    Eigenpairs
+    normalized_eigenpairs(const FreeSystem &sys, LanczosPairs &pairs, LowestModes &out)
+    {
+      const auto n_eigen = static_cast<size_t>(pairs.theta.size());
+      Eigenpairs e;
+      // Purified (one more step of inverse iteration, from the Lanczos relation without a
+      // solve: block_lanczos.h), which takes out what the random start block left of the
+      // modes far from the shift.
+      e.vectors = std::move(pairs.purified);
+      e.m_vectors.resize(sys.n, static_cast<Eigen::Index>(n_eigen));
+      e.w2.resize(n_eigen);
+      for (size_t i = 0; i < n_eigen; ++i)
+        {
+          e.w2[i] = 1 / pairs.theta(static_cast<Eigen::Index>(i)) - out.rigid_shift;
+          if (i >= out.n_rigid && !(e.w2[i] > 0))
+            throw std::runtime_error("the fixed system has a non-positive eigenvalue");
+        }
+      for (size_t c0 = 0; c0 < n_eigen; c0 += block)
+        {
+          const auto nb   = static_cast<Eigen::Index>(std::min<size_t>(block, n_eigen - c0));
+          auto       cols = e.vectors.middleCols(static_cast<Eigen::Index>(c0), nb);
+          auto       mv   = e.m_vectors.middleCols(static_cast<Eigen::Index>(c0), nb);
+          mv              = sys.apply(sys.M, cols);
+          for (Eigen::Index j = 0; j < nb; ++j)
+            {
+              const double scale = 1 / std::sqrt(cols.col(j).dot(mv.col(j)));
+              cols.col(j) *= scale;
+              mv.col(j) *= scale;
+            }
+          const Eigen::MatrixXd kv = sys.apply(sys.K, cols);
+          for (Eigen::Index j = 0; j < nb; ++j)
+            {
+              const size_t i = c0 + static_cast<size_t>(j);
+              if (i >= out.n_rigid) // a rigid mode's K x is round-off: its residual means nothing
+                out.largest_residual =
+                  std::max(out.largest_residual,
+                           (kv.col(j) - e.w2[i] * mv.col(j)).norm() / kv.col(j).norm());
+            }
+        }
+      // A free body: the six lowest must be rigid modes, |w2| at round-off against the first
+      // elastic one (else the mesh is not one connected body, or something holds it).
+      for (unsigned i = 0; i < out.n_rigid; ++i)
+        out.rigid_w2_max = std::max(out.rigid_w2_max, std::abs(e.w2[i]));
+      if (sys.free_body && !(out.rigid_w2_max < 1e-6 * e.w2[out.n_rigid]))
+        throw InputError("modes: the free body's six lowest eigenvalues are not rigid modes "
+                         "(largest |w^2| " + std::to_string(out.rigid_w2_max) +
+                         " against the next, " + std::to_string(e.w2[out.n_rigid]) +
+                         "): is the mesh one connected body?");
+      return e;
+    }
+
+    // The free body's rigid modes Phi_r, M-orthonormal (the Ritz vectors are, to the Lanczos
+    // tolerance; made so to round-off here), and P V = V - Phi_r Phi_r^T M V, the M-orthogonal
+    // projection off them. A grounded body has none: P is the identity.
+    struct RigidProjector
+    {
+      Eigen::MatrixXd rigid, m_rigid;
+      bool            on = false;
+
+      RigidProjector(const FreeSystem &sys, const Eigenpairs &e, const unsigned n_rigid)
+        : rigid(e.vectors.leftCols(n_rigid))
+        , on(sys.free_body)
+      {
+        if (on)
+          {
+            Eigen::MatrixXd G = rigid.transpose() * sys.apply(sys.M, rigid);
+            G                 = 0.5 * (G + G.transpose()).eval();
+            const Eigen::LLT<Eigen::MatrixXd> llt(G);
+            if (llt.info() != Eigen::Success)
+              throw std::runtime_error("the free body's rigid modes are not independent");
+            rigid = llt.matrixU().solve<Eigen::OnTheRight>(rigid); // rigid U^-1: M-orthonormal
+          }
+        m_rigid = sys.apply(sys.M, rigid);
+      }
+      Eigen::MatrixXd
+      off(Eigen::MatrixXd V) const
+      {
+        for (int twice = 0; twice < (on ? 2 : 0); ++twice)
+          V -= rigid * (m_rigid.transpose() * V);
+        return V;
+      }
+    };
+
+    // Static responses at the columns: K^-1 E (the factors are those of K, shift 0), or for
+    // a free body the inertia-relief K^+ (I - M Phi_r Phi_r^T) E by refinement on the
+    // factors of K + eps M (the top of this file), with its passes recorded in out.
+    Eigen::MatrixXd
+    static_responses(const FreeSystem &sys, const Mat factor, const RigidProjector &P,
+                     const std::vector<int> &columns, LowestModes &out)
+    {
+      const size_t    nc = columns.size();
+      Eigen::MatrixXd X(sys.n, static_cast<Eigen::Index>(nc));
+      for (size_t c0 = 0; c0 < nc; c0 += block)
+        {
+          const size_t    nb = std::min(block, nc - c0);
+          Eigen::MatrixXd f  = unit_loads(sys.n, columns, c0, nb);
+          if (sys.free_body)
+            f -= P.m_rigid * (P.rigid.transpose() * f); // the load less its rigid share
+          Eigen::MatrixXd y = P.off(solve(factor, f));
+          // Refine until the correction reaches round-off: it stops shrinking (by half a
+          // pass) or falls below 1e-15 of the solution.
+          double previous = 1e300;
+          for (unsigned pass = 1; sys.free_body; ++pass)
+            {
+              const Eigen::MatrixXd dy = P.off(solve(factor, f - sys.apply(sys.K, y)));
+              y += dy;
+              const double change = dy.cwiseAbs().maxCoeff() / y.cwiseAbs().maxCoeff();
+              if (change <= 1e-15 || change > 0.5 * previous || pass == 30)
+                {
+                  out.refinement_passes = std::max(out.refinement_passes, pass);
+                  out.refinement_change = std::max(out.refinement_change, change);
+                  break;
+                }
+              previous = change;
+            }
+          X.middleCols(static_cast<Eigen::Index>(c0), static_cast<Eigen::Index>(nb)) = y;
+        }
+      return X;
+    }
+
+    struct MassBasis
+    {
+      Eigen::MatrixXd V, MV; // M-orthonormal columns and M times them
+    };
+
+    // An M-orthonormal basis of what the columns of V add to span(phi, rigid, prior): each
+    // column M-normalized, those projected out (twice is enough, Kahan), then the Gram
+    // matrix's eigenvectors scaled, dropping directions below 1e-12 of the largest (the basis
+    // already spans them). Twice through, so that nearly dependent columns still give a basis
+    // orthonormal to round-off (the Rayleigh-Ritz of the residual modes relies on it).
+    MassBasis
+    m_orthonormal(const FreeSystem &sys, const Eigen::MatrixXd &phi, const Eigen::MatrixXd &m_phi,
+                  const RigidProjector &P, Eigen::MatrixXd V, const MassBasis &prior)
+    {
+      constexpr Eigen::Index column_block = FreeSystem::column_block;
+      // Projections through the stored M phi and M prior: one product with M per pass.
+      const auto project_off = [&](Eigen::MatrixXd &W) {
+        subtract_product(phi, product(m_phi, true, W), W);
+        W = P.off(W);
+        subtract_product(prior.V, product(prior.MV, true, W), W);
+      };
+      for (Eigen::Index c0 = 0; c0 < V.cols(); c0 += column_block)
+        {
+          const Eigen::Index    nb = std::min(column_block, V.cols() - c0);
+          const Eigen::MatrixXd mv = sys.apply(sys.M, V.middleCols(c0, nb));
+          for (Eigen::Index j = 0; j < nb; ++j)
+            V.col(c0 + j) /= std::sqrt(V.col(c0 + j).dot(mv.col(j)));
+        }
+      MassBasis out;
+      for (int pass = 0; pass < 2; ++pass)
+        {
+          for (int twice = 0; twice < 2; ++twice)
+            project_off(V);
+          const Eigen::MatrixXd MV = sys.apply_blocked(sys.M, V);
+          Eigen::MatrixXd       Mr = product(V, true, MV);
+          Mr                       = 0.5 * (Mr + Mr.transpose()).eval();
+          Eigen::VectorXd d; // Mr's eigenvalues; Mr then holds its eigenvectors
+          symmetric_eigen(Mr, d);
+          const double              d_max = d.maxCoeff();
+          std::vector<Eigen::Index> kept;
+          for (Eigen::Index j = 0; j < V.cols(); ++j)
+            if (d(j) > (pass == 0 ? 1e-12 * d_max : 0.5))
+              kept.push_back(j);
+          Eigen::MatrixXd B(V.cols(), static_cast<Eigen::Index>(kept.size()));
+          for (size_t c = 0; c < kept.size(); ++c)
+            B.col(static_cast<Eigen::Index>(c)) = Mr.col(kept[c]) / std::sqrt(d(kept[c]));
+          V      = product(V, false, B);
+          out.MV = product(MV, false, B);
+        }
+      out.V = std::move(V);
+      return out;
+    }
+
+    // Rayleigh-Ritz on span(psi) (M-orthonormal): Kr y = w2 y gives the residual modes psi y,
+    // K- and M-orthogonal to each other and to the lowest modes. Their w2 and their shapes
+    // at the rows are appended to out's (which holds the lowest modes').
+    void
+    append_residual_modes(const FreeSystem &sys, const Eigen::MatrixXd &psi,
+                          const std::vector<int> &rows, LowestModes &out)
+    {
+      constexpr Eigen::Index column_block = FreeSystem::column_block;
+      Eigen::MatrixXd        Kr(psi.cols(), psi.cols());
+      for (Eigen::Index c0 = 0; c0 < psi.cols(); c0 += column_block)
+        {
+          const Eigen::Index nb = std::min(column_block, psi.cols() - c0);
+          Kr.middleCols(c0, nb) = product(psi, true, sys.apply(sys.K, psi.middleCols(c0, nb)));
+        }
+      Kr = 0.5 * (Kr + Kr.transpose()).eval();
+      Eigen::VectorXd ritz_w2; // Kr's eigenvalues; Kr then holds its eigenvectors
+      symmetric_eigen(Kr, ritz_w2);
+      const unsigned count = out.n_lowest, nr = static_cast<unsigned>(Kr.cols());
+      const unsigned total = count + nr;
+      const std::vector<double> lowest = out.shapes;
+      out.w2.resize(total);
+      out.shapes.assign(rows.size() * total, 0.0);
+      Eigen::MatrixXd psi_rows(rows.size(), psi.cols());
+      for (size_t r = 0; r < rows.size(); ++r)
+        {
+          for (unsigned i = 0; i < count; ++i)
+            out.shapes[r * total + i] = lowest[r * count + i];
+          psi_rows.row(static_cast<Eigen::Index>(r)) = psi.row(rows[r]);
+        }
+      const Eigen::MatrixXd residual_rows = psi_rows * Kr;
+      for (unsigned i = 0; i < nr; ++i)
+        {
+          if (!(ritz_w2(i) > 0))
+            throw std::runtime_error("a residual mode has a non-positive eigenvalue");
+          out.w2[count + i] = ritz_w2(i);
+          for (size_t r = 0; r < rows.size(); ++r)
+            out.shapes[r * total + count + i] = residual_rows(static_cast<Eigen::Index>(r), i);
+        }
+    }
+
+    // Ascending over both kinds (a model's modes are stored in ascending frequency).
+    LowestModes
+    sorted_by_frequency(const LowestModes &out, const size_t n_rows)
+    {
+      const auto            total = static_cast<unsigned>(out.w2.size());
+      std::vector<unsigned> order(total);
+      for (unsigned i = 0; i < total; ++i)
+        order[i] = i;
+      std::stable_sort(order.begin(), order.end(),
+                       [&](unsigned a, unsigned b) { return out.w2[a] < out.w2[b]; });
+      LowestModes sorted = out;
+      for (unsigned i = 0; i < total; ++i)
+        {
+          sorted.w2[i] = out.w2[order[i]];
+          for (size_t r = 0; r < n_rows; ++r)
+            sorted.shapes[r * total + i] = out.shapes[r * total + order[i]];
+        }
+      return sorted;
+    }
   } // namespace
 
   LowestModes
@@ -249,260 +558,76 @@ namespace irdm::fem
       if (c < 0 || c >= n)
         throw std::logic_error("lowest_modes: a column is not a free DoF");
 
-    auto             t0 = Clock::now();
+    auto t0 = Clock::now();
     // K keeps its whole pattern, which holds M's: K + s M then has K's pattern for every s.
-    const OwnedMat K = free_matrix(m.stiffness, free_of_dof, n, false),
-                   M = free_matrix(m.mass, free_of_dof, n, true);
-    // The free body's shift eps: 1e-9 of the largest diagonal ratio K_ii / M_ii (about the
-    // highest w2), so that K + eps M is factored with a condition number near 1e9 while eps is
-    // far below the first elastic w2 (the refinement below then converges in a few passes).
-    double rigid_shift = 0;
-    if (free_body)
-      {
-        OwnedVec kd, md;
-        check(VecCreateSeq(PETSC_COMM_SELF, n, &kd.h), "VecCreateSeq");
-        check(VecCreateSeq(PETSC_COMM_SELF, n, &md.h), "VecCreateSeq");
-        check(MatGetDiagonal(K, kd), "MatGetDiagonal");
-        check(MatGetDiagonal(M, md), "MatGetDiagonal");
-        const PetscScalar *pk, *pm;
-        check(VecGetArrayRead(kd, &pk), "VecGetArrayRead");
-        check(VecGetArrayRead(md, &pm), "VecGetArrayRead");
-        for (PetscInt i = 0; i < n; ++i)
-          rigid_shift = std::max(rigid_shift, pk[i] / pm[i]);
-        check(VecRestoreArrayRead(kd, &pk), "VecRestoreArrayRead");
-        check(VecRestoreArrayRead(md, &pm), "VecRestoreArrayRead");
-        rigid_shift *= 1e-9;
-        if (!(rigid_shift > 0))
-          throw InputError("modes: the free body's stiffness has no positive diagonal");
-      }
+    const FreeSystem sys{n, free_body, free_matrix(m.stiffness, free_of_dof, n, false),
+                         free_matrix(m.mass, free_of_dof, n, true)};
     const unsigned n_eigen = count + n_rigid;
-    LowestModes out;
+    LowestModes    out;
     out.n_lowest    = count;
     out.n_rigid     = n_rigid;
-    out.rigid_shift = rigid_shift;
+    out.rigid_shift = sys.free_body ? rigid_shift_of(sys) : 0.0;
     const size_t nn = static_cast<size_t>(n), nc = columns.size();
     // Full-length vectors: the block Lanczos basis (and M times it), the lowest modes
     // (n x count) and the static responses (n x nc).
-    // The block Lanczos's block: 16 and 32 took the same time on cat_fine and cat_xfine P2
-    // (fewer solves against a larger basis to orthogonalize); 16 needs the smaller basis
-    // (800 against 1056 vectors on cat_xfine P2). At least 6: a free body's six rigid modes
-    // share one eigenvalue, and a block Krylov space finds at most a block's worth of copies.
+    // The block Lanczos's block: 16 and 32 took the same time on the fine cats (fewer solves
+    // against a larger basis to orthogonalize); 16 needs the smaller basis. At least 6: a free
+    // body's six rigid modes share one eigenvalue, and a block Krylov space finds at most a
+    // block's worth of copies.
     const size_t lanczos_block = 16;
     const size_t n_aug = step_shift > 0 ? 2 * nc : nc; // residual vectors
-    // The basis limit: 4 vectors per mode sufficed on cat_fine and cat_xfine P2 (800 for 200).
+    // The basis limit: 4 vectors per mode sufficed on the fine cats.
     const size_t lanczos_basis = std::min<size_t>(nn, 6 * n_eigen + 4 * lanczos_block);
     // The Lanczos basis (and M times it) is freed before the residual vectors are made; those
     // peak at about 3 n_aug vectors (the static ones and their M products, with the one-step
-    // ones' basis being made: measured 2026-11-25 on the trace region of the 81351-DoF cat).
+    // ones' basis being made).
     check_memory_estimate("the sparse modal route's vectors",
                           8.0 * nn * (std::max(2.0 * lanczos_basis, 3.0 * n_aug) + 2.0 * n_eigen),
                           false);
-    // A V for all columns of V at once: PETSc's sparse x dense product reads A once per few
-    // columns, where one MatMult per column reads it once per column (both bound by memory).
-    const auto apply = [&](const Mat A, const ConstBlock &V) {
-      const PetscInt nb = static_cast<PetscInt>(V.cols());
-      if (nb == 0)
-        return Eigen::MatrixXd(n, 0);
-      if (V.outerStride() != n)
-        throw std::logic_error("apply: the columns must be contiguous");
-      OwnedMat v, av; // v wraps V's storage (column-major, leading dimension n): A V reads it
-      check(MatCreateSeqDense(PETSC_COMM_SELF, n, nb, const_cast<PetscScalar *>(V.data()), &v.h),
-            "MatCreateSeqDense");
-      check(MatMatMult(A, v, MAT_INITIAL_MATRIX, PETSC_DEFAULT, &av.h), "MatMatMult");
-      return columns_of(av, n, nb);
-    };
-    // The same for many columns, a block at a time into one result: a single product would
-    // hold PETSc's result and its copy at once (two n x columns matrices: 3.9 GB each for
-    // the 5988 residual vectors of the trace region on the 81351-DoF cat).
-    constexpr Eigen::Index column_block = 256;
-    const auto             apply_blocked = [&](const Mat A, const Eigen::MatrixXd &V) {
-      Eigen::MatrixXd AV(n, V.cols());
-      for (Eigen::Index c0 = 0; c0 < V.cols(); c0 += column_block)
-        {
-          const Eigen::Index nb = std::min(column_block, V.cols() - c0);
-          AV.middleCols(c0, nb) = apply(A, V.middleCols(c0, nb));
-        }
-      return AV;
-    };
 
     // The lowest modes: block Lanczos on S = (K + eps M)^-1 M (K^-1 M for a grounded body),
     // whose largest eigenvalues theta = 1 / (w2 + eps) are the lowest w2. K + eps M is
     // factored here, and later, in place, K + sigma M at the step's shift: the same pattern,
     // so MUMPS's analysis (ordering and symbolic factorization) is done once.
     OwnedMat shifted_stiffness;
-    check(MatDuplicate(K, MAT_COPY_VALUES, &shifted_stiffness.h), "MatDuplicate");
-    if (free_body)
-      check(MatAXPY(shifted_stiffness, rigid_shift, M, SUBSET_NONZERO_PATTERN),
-            "MatAXPY");
+    check(MatDuplicate(sys.K, MAT_COPY_VALUES, &shifted_stiffness.h), "MatDuplicate");
+    if (sys.free_body)
+      check(MatAXPY(shifted_stiffness, out.rigid_shift, sys.M, SUBSET_NONZERO_PATTERN), "MatAXPY");
     check(MatSetOption(shifted_stiffness, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
     const auto factor_started = Clock::now();
     Cholesky   shift_invert(shifted_stiffness);
     out.seconds_factor = std::chrono::duration<double>(Clock::now() - factor_started).count();
-    const Mat factor = shift_invert.factor;
-    LanczosPairs pairs = block_lanczos(
+    const Mat    factor = shift_invert.factor;
+    LanczosPairs pairs  = block_lanczos(
       n, n_eigen, [&](const Eigen::MatrixXd &B) { return solve(factor, B); },
-      [&](const Eigen::MatrixXd &V) { return apply(M, V); }, tolerance,
+      [&](const Eigen::MatrixXd &V) { return sys.apply(sys.M, V); }, tolerance,
       static_cast<Eigen::Index>(lanczos_block), static_cast<Eigen::Index>(lanczos_basis));
     out.iterations      = pairs.block_solves;
     out.seconds_lanczos = pairs.seconds;
     out.seconds_solves  = pairs.seconds_solves;
-    // All eigenvectors found (the rigid ones first), then split below; purified (one more
-    // step of inverse iteration, x <- (K - s M)^-1 M x, from the Lanczos relation without a
-    // solve: block_lanczos.h), which takes out what the random start block left of the modes
-    // far from the shift.
-    Eigen::MatrixXd eigenvectors = std::move(pairs.purified);
-    Eigen::MatrixXd     m_eigenvectors(n, n_eigen); // M times them
-    std::vector<double> lambdas(n_eigen);
-    for (unsigned i = 0; i < n_eigen; ++i)
-      {
-        lambdas[i] = 1 / pairs.theta(i) - rigid_shift;
-        if (i >= n_rigid && !(lambdas[i] > 0))
-          throw std::runtime_error("the fixed system has a non-positive eigenvalue");
-      }
-    // Each eigenvector M-normalized (the sign is free: H uses phi phi^T) and its relative
-    // residual |K x - w2 M x| / |K x| measured, a block at a time.
-    for (size_t c0 = 0; c0 < n_eigen; c0 += block)
-      {
-        const auto nb   = static_cast<Eigen::Index>(std::min<size_t>(block, n_eigen - c0));
-        auto       cols = eigenvectors.middleCols(static_cast<Eigen::Index>(c0), nb);
-        auto       mv   = m_eigenvectors.middleCols(static_cast<Eigen::Index>(c0), nb);
-        mv      = apply(M, cols);
-        for (Eigen::Index j = 0; j < nb; ++j)
-          {
-            const double scale = 1 / std::sqrt(cols.col(j).dot(mv.col(j)));
-            cols.col(j) *= scale;
-            mv.col(j) *= scale;
-          }
-        const Eigen::MatrixXd kv = apply(K, cols);
-        for (Eigen::Index j = 0; j < nb; ++j)
-          {
-            const size_t i = c0 + static_cast<size_t>(j);
-            if (i >= n_rigid) // a rigid mode's K x is round-off: its residual means nothing
-              out.largest_residual =
-                std::max(out.largest_residual,
-                         (kv.col(j) - lambdas[i] * mv.col(j)).norm() / kv.col(j).norm());
-          }
-      }
-    // A free body: the six lowest must be rigid modes, |w2| at round-off against the first
-    // elastic one (else the mesh is not one connected body, or something holds it).
-    for (unsigned i = 0; i < n_rigid; ++i)
-      out.rigid_w2_max = std::max(out.rigid_w2_max, std::abs(lambdas[i]));
-    if (free_body && !(out.rigid_w2_max < 1e-6 * lambdas[n_rigid]))
-      throw InputError("modes: the free body's six lowest eigenvalues are not rigid modes "
-                       "(largest |w^2| " + std::to_string(out.rigid_w2_max) +
-                       " against the next, " + std::to_string(lambdas[n_rigid]) +
-                       "): is the mesh one connected body?");
-    const Eigen::MatrixXd phi   = eigenvectors.rightCols(count);
-    const Eigen::MatrixXd m_phi = m_eigenvectors.rightCols(count);
-    const std::vector<double> w2(lambdas.begin() + n_rigid, lambdas.end());
+    const Eigenpairs      eigen = normalized_eigenpairs(sys, pairs, out);
+    const Eigen::MatrixXd phi   = eigen.vectors.rightCols(count);
+    const Eigen::MatrixXd m_phi = eigen.m_vectors.rightCols(count);
+    out.w2.assign(eigen.w2.begin() + n_rigid, eigen.w2.end());
+    out.shapes.resize(rows.size() * count);
+    for (size_t r = 0; r < rows.size(); ++r)
+      for (unsigned i = 0; i < count; ++i)
+        out.shapes[r * count + i] = phi(rows[r], i);
     out.seconds_eigen = std::chrono::duration<double>(Clock::now() - t0).count();
 
-    // The free body's rigid modes, M-orthonormal (the Ritz vectors are, to the Lanczos
-    // tolerance; made so to round-off here), and P V = V - Phi_r Phi_r^T M V, the M-orthogonal projection off them.
-    Eigen::MatrixXd rigid = eigenvectors.leftCols(n_rigid);
-    if (free_body)
-      {
-        Eigen::MatrixXd G = rigid.transpose() * apply(M, rigid);
-        G                 = 0.5 * (G + G.transpose()).eval();
-        const Eigen::LLT<Eigen::MatrixXd> llt(G);
-        if (llt.info() != Eigen::Success)
-          throw std::runtime_error("the free body's rigid modes are not independent");
-        rigid = llt.matrixU().solve<Eigen::OnTheRight>(rigid); // rigid U^-1: M-orthonormal
-      }
-    const Eigen::MatrixXd m_rigid = apply(M, rigid);
-    const auto            off_rigid = [&](Eigen::MatrixXd V) {
-      for (int twice = 0; twice < (free_body ? 2 : 0); ++twice)
-        V -= rigid * (m_rigid.transpose() * V);
-      return V;
-    };
-
-    // Static responses at the columns: K^-1 E (the ST's factors are those of K, shift 0), or
-    // for a free body the inertia-relief K^+ (I - M Phi_r Phi_r^T) E by refinement on the
-    // factors of K + eps M (see the top of this file).
     t0 = Clock::now();
-    Eigen::MatrixXd X(n, static_cast<Eigen::Index>(nc));
-    for (size_t c0 = 0; c0 < nc; c0 += block)
-      {
-        const size_t    nb = std::min(block, nc - c0);
-        Eigen::MatrixXd f  = unit_loads(n, columns, c0, nb);
-        if (free_body)
-          f -= m_rigid * (rigid.transpose() * f); // the load less its rigid share
-        Eigen::MatrixXd y = off_rigid(solve(factor, f));
-        // Refine until the correction reaches round-off: it stops shrinking (by half a pass)
-        // or falls below 1e-15 of the solution.
-        double previous = 1e300;
-        for (unsigned pass = 1; free_body; ++pass)
-          {
-            const Eigen::MatrixXd dy = off_rigid(solve(factor, f - apply(K, y)));
-            y += dy;
-            const double change = dy.cwiseAbs().maxCoeff() / y.cwiseAbs().maxCoeff();
-            if (change <= 1e-15 || change > 0.5 * previous || pass == 30)
-              {
-                out.refinement_passes = std::max(out.refinement_passes, pass);
-                out.refinement_change = std::max(out.refinement_change, change);
-                break;
-              }
-            previous = change;
-          }
-        X.middleCols(static_cast<Eigen::Index>(c0), static_cast<Eigen::Index>(nb)) = y;
-      }
+    const RigidProjector P(sys, eigen, n_rigid);
+    Eigen::MatrixXd      X = static_responses(sys, factor, P, columns, out);
     out.compliance.assign(rows.size() * nc, 0.0);
     for (size_t r = 0; r < rows.size(); ++r)
       for (size_t j = 0; j < nc; ++j)
         out.compliance[r * nc + j] = X(rows[r], j);
 
-    // An M-orthonormal basis of what the columns of V add to span(phi, prior): each column
-    // M-normalized, phi and prior projected out (twice is enough, Kahan), then the Gram
-    // matrix's eigenvectors scaled, dropping directions below 1e-12 of the largest (the basis
-    // already spans them). Twice through, so that nearly dependent columns still give a basis
-    // orthonormal to round-off (the Rayleigh-Ritz below relies on it).
-    struct MassBasis
-    {
-      Eigen::MatrixXd V, MV; // M-orthonormal columns and M times them
-    };
-    const auto m_orthonormal = [&](Eigen::MatrixXd V, const MassBasis &prior) {
-      // Projections through the stored M phi and M prior: one product with M per pass.
-      const auto project_off = [&](Eigen::MatrixXd &W) {
-        subtract_product(phi, product(m_phi, true, W), W);
-        W = off_rigid(W);
-        subtract_product(prior.V, product(prior.MV, true, W), W);
-      };
-      for (Eigen::Index c0 = 0; c0 < V.cols(); c0 += column_block)
-        {
-          const Eigen::Index    nb = std::min(column_block, V.cols() - c0);
-          const Eigen::MatrixXd mv = apply(M, V.middleCols(c0, nb));
-          for (Eigen::Index j = 0; j < nb; ++j)
-            V.col(c0 + j) /= std::sqrt(V.col(c0 + j).dot(mv.col(j)));
-        }
-      MassBasis out;
-      for (int pass = 0; pass < 2; ++pass)
-        {
-          for (int twice = 0; twice < 2; ++twice)
-            project_off(V);
-          const Eigen::MatrixXd MV = apply_blocked(M, V);
-          Eigen::MatrixXd       Mr = product(V, true, MV);
-          Mr = 0.5 * (Mr + Mr.transpose()).eval();
-          Eigen::VectorXd d; // Mr's eigenvalues; Mr then holds its eigenvectors
-          symmetric_eigen(Mr, d);
-          const double              d_max = d.maxCoeff();
-          std::vector<Eigen::Index> kept;
-          for (Eigen::Index j = 0; j < V.cols(); ++j)
-            if (d(j) > (pass == 0 ? 1e-12 * d_max : 0.5))
-              kept.push_back(j);
-          Eigen::MatrixXd B(V.cols(), static_cast<Eigen::Index>(kept.size()));
-          for (size_t c = 0; c < kept.size(); ++c)
-            B.col(static_cast<Eigen::Index>(c)) = Mr.col(kept[c]) / std::sqrt(d(kept[c]));
-          V      = product(V, false, B);
-          out.MV = product(MV, false, B);
-        }
-      out.V = std::move(V);
-      return out;
-    };
     // Residual vectors (modal truncation augmentation): first what the static responses add
     // to the lowest modes, then what the one-step responses add to both.
     // X is not needed past here (its rows are in out.compliance): moved, not copied.
-    MassBasis psi =
-      m_orthonormal(std::move(X), MassBasis{Eigen::MatrixXd(n, 0), Eigen::MatrixXd(n, 0)});
+    MassBasis psi = m_orthonormal(sys, phi, m_phi, P, std::move(X),
+                                  MassBasis{Eigen::MatrixXd(n, 0), Eigen::MatrixXd(n, 0)});
     if (step_shift > 0)
       {
         // One-step responses (K + sigma M)^-1 E_columns: a step of the FEM's integrator solves
@@ -511,63 +636,16 @@ namespace irdm::fem
         // force of a probe that prescribes a displacement is H[0]^-1 times it: it needs H[0].
         // K + sigma M factored in place of K + eps M (the same pattern: MUMPS's analysis is
         // reused).
-        check(MatAXPY(shifted_stiffness, step_shift - rigid_shift, M, SUBSET_NONZERO_PATTERN),
+        check(MatAXPY(shifted_stiffness, step_shift - out.rigid_shift, sys.M, SUBSET_NONZERO_PATTERN),
               "MatAXPY");
-        const MassBasis step_basis =
-          m_orthonormal(step_responses_of(shift_invert.refactor(), n, columns), psi);
-        const auto      extend     = [](Eigen::MatrixXd &A, const Eigen::MatrixXd &B) {
-          A.conservativeResize(Eigen::NoChange, A.cols() + B.cols());
-          A.rightCols(B.cols()) = B;
-        };
-        extend(psi.V, step_basis.V);
+        const MassBasis step_basis = m_orthonormal(
+          sys, phi, m_phi, P, step_responses_of(shift_invert.refactor(), n, columns), psi);
+        psi.V.conservativeResize(Eigen::NoChange, psi.V.cols() + step_basis.V.cols());
+        psi.V.rightCols(step_basis.V.cols()) = step_basis.V;
       }
-    psi.MV = Eigen::MatrixXd(); // the Rayleigh-Ritz below needs K psi, not M psi
-    // Rayleigh-Ritz on span(psi) (M-orthonormal): Kr y = w2 y gives the residual modes psi y,
-    // K- and M-orthogonal to each other and to the lowest modes.
-    Eigen::MatrixXd Kr(psi.V.cols(), psi.V.cols());
-    for (Eigen::Index c0 = 0; c0 < psi.V.cols(); c0 += column_block)
-      {
-        const Eigen::Index nb = std::min(column_block, psi.V.cols() - c0);
-        Kr.middleCols(c0, nb) = product(psi.V, true, apply(K, psi.V.middleCols(c0, nb)));
-      }
-    Kr = 0.5 * (Kr + Kr.transpose()).eval();
-    Eigen::VectorXd ritz_w2; // Kr's eigenvalues; Kr then holds its eigenvectors
-    symmetric_eigen(Kr, ritz_w2);
-    const Eigen::MatrixXd Y = std::move(Kr);
-    const unsigned        nr = static_cast<unsigned>(Y.cols());
-    const unsigned        total = count + nr;
-    out.w2 = w2;
-    out.w2.resize(total);
-    out.shapes.assign(rows.size() * total, 0.0);
-    Eigen::MatrixXd psi_rows(rows.size(), psi.V.cols());
-    for (size_t r = 0; r < rows.size(); ++r)
-      {
-        for (unsigned i = 0; i < count; ++i)
-          out.shapes[r * total + i] = phi(rows[r], i);
-        psi_rows.row(r) = psi.V.row(rows[r]);
-      }
-    const Eigen::MatrixXd residual_rows = psi_rows * Y;
-    for (unsigned i = 0; i < nr; ++i)
-      {
-        if (!(ritz_w2(i) > 0))
-          throw std::runtime_error("a residual mode has a non-positive eigenvalue");
-        out.w2[count + i] = ritz_w2(i);
-        for (size_t r = 0; r < rows.size(); ++r)
-          out.shapes[r * total + count + i] = residual_rows(r, i);
-      }
-    // Ascending over both kinds (a model's modes are stored in ascending frequency).
-    std::vector<unsigned> order(total);
-    for (unsigned i = 0; i < total; ++i)
-      order[i] = i;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](unsigned a, unsigned b) { return out.w2[a] < out.w2[b]; });
-    LowestModes sorted = out;
-    for (unsigned i = 0; i < total; ++i)
-      {
-        sorted.w2[i] = out.w2[order[i]];
-        for (size_t r = 0; r < rows.size(); ++r)
-          sorted.shapes[r * total + i] = out.shapes[r * total + order[i]];
-      }
+    psi.MV = Eigen::MatrixXd(); // the Rayleigh-Ritz needs K psi, not M psi
+    append_residual_modes(sys, psi.V, rows, out);
+    LowestModes sorted    = sorted_by_frequency(out, rows.size());
     sorted.seconds_static = std::chrono::duration<double>(Clock::now() - t0).count();
     return sorted;
   }

@@ -74,6 +74,7 @@ namespace irdm::fem
 
   private:
     class Impl;
+    class TimeLoop; // run()'s state, step and Newton's method (nonlinear_dynamics.cc)
     std::unique_ptr<Impl> impl_;
   };
 } // namespace irdm::fem
