@@ -1,6 +1,8 @@
 // Reference-FEM verification against theory. Each check builds its scene in code (so the
 // report states exactly what ran), runs the FEM, and compares with an analytic or exact value.
 #include <irdm_common/files.h>
+#include <irdm_common/format.h>
+#include <irdm_common/report_template.h>
 #include <irdm_common/report_stamp.h>
 #include <irdm_common/csv.h>
 #include <irdm_common/error.h>
@@ -188,7 +190,7 @@ namespace irdm::validation
     struct Report
     {
       std::vector<CheckResult> checks;
-      std::ostringstream       body;
+      TemplateValues           values; // of validation/templates/verify_fem.md
       std::string              dir;
       std::ostream            &log;
 
@@ -255,32 +257,23 @@ namespace irdm::validation
       if (tip_col.size() == 3)
         tip_rate = fmt("%.2f", std::log2((tip_col[1] - tip_col[0]) / (tip_col[2] - tip_col[1])));
 
-      auto &b = rep.body;
-      b << "## 1. Cantilever: first bending frequency and static tip deflection\n\n"
-        << "Beam " << beam.length << " m x " << beam.side << " m x " << beam.side
-        << " m (L/a = " << beam.length / beam.side << "), clamped at x = 0 (all DoFs of the "
-        << "face fixed), E = " << beam.youngs_modulus << " Pa, nu = " << beam.poisson_ratio
-        << ", rho = " << beam.density << " kg/m^3, P2 tetrahedra (structured, 6 per hex, "
-        << "n across, 10 n along). Euler-Bernoulli: f1 = (1.87510)^2 / (2 pi L^2) sqrt(EI / "
-        << "rho A) = " << fmt("%.6g", f_eb) << " Hz; tip deflection under a tip force F = "
-        << force << " N spread over the tip face: F L^3 / (3 E I) = " << fmt("%.6g", tip_eb)
-        << " m.\n\n"
-        << "| elements across | DoFs | f1 (Hz) | error vs E-B | tip deflection (m) | error vs "
-           "beam theory | time (s) |\n|---|---|---|---|---|---|---|\n";
+      std::string rows;
       for (std::size_t i = 0; i < f_col.size(); ++i)
-        b << "| " << n_col[i] << " | " << dofs_col[i] << " | " << fmt("%.6g", f_col[i]) << " | "
-          << fmt("%+.3f %%", 100 * err_col[i]) << " | " << fmt("%.6g", tip_col[i]) << " | "
-          << fmt("%+.3f %%", 100 * tip_err_col[i]) << " | " << fmt("%.1f", time_col[i])
-          << " |\n";
-      b << "\nObserved convergence rate of f1 under mesh halving, log2((f_2 - f_4) / (f_4 - "
-           "f_8)): **"
-        << rate << "**; for the tip deflection: **" << tip_rate << "**. For a smooth "
-        << "solution P2 would give h^4 for the frequency; the lower observed rate is most likely "
-        << "the stress singularity along the edges of the fully clamped face (nu = 0.4 "
-        << "contraction is blocked there), which limits every global quantity (not verified "
-        << "separately). The gap left to beam theory is of the size of the model error of "
-        << "Euler-Bernoulli itself (shear and clamping effects, O((a/L)^2) and O(a/L)).\n\n"
-        << "![beam convergence](beam_convergence.png)\n\n";
+        rows += "| " + plain(n_col[i]) + " | " + plain(dofs_col[i]) + " | " + fmt("%.6g", f_col[i]) +
+                " | " + fmt("%+.3f %%", 100 * err_col[i]) + " | " + fmt("%.6g", tip_col[i]) + " | " +
+                fmt("%+.3f %%", 100 * tip_err_col[i]) + " | " + fmt("%.1f", time_col[i]) + " |\n";
+      rep.values.insert({{"beam_length", plain(beam.length)},
+                         {"beam_side", plain(beam.side)},
+                         {"beam_aspect", plain(beam.length / beam.side)},
+                         {"beam_youngs", plain(beam.youngs_modulus)},
+                         {"beam_nu", plain(beam.poisson_ratio)},
+                         {"beam_rho", plain(beam.density)},
+                         {"f_eb", fmt("%.6g", f_eb)},
+                         {"tip_force", plain(force)},
+                         {"tip_eb", fmt("%.6g", tip_eb)},
+                         {"beam_rows", rows},
+                         {"f_rate", rate},
+                         {"tip_rate", tip_rate}});
       rep.add({"beam f1 vs Euler-Bernoulli (finest P2)",
                fmt("%+.3f %%", 100 * err_col.back()), "|error| <= 2 %",
                std::abs(err_col.back()) <= 0.02});
@@ -367,26 +360,15 @@ namespace irdm::validation
       write_csv(rep.path("energy.csv"),
                 {"time_s", "newmark_energy_J", "generalized_alpha_0.8_energy_J"},
                 {nm.time, e_nm, e_ga});
-      auto &b = rep.body;
-      b << "## 2. Energy: conservation (Newmark) and dissipation (generalized-alpha)\n\n"
-        << "The cat (P1, base fixed, E = 20 kPa, nu = 0.4, rho = 1100 kg/m^3, no damping), "
-           "dt = 2 ms, pushed on the head by a force ramped up over 40 ms and released at "
-        << t_release << " s, then free for " << n_free
-        << " steps. E = 1/2 v'Mv + 1/2 u'Ku.\n\n"
-        << "- Newmark average acceleration: max |E_k - E_release| / E_release over the "
-        << n_free << " free steps = **" << fmt("%.3e", drift) << "**.\n"
-        << "- Generalized-alpha, rho_inf = 0.8: the mean of E over each period of the first "
-           "mode (f1 = " << fmt("%.4g", f1) << " Hz, " << window << " steps) falls in every "
-        << "period: largest change between successive periods " << fmt("%.3e", worst_window)
-        << " of the first (" << means.size() << " periods); E_end / E_release = "
-        << fmt("%.4f", ga_final) << ".\n"
-        << "- Step by step, E itself is *not* monotone under generalized-alpha: the largest "
-           "single-step rise is " << fmt("%.3e", worst_step)
-        << " of E_release. The discrete u and v of the method differ in amplitude by O((omega "
-           "dt)^2), so E oscillates at twice the modal frequency while its envelope decays; the "
-           "quantity the method dissipates monotonically is its algorithmic energy, not "
-           "1/2 v'Mv + 1/2 u'Ku.\n\n"
-        << "![energy](energy.png)\n\n";
+      rep.values.insert({{"t_release", plain(t_release)},
+                         {"n_free", plain(n_free)},
+                         {"drift", fmt("%.3e", drift)},
+                         {"f1", fmt("%.4g", f1)},
+                         {"window", plain(static_cast<double>(window))},
+                         {"worst_window", fmt("%.3e", worst_window)},
+                         {"n_periods", plain(static_cast<double>(means.size()))},
+                         {"ga_final", fmt("%.4f", ga_final)},
+                         {"worst_step", fmt("%.3e", worst_step)}});
       rep.add({"Newmark energy conservation, " + std::to_string(n_free) + " free steps",
                fmt("%.3e", drift) + " relative",
                "<= 1e-9", drift <= 1e-9});
@@ -408,16 +390,13 @@ namespace irdm::validation
       const auto   R      = r.fixed_reaction.at("base")[0];
       const double weight = 1100 * 9.81 * fem.volume();
       const double err    = std::abs(R[2] - weight) / weight;
-      rep.body << "## 3. Fixed base under gravity\n\nThe cat (P2, " << fem.n_dofs()
-               << " DoFs), static, g = 9.81 m/s^2 downwards. Volume (sum of cell measures) "
-               << fmt("%.9g", fem.volume()) << " m^3, weight rho g V = " << fmt("%.12g", weight)
-               << " N. Reaction on the base: (" << fmt("%.3e", R[0]) << ", "
-               << fmt("%.3e", R[1]) << ", " << fmt("%.12g", R[2])
-               << ") N. Relative error of the vertical reaction: **" << fmt("%.2e", err)
-               << "**. (On the slender cantilever the same check gives about 1e-9: its clamp "
-                  "carries a bending couple about L/a times the weight, so K u at the clamp is a "
-                  "sum of large terms that cancel, and rounding in that sum shows: 6e-10 to 8e-10 measured on beam_2 while "
-                  "developing this check.)\n\n";
+      rep.values.insert({{"cat_dofs", plain(fem.n_dofs())},
+                         {"volume", fmt("%.9g", fem.volume())},
+                         {"weight", fmt("%.12g", weight)},
+                         {"reaction_x", fmt("%.3e", R[0])},
+                         {"reaction_y", fmt("%.3e", R[1])},
+                         {"reaction_z", fmt("%.12g", R[2])},
+                         {"gravity_error", fmt("%.2e", err)}});
       rep.add({"base reaction = rho g V", fmt("%.2e", err) + " relative", "<= 1e-10",
                err <= 1e-10});
     }
@@ -472,16 +451,13 @@ namespace irdm::validation
         }
       const double err = measured / zeta - 1;
       write_csv(rep.path("damping.csv"), {"time_s", "tip_uz_normalized"}, {r.time, s});
-      rep.body << "## 4. Damped free vibration\n\nThe cantilever (" << fs::path(mesh).filename().string()
-               << ", P2), Rayleigh damping fitted to zeta = " << zeta << " at f1 = "
-               << fmt("%.5g", f1) << " Hz (this mesh's first frequency) and at 5 f1, released "
-               << "from the static deflection under a tip force; Newmark average acceleration "
-                  "(no numerical damping), dt = T1 / 200. "
-               << peak_v.size() << " positive peaks of the tip displacement; logarithmic "
-                  "decrement delta = ln(x_1 / x_m) / (m - 1) = "
-               << fmt("%.5f", delta) << ", zeta = delta / sqrt(4 pi^2 + delta^2) = **"
-               << fmt("%.5f", measured) << "** (" << fmt("%+.2f %%", 100 * err)
-               << " from the prescribed " << zeta << ").\n\n![damping](damping.png)\n\n";
+      rep.values.insert({{"damping_mesh", fs::path(mesh).filename().string()},
+                         {"zeta", plain(zeta)},
+                         {"damping_f1", fmt("%.5g", f1)},
+                         {"n_peaks", plain(static_cast<double>(peak_v.size()))},
+                         {"delta", fmt("%.5f", delta)},
+                         {"zeta_measured", fmt("%.5f", measured)},
+                         {"zeta_error", fmt("%+.2f %%", 100 * err)}});
       rep.add({"log decrement vs prescribed damping ratio", fmt("%+.2f %%", 100 * err),
                "|error| <= 5 %", peak_v.size() >= 3 && std::abs(err) <= 0.05});
     }
@@ -567,16 +543,7 @@ namespace irdm::validation
         }
       write_csv(rep.path("prescribed.csv"),
                 {"time_s", "probe_Fx_N", "probe_Fy_N", "probe_Fz_N", "probe_uz_m"}, cols);
-      rep.body << "## 5. Prescribed displacement and its reaction force\n\nThe cat (P1, base "
-                  "fixed, damping ratio 0.05 at 2 and 20 Hz, dt = 2 ms): a probe vertex on the "
-                  "back is pressed 1 cm down over 0.2 s (smoothstep), held to 0.5 s, released by "
-                  "0.55 s, and the run goes on to 0.6 s. Peak reported force "
-               << fmt("%.4g", peak_force)
-               << " N. Then the probe is replaced by its reported force history as a vertex load "
-                  "(one sample per step) and the scene is run again.\n\n"
-                  "| integrator | max error of the probe displacement / max displacement | "
-                  "same at the ear (a free vertex) |\n|---|---|---|\n"
-               << table << "\n![probe force](prescribed.png)\n\n";
+      rep.values.insert({{"probe_peak_force", fmt("%.4g", peak_force)}, {"prescribed_rows", table}});
       rep.add({"reaction force reproduces the prescribed displacement",
                fmt("%.3e", worst) + " relative (ear " + fmt("%.2e", worst_other) + ")",
                "<= 1e-8", worst <= 1e-8 && worst_other <= 1e-8});
@@ -731,36 +698,7 @@ namespace irdm::validation
       const auto &fine = s.fine;
       const auto &best = s.best();
       const double v0 = s.v0;
-      auto &b = rep.body;
-      b << "## 6. Ball on a rigid floor: Hertz\n\n"
-        << "An elastic ball (R = " << ball.radius << " m, E = " << ball.youngs_modulus
-        << " Pa, nu = " << ball.poisson_ratio << ", rho = " << ball.density
-        << " kg/m^3; P1, meshes refined at the pole that hits: meshes/ball_pole.geo) moving down "
-           "at speed v onto a rigid frictionless floor (penalty contact, lumped at the face "
-           "vertices), nonlinear FEM (neo-Hookean), Newmark, no damping, no gravity; 50 steps "
-           "per Hertz contact time t_c. Hertz (quasi-static, small strain, a << R): F_max = 4/3 "
-           "E* sqrt(R) delta_max^(3/2), delta_max = (15 m v^2 / (16 E* sqrt R))^(2/5), E* = E / "
-           "(1 - nu^2), contact radius a = sqrt(R delta_max). Hertz is evaluated at each FEM "
-           "ball's own mass (from its initial kinetic energy: "
-        << fmt("%.4f", best.front().mass) << " kg on the first mesh, "
-        << fmt("%+.2f %%", 100 * (best.front().mass / ball.mass() - 1))
-        << " from the exact sphere's, as flat facets cut the sphere).\n\n"
-        << "Each speed runs on meshes whose pole elements are a fixed fraction of Hertz's contact "
-           "radius (coarse h = 0.27 a, fine h = 0.135 a, refined out to 1.6 a; "
-           "meshes/generate.sh), so the discretization is alike at every speed and the trend "
-           "with speed is physics.\n\n"
-        << "The last columns hold an estimate beyond Hertz for a ball of finite size "
-           "(HertzBall::peak_force_finite_ball): Hertz lets the ball's centre approach like a "
-           "distant point of a half-space, but it lies at depth R, where a half-space under the "
-           "contact force F has moved c F, c = (3 - 2 nu) / (4 pi mu R) = "
-        << fmt("%.3g", ball.centre_compliance())
-        << " m/N (Boussinesq). The centre then approaches by delta_Hertz(F) - c F, and "
-           "1/2 m v^2 = 2/5 k^(-2/3) F^(5/3) - c F^2 / 2 gives a peak above Hertz's by about "
-           "0.58 a / R. It is an estimate of the trend (the ball's free surface and decelerating "
-           "body force change the constant), not a criterion.\n\n"
-        << "| v (m/s) | a / R | Hertz (N) | FEM coarse (N) | vs Hertz | FEM fine (N) | vs Hertz "
-           "| finite-ball estimate vs Hertz | FEM fine vs estimate | FEM s (coarse, fine) |\n"
-           "|---|---|---|---|---|---|---|---|---|---|\n";
+      std::string rows;
       for (const auto &c : coarse)
         {
           const HertzBall h  = c.hertz();
@@ -768,32 +706,38 @@ namespace irdm::validation
                                       [&](const HertzRun &r) { return r.speed == c.speed; });
           const HertzRun &fb = f != fine.end() ? *f : c; // the estimate at the finest mass
           const double    est = fb.hertz().peak_force_finite_ball(c.speed);
-          b << "| " << c.speed << " | " << fmt("%.3f", h.contact_radius(c.speed) / h.radius)
-            << " | " << fmt("%.4g", h.peak_force(c.speed)) << " | " << fmt("%.4g", c.peak)
-            << " | " << fmt("%+.2f %%", 100 * c.error()) << " | "
-            << (f != fine.end() ? fmt("%.4g", f->peak) + " | " + fmt("%+.2f %%", 100 * f->error())
-                                : std::string("- | -"))
-            << " | " << fmt("%+.2f %%", 100 * (est / fb.hertz().peak_force(c.speed) - 1)) << " | "
-            << (f != fine.end() ? fmt("%+.2f %%", 100 * (f->peak / est - 1)) : std::string("-"))
-            << " | " << fmt("%.0f", c.seconds)
-            << (f != fine.end() ? ", " + fmt("%.0f", f->seconds) : std::string()) << " |\n";
+          rows += "| " + plain(c.speed) + " | " + fmt("%.3f", h.contact_radius(c.speed) / h.radius) +
+                  " | " + fmt("%.4g", h.peak_force(c.speed)) + " | " + fmt("%.4g", c.peak) + " | " +
+                  fmt("%+.2f %%", 100 * c.error()) + " | " +
+                  (f != fine.end() ? fmt("%.4g", f->peak) + " | " + fmt("%+.2f %%", 100 * f->error())
+                                   : std::string("- | -")) +
+                  " | " + fmt("%+.2f %%", 100 * (est / fb.hertz().peak_force(c.speed) - 1)) + " | " +
+                  (f != fine.end() ? fmt("%+.2f %%", 100 * (f->peak / est - 1)) : std::string("-")) +
+                  " | " + fmt("%.0f", c.seconds) +
+                  (f != fine.end() ? ", " + fmt("%.0f", f->seconds) : std::string()) + " |\n";
         }
-      b << "\nConvergence at v = " << v0 << " m/s, with the mesh (pole element size; default "
-           "penalty 100 E / h, h the mean boundary edge) and with the penalty (on "
-        << s.middle.mesh << "):\n\n"
-        << "| run | penalty (Pa/m) | FEM peak (N) | vs Hertz | deepest penetration / "
-           "Hertz delta_max | FEM s |\n|---|---|---|---|---|---|\n";
-      const auto conv_row = [&](const std::string &name, const HertzRun &r) {
-        b << "| " << name << " | " << fmt("%.3g", r.penalty) << " | " << fmt("%.4g", r.peak)
-          << " | " << fmt("%+.2f %%", 100 * r.error()) << " | "
-          << fmt("%.3f", r.penetration / r.hertz().max_indentation(r.speed)) << " | "
-          << fmt("%.1f", r.seconds) << " |\n";
+      std::string convergence;
+      const auto  conv_row = [&](const std::string &name, const HertzRun &r) {
+        convergence += "| " + name + " | " + fmt("%.3g", r.penalty) + " | " + fmt("%.4g", r.peak) +
+                       " | " + fmt("%+.2f %%", 100 * r.error()) + " | " +
+                       fmt("%.3f", r.penetration / r.hertz().max_indentation(r.speed)) + " | " +
+                       fmt("%.1f", r.seconds) + " |\n";
       };
       for (const auto &r : s.by_mesh)
         conv_row(r.mesh, r);
       for (std::size_t i = 0; i < s.by_penalty.size(); ++i)
         conv_row(s.middle.mesh + ", penalty x " + fmt("%g", s.penalty_factors[i]), s.by_penalty[i]);
-      b << "\n![Hertz](hertz.png)\n\n";
+      rep.values.insert({{"ball_radius", plain(ball.radius)},
+                         {"ball_youngs", plain(ball.youngs_modulus)},
+                         {"ball_nu", plain(ball.poisson_ratio)},
+                         {"ball_rho", plain(ball.density)},
+                         {"first_mass", fmt("%.4f", best.front().mass)},
+                         {"mass_vs_sphere", fmt("%+.2f %%", 100 * (best.front().mass / ball.mass() - 1))},
+                         {"centre_compliance", fmt("%.3g", ball.centre_compliance())},
+                         {"hertz_rows", rows},
+                         {"v0", plain(v0)},
+                         {"middle_mesh", s.middle.mesh},
+                         {"convergence_rows", convergence}});
     }
 
     /// The Hertz checks: the low-speed power law, the excess falling with the speed, the
@@ -805,7 +749,6 @@ namespace irdm::validation
       const auto &best = s.best();
       const auto &fine = s.fine;
       const double v0 = s.v0;
-      auto &b = rep.body;
       // Hertz's law F_max ~ v^(6/5): least-squares slope of log F against log v over the
       // low speeds (v <= v0), on the finest series.
       double sx = 0, sy = 0, sxx = 0, sxy = 0, n_low = 0;
@@ -827,8 +770,7 @@ namespace irdm::validation
       const HertzRun &lowest = best.front();
       const double a_low  = lowest.hertz().contact_radius(lowest.speed) / ball.radius;
       const std::string series = fine.empty() ? "coarse" : "fine";
-      b << "Low-speed power law (v <= " << v0 << " m/s, " << n_low << " speeds, " << series
-        << " meshes): F_max ~ v^" << fmt("%.3f", exponent) << " (Hertz: 6/5).\n\n";
+      rep.values.insert({{"n_low", plain(n_low)}, {"series", series}, {"exponent", fmt("%.3f", exponent)}});
       rep.add({"peak force against speed follows Hertz's v^(6/5) at low speed",
                "exponent " + fmt("%.3f", exponent), "1.2 +- 0.05",
                std::abs(exponent - 1.2) <= 0.05});
@@ -890,19 +832,17 @@ namespace irdm::validation
     bool all = true;
     for (const auto &c : rep.checks)
       all = all && c.pass;
-    std::ostringstream md;
-    md << "# Reference FEM verification\n\n"
-       << report_stamp() << "\n\n"
-       << "Generated by `irdm verify-fem" << (o.quick ? " --quick" : "") << "` (version "
-       << IRDM_VERSION << ") in " << fmt("%.0f", total)
-       << " s. Units SI. Every number below was measured in that run; CSV files beside this "
-          "report hold the series.\n\n"
-       << "| check | measured | criterion | result |\n|---|---|---|---|\n";
+    std::string check_rows;
     for (const auto &c : rep.checks)
-      md << "| " << c.name << " | " << c.measured << " | " << c.criterion << " | "
-         << (c.pass ? "pass" : "**FAIL**") << " |\n";
-    md << "\n" << rep.body.str();
-    write_text_file(rep.path("report.md"), md.str());
+      check_rows += "| " + c.name + " | " + c.measured + " | " + c.criterion + " | " +
+                    (c.pass ? "pass" : "**FAIL**") + " |\n";
+    rep.values.insert({{"stamp", report_stamp()},
+                       {"flags", o.quick ? " --quick" : ""},
+                       {"version", IRDM_VERSION},
+                       {"total_s", fmt("%.0f", total)},
+                       {"check_rows", check_rows}});
+    write_text_file(rep.path("report.md"),
+                    fill_template(read_template("validation/templates/verify_fem.md"), rep.values));
 
     // Charts: matplotlib from Debian (/usr/bin/python3); the report stands without them.
     const fs::path script = fs::path(o.mesh_dir).parent_path() / "validation" / "plot_fem_verification.py";
