@@ -8,7 +8,9 @@ cd "$(dirname "$0")/.."
 echo "test.sh: $(df -h --output=avail . | tail -1 | tr -d ' ') free on this disk at the start"
 scripts/install-deps.sh --tests
 scripts/build.sh # warnings are errors, as in the main job's build
-(cd build && ctest --output-on-failure -j2)
+# The loaders' random mutations run briefly here and at length under the sanitizers below,
+# where a bad read shows.
+(cd build && IRDM_FUZZ_SECONDS=${IRDM_FUZZ_SECONDS:-3} ctest --output-on-failure -j2)
 # The loaders, writers and runtime again under AddressSanitizer and UBSan (build-sanitize/).
 scripts/sanitize.sh
 # The two asynchronous loops under ThreadSanitizer (build-tsan/).

@@ -11,6 +11,15 @@
 
 namespace irdm
 {
+  namespace detail
+  {
+    inline double
+    dot(const std::array<double, 3> &a, const std::array<double, 3> &b)
+    {
+      return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    }
+  } // namespace detail
+
   template <class History, class FeedThrough, class Push, class Displacement, class Deformed>
   bool
   VertexContact::step(const ModelFrame &m, const PlaneTarget *planes, const int n_planes,
@@ -20,26 +29,50 @@ namespace irdm
   {
     if (n_planes < 0 || n_planes > contact::max_planes)
       return false;
+    const int n = gather_candidates(m, planes, n_planes, reach, deformed);
+    if (n < 0)
+      return false; // more than max_candidates: no force applied
+    std::fill(was_active_.begin(), was_active_.end(), 0); // O(planes x vertices), cheap
+    rounds_ = 0;
+    if (n == 0)
+      return true;
+    add_history(m, planes, n_planes, n, history);
+    if (rigid)
+      set_levers(m, planes, n, *rigid, displacement);
+    assemble_feed_through(m, planes, n, h0);
+    remember_rows(planes, n_planes, n, m.n_outputs / 3);
+    const double *W = rigid ? with_rigid_compliance(planes, n, *rigid) : previous_.W.data();
+    rounds_         = solver_.solve(n, W, static_cast<int>(options_.max_candidates), q_.data(),
+                                    guess_.data(), lambda_.data());
+    if (rounds_ < 0)
+      return false;
+    apply_forces(m, planes, n, push);
+    return true;
+  }
+
+  // Candidates, with the last step's contact set as the solver's first guess: within the
+  // margin undeformed, or as deformed (vertex_contact.h). Their gaps q_ start undeformed.
+  // Returns their number, or -1 if there are more than max_candidates.
+  template <class Deformed>
+  int
+  VertexContact::gather_candidates(const ModelFrame &m, const PlaneTarget *planes,
+                                   const int n_planes, const double reach, Deformed &&deformed)
+  {
     const unsigned n_vertices = m.n_outputs / 3;
     const int      cap        = static_cast<int>(options_.max_candidates);
-    const auto     dot        = [](const std::array<double, 3> &a, const std::array<double, 3> &b) {
-      return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    };
-    // Candidates, with the last step's contact set as the solver's first guess: within the
-    // margin undeformed, or as deformed (vertex_contact.h).
-    int n = 0;
-    n_deformed_ = 0;
+    int            n          = 0;
+    n_deformed_               = 0;
     for (int p = 0; p < n_planes; ++p)
       {
-        results_[p]       = PlaneContactResult{};
-        const auto  &nn   = planes[p].normal;
-        const double at   = dot(nn, planes[p].point);
+        results_[p]     = PlaneContactResult{};
+        const auto  &nn = planes[p].normal;
+        const double at = detail::dot(nn, planes[p].point);
         for (unsigned v = 0; v < n_vertices; ++v)
           {
             const int in = m.output_input_index[v];
             if (in < 0)
               continue;
-            const double    gap   = dot(nn, m.output_coordinates[v]) - at; // undeformed
+            const double    gap   = detail::dot(nn, m.output_coordinates[v]) - at; // undeformed
             bool            known = false;
             Eigen::Vector3d u;
             if (gap >= options_.margin)
@@ -52,7 +85,7 @@ namespace irdm
             if (n == cap)
               {
                 n_candidates_ = n;
-                return false; // more than max_candidates: no force applied
+                return -1;
               }
             plane_[n]       = p;
             vertex_[n]      = v;
@@ -66,32 +99,26 @@ namespace irdm
           }
       }
     n_candidates_ = n;
-    std::fill(was_active_.begin(), was_active_.end(), 0); // O(planes x vertices), cheap
-    rounds_ = 0;
-    if (n == 0)
-      return true;
-    const auto in_dof = [&](const int c, const int d) {
-      return 3u * static_cast<unsigned>(m.output_input_index[vertex_[c]]) + d;
-    };
-    const auto out_dof = [&](const int c, const int d) { return 3u * vertex_[c] + d; };
-    // Rows kept from the last step (same plane normal and stiffness) keep their W entries and
-    // their slot; new rows take free slots.
-    bool same_plane[contact::max_planes];
+    return n;
+  }
+
+  // Rows kept from the last step (same plane normal and stiffness) keep their slot; new rows
+  // take free slots. Each gap gets the history along its normal.
+  template <class History>
+  void
+  VertexContact::add_history(const ModelFrame &m, const PlaneTarget *planes, const int n_planes,
+                             const int n, History &&history)
+  {
+    const unsigned n_vertices = m.n_outputs / 3;
     for (int p = 0; p < n_planes; ++p)
-      same_plane[p] = p < previous_.n_planes &&
-                      planes[p].normal == previous_.planes[p].normal &&
-                      planes[p].stiffness == previous_.planes[p].stiffness &&
-                      planes[p].penalty == previous_.planes[p].penalty &&
-                      planes[p].coupling_compliance == previous_.planes[p].coupling_compliance;
-    const auto old_row = [&](const int c) {
-      return same_plane[plane_[c]]
-               ? previous_.row_of[static_cast<size_t>(plane_[c]) * n_vertices + vertex_[c]]
-               : -1;
-    };
+      same_plane_[p] = p < previous_.n_planes && planes[p].normal == previous_.planes[p].normal &&
+                       planes[p].stiffness == previous_.planes[p].stiffness &&
+                       planes[p].penalty == previous_.planes[p].penalty &&
+                       planes[p].coupling_compliance == previous_.planes[p].coupling_compliance;
     std::fill(slot_taken_.begin(), slot_taken_.end(), 0);
     for (int c = 0; c < n; ++c)
       {
-        const int oc = old_row(c);
+        const int oc = old_row(c, n_vertices);
         slot_[c]     = oc >= 0 ? previous_.slot[oc] : -1;
         if (oc >= 0)
           slot_taken_[slot_[c]] = 1;
@@ -109,30 +136,46 @@ namespace irdm
         q_[c] += history(static_cast<unsigned>(m.output_input_index[vertex_[c]]), vertex_[c],
                          planes[plane_[c]].normal, slot_[c], fresh);
       }
-    // A free body's levers (the rigid compliance's rank-6 form, vertex_contact.h), at the
-    // deformed points.
-    if (rigid)
-      for (int c = 0; c < n; ++c)
-        {
-          const auto &X = m.output_coordinates[vertex_[c]];
-          const auto &nn = planes[plane_[c]].normal;
-          const Eigen::Vector3d x =
-            Eigen::Vector3d(X[0], X[1], X[2]) +
-            (start_known_[c] ? start_u_[c]
-                             : displacement(static_cast<unsigned>(m.output_input_index[vertex_[c]])));
-          lever_[c] = (x - rigid->center).cross(Eigen::Vector3d(nn[0], nn[1], nn[2]));
-          turn_[c]  = rigid->tau2_inverse_inertia * lever_[c];
-        }
-    // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b (plus a
-    // free body's rigid compliance), copied from the last step where both rows were rows then.
+  }
+
+  // A free body's levers (the rigid compliance's rank-6 form, vertex_contact.h), at the
+  // deformed points.
+  template <class Displacement>
+  void
+  VertexContact::set_levers(const ModelFrame &m, const PlaneTarget *planes, const int n,
+                            const RigidStepCompliance &rigid, Displacement &&displacement)
+  {
+    for (int c = 0; c < n; ++c)
+      {
+        const auto           &X  = m.output_coordinates[vertex_[c]];
+        const auto           &nn = planes[plane_[c]].normal;
+        const Eigen::Vector3d x =
+          Eigen::Vector3d(X[0], X[1], X[2]) +
+          (start_known_[c] ? start_u_[c]
+                           : displacement(static_cast<unsigned>(m.output_input_index[vertex_[c]])));
+        lever_[c] = (x - rigid.center).cross(Eigen::Vector3d(nn[0], nn[1], nn[2]));
+        turn_[c]  = rigid.tau2_inverse_inertia * lever_[c];
+      }
+  }
+
+  // W, lower triangle (the solver reads no more): W_cb = n_c^T H[0](c <- b) n_b, copied from
+  // the last step where both rows were rows then; a compliant plane's 1/k and a plate's
+  // coupling on top.
+  template <class FeedThrough>
+  void
+  VertexContact::assemble_feed_through(const ModelFrame &m, const PlaneTarget *planes,
+                                       const int n, FeedThrough &&h0)
+  {
+    const unsigned n_vertices = m.n_outputs / 3;
+    const size_t   cap        = options_.max_candidates;
     for (int c = 0; c < n; ++c)
       {
         const auto &nc = planes[plane_[c]].normal;
         double     *w  = &W_[static_cast<size_t>(c) * cap];
-        const int   oc = old_row(c);
+        const int   oc = old_row(c, n_vertices);
         for (int b = 0; b <= c; ++b)
           {
-            const int ob = oc < 0 ? -1 : old_row(b);
+            const int ob = oc < 0 ? -1 : old_row(b, n_vertices);
             if (ob >= 0)
               {
                 w[b] = oc >= ob ? previous_.W[static_cast<size_t>(oc) * cap + ob]
@@ -143,9 +186,9 @@ namespace irdm
             double      s  = 0;
             for (int e = 0; e < 3; ++e)
               {
-                const unsigned k = in_dof(b, e);
+                const unsigned k = input_dof(m, b, e);
                 for (int d = 0; d < 3; ++d)
-                  s += nc[d] * nb[e] * h0(k, out_dof(c, d));
+                  s += nc[d] * nb[e] * h0(k, 3u * vertex_[c] + d);
               }
             w[b] = s + (plane_[b] == plane_[c] ? planes[plane_[c]].coupling_compliance : 0.0);
           }
@@ -153,7 +196,13 @@ namespace irdm
         if (k > 0 && oc < 0)
           w[c] += 1 / k;
       }
-    // These rows and W for the next step.
+  }
+
+  // These rows and W for the next step; W moves to previous_.W, which the solver then reads.
+  inline void
+  VertexContact::remember_rows(const PlaneTarget *planes, const int n_planes, const int n,
+                               const unsigned n_vertices)
+  {
     for (int c = 0; c < previous_.n; ++c)
       previous_.row_of[static_cast<size_t>(previous_.plane[c]) * n_vertices + previous_.vertex[c]] = -1;
     for (int c = 0; c < n; ++c)
@@ -166,26 +215,35 @@ namespace irdm
     previous_.n        = n;
     previous_.n_planes = n_planes;
     std::copy(planes, planes + n_planes, previous_.planes.begin());
-    std::swap(W_, previous_.W); // the solver reads previous_.W below
-    const double *W = previous_.W.data();
-    if (rigid)
+    std::swap(W_, previous_.W);
+  }
+
+  // The rigid compliance with this step's levers, on a copy: the rows kept next step take
+  // their W without it.
+  inline const double *
+  VertexContact::with_rigid_compliance(const PlaneTarget *planes, const int n,
+                                       const RigidStepCompliance &rigid)
+  {
+    const size_t cap = options_.max_candidates;
+    for (int c = 0; c < n; ++c)
       {
-        // The rigid compliance with this step's levers, on a copy: the rows kept next step
-        // take their W without it.
-        for (int c = 0; c < n; ++c)
-          {
-            const auto   &nc = planes[plane_[c]].normal;
-            const double *w  = &previous_.W[static_cast<size_t>(c) * cap];
-            double       *wr = &W_rigid_[static_cast<size_t>(c) * cap];
-            for (int b = 0; b <= c; ++b)
-              wr[b] = w[b] + rigid->tau2_over_mass * dot(nc, planes[plane_[b]].normal) +
-                      lever_[c].dot(turn_[b]);
-          }
-        W = W_rigid_.data();
+        const auto   &nc = planes[plane_[c]].normal;
+        const double *w  = &previous_.W[static_cast<size_t>(c) * cap];
+        double       *wr = &W_rigid_[static_cast<size_t>(c) * cap];
+        for (int b = 0; b <= c; ++b)
+          wr[b] = w[b] + rigid.tau2_over_mass * detail::dot(nc, planes[plane_[b]].normal) +
+                  lever_[c].dot(turn_[b]);
       }
-    rounds_ = solver_.solve(n, W, cap, q_.data(), guess_.data(), lambda_.data());
-    if (rounds_ < 0)
-      return false;
+    return W_rigid_.data();
+  }
+
+  // The solved forces into the results and, through push, into this step's force sample.
+  template <class Push>
+  void
+  VertexContact::apply_forces(const ModelFrame &m, const PlaneTarget *planes, const int n,
+                              Push &&push)
+  {
+    const unsigned n_vertices = m.n_outputs / 3;
     for (int c = 0; c < n; ++c)
       {
         auto &r = results_[plane_[c]];
@@ -200,9 +258,8 @@ namespace irdm
         for (int d = 0; d < 3; ++d)
           {
             r.force[d] += lambda_[c] * nn[d];
-            push(in_dof(c, d), lambda_[c] * nn[d]);
+            push(input_dof(m, c, d), lambda_[c] * nn[d]);
           }
       }
-    return true;
   }
 } // namespace irdm

@@ -197,7 +197,45 @@ namespace irdm
     }
 
   private:
+    // The parts of step() (irdm/src/vertex_contact_step.h), in order.
+    template <class Deformed>
+    int
+    gather_candidates(const ModelFrame &m, const PlaneTarget *planes, int n_planes, double reach,
+                      Deformed &&deformed);
+    template <class History>
+    void
+    add_history(const ModelFrame &m, const PlaneTarget *planes, int n_planes, int n,
+                History &&history);
+    template <class Displacement>
+    void
+    set_levers(const ModelFrame &m, const PlaneTarget *planes, int n,
+               const RigidStepCompliance &rigid, Displacement &&displacement);
+    template <class FeedThrough>
+    void
+    assemble_feed_through(const ModelFrame &m, const PlaneTarget *planes, int n, FeedThrough &&h0);
+    void
+    remember_rows(const PlaneTarget *planes, int n_planes, int n, unsigned n_vertices);
+    const double *
+    with_rigid_compliance(const PlaneTarget *planes, int n, const RigidStepCompliance &rigid);
+    template <class Push>
+    void
+    apply_forces(const ModelFrame &m, const PlaneTarget *planes, int n, Push &&push);
+    // Candidate c's row at the last step (same plane, normal and stiffness), or -1.
+    int
+    old_row(int c, unsigned n_vertices) const
+    {
+      return same_plane_[plane_[c]]
+               ? previous_.row_of[static_cast<size_t>(plane_[c]) * n_vertices + vertex_[c]]
+               : -1;
+    }
+    unsigned
+    input_dof(const ModelFrame &m, int c, int d) const
+    {
+      return 3u * static_cast<unsigned>(m.output_input_index[vertex_[c]]) + d;
+    }
+
     VertexContactOptions                                  options_;
+    std::array<bool, contact::max_planes>                 same_plane_{}; // as the last step's
     contact::ComplementaritySolver                        solver_;
     std::vector<int>                                      plane_;  // [candidate]
     std::vector<unsigned>                                 vertex_; // [candidate], output vertex
