@@ -6,17 +6,6 @@ namespace irdm
 {
   namespace
   {
-    Eigen::Vector3d
-    vec(const std::array<double, 3> &a)
-    {
-      return {a[0], a[1], a[2]};
-    }
-    std::array<double, 3>
-    arr(const Eigen::Vector3d &v)
-    {
-      return {v(0), v(1), v(2)};
-    }
-
     // The rigid body of a free-body model; `grounded` is the error for a model of a grounded
     // body.
     RigidBodyInertia

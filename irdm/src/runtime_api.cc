@@ -42,17 +42,6 @@ namespace irdm
     static_assert(StepInput::max_probes == contact::max_probes);
     static_assert(StepInput::max_planes == contact::max_planes);
 
-    Eigen::Vector3d
-    vec(const std::array<double, 3> &a)
-    {
-      return {a[0], a[1], a[2]};
-    }
-    std::array<double, 3>
-    arr(const Eigen::Vector3d &v)
-    {
-      return {v(0), v(1), v(2)};
-    }
-
     void
     use_frame(Model::Data &d, const ModelFrame &f)
     {
@@ -340,6 +329,18 @@ namespace irdm
         }
     }
 
+    // A step of a grounded body with probes only.
+    template <class Probed>
+    bool
+    step_probes(State &s, Probed &r, const StepInput &in, StepOutput &out)
+    {
+      to_targets(s, in);
+      if (!r.step(s.probes.data(), in.n_probes))
+        return s.refusal = refused_solve, false;
+      probe_results(s, r, in.n_probes, out);
+      return true;
+    }
+
     void
     plane_results(const VertexContact &c, const int n, StepOutput &out)
     {
@@ -394,11 +395,7 @@ namespace irdm
           record_plates(s, out, in.n_planes);
           return true;
         }
-      to_targets(s, in);
-      if (!r.step(s.probes.data(), in.n_probes))
-        return s.refusal = refused_solve, false;
-      probe_results(s, r, in.n_probes, out);
-      return true;
+      return step_probes(s, r, in, out);
     }
 
     bool
@@ -419,11 +416,7 @@ namespace irdm
         return s.refusal = refused_planes, false;
       if (in.n_forces > 0)
         return s.refusal = refused_forces, false;
-      to_targets(s, in);
-      if (!r.step(s.probes.data(), in.n_probes))
-        return s.refusal = refused_solve, false;
-      probe_results(s, r, in.n_probes, out);
-      return true;
+      return step_probes(s, r, in, out);
     }
 
     // Virtual DOFs: one wall per plane, d = -n (from the body toward the wall) at d . x = w.

@@ -240,10 +240,7 @@ namespace irdm::fem
       void
       read_physical_names()
       {
-        long long n = 0;
-        in_ >> n;
-        expect(in_, "$PhysicalNames");
-        check_count(n, "physical names");
+        const long long n = read_count("$PhysicalNames", "physical names");
         std::string line;
         std::getline(in_, line);
         for (long long i = 0; i < n; ++i)
@@ -297,6 +294,44 @@ namespace irdm::fem
             }
       }
 
+      // A section's count of items (MSH 2.2, and $PhysicalNames).
+      long long
+      read_count(const char *section, const char *what)
+      {
+        long long n = 0;
+        in_ >> n;
+        expect(in_, section);
+        check_count(n, what);
+        return n;
+      }
+      // MSH 4: a section's header (blocks, items, least and largest tag), its block count
+      // returned; and a block's header (dimension, entity, a kind: parametric for nodes, the
+      // element type for elements; items).
+      long long
+      read_blocks(const char *section, const char *blocks_what, const char *items_what)
+      {
+        long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
+        in_ >> blocks >> n >> min_tag >> max_tag;
+        expect(in_, section);
+        check_count(blocks, blocks_what);
+        check_count(n, items_what);
+        return blocks;
+      }
+      struct Block
+      {
+        int       dim = 0, entity = 0, kind = 0;
+        long long count = 0;
+      };
+      Block
+      read_block(const char *section, const char *items_what)
+      {
+        Block b;
+        in_ >> b.dim >> b.entity >> b.kind >> b.count;
+        expect(in_, section);
+        check_count(b.count, items_what);
+        return b;
+      }
+
       void
       add_node(const long long tag, const std::array<double, 3> &x)
       {
@@ -312,10 +347,7 @@ namespace irdm::fem
       {
         if (version_ < 4)
           {
-            long long n = 0;
-            in_ >> n;
-            expect(in_, "$Nodes");
-            check_count(n, "nodes");
+            const long long n = read_count("$Nodes", "nodes");
             for (long long i = 0; i < n; ++i)
               {
                 long long             tag = 0;
@@ -325,21 +357,13 @@ namespace irdm::fem
               }
             return;
           }
-        long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
-        in_ >> blocks >> n >> min_tag >> max_tag;
-        expect(in_, "$Nodes");
-        check_count(blocks, "node blocks");
-        check_count(n, "nodes");
+        const long long blocks = read_blocks("$Nodes", "node blocks", "nodes");
         for (long long b = 0; b < blocks; ++b)
           {
-            int       dim = 0, ent = 0, parametric = 0;
-            long long count = 0;
-            in_ >> dim >> ent >> parametric >> count;
-            expect(in_, "$Nodes");
-            check_count(count, "nodes in a block");
-            if (parametric)
+            const Block block = read_block("$Nodes", "nodes in a block");
+            if (block.kind) // parametric
               fail(path_, "parametric nodes are not supported");
-            std::vector<long long> tags(static_cast<std::size_t>(count));
+            std::vector<long long> tags(static_cast<std::size_t>(block.count));
             for (auto &t : tags)
               in_ >> t;
             for (const auto t : tags)
@@ -368,10 +392,7 @@ namespace irdm::fem
       {
         if (version_ < 4)
           {
-            long long n = 0;
-            in_ >> n;
-            expect(in_, "$Elements");
-            check_count(n, "elements");
+            const long long n = read_count("$Elements", "elements");
             for (long long i = 0; i < n; ++i)
               {
                 long long  tag = 0;
@@ -391,25 +412,17 @@ namespace irdm::fem
             expect(in_, "$Elements");
             return;
           }
-        long long blocks = 0, n = 0, min_tag = 0, max_tag = 0;
-        in_ >> blocks >> n >> min_tag >> max_tag;
-        expect(in_, "$Elements");
-        check_count(blocks, "element blocks");
-        check_count(n, "elements");
+        const long long blocks = read_blocks("$Elements", "element blocks", "elements");
         for (long long b = 0; b < blocks; ++b)
           {
-            int       dim = 0, ent = 0, type = 0;
-            long long count = 0;
-            in_ >> dim >> ent >> type >> count;
-            expect(in_, "$Elements");
-            check_count(count, "elements in a block");
-            const auto it   = entity_tag_.find({dim, ent});
-            const int  phys = it == entity_tag_.end() ? 0 : it->second;
-            for (long long i = 0; i < count; ++i)
+            const Block block = read_block("$Elements", "elements in a block");
+            const auto  it    = entity_tag_.find({block.dim, block.entity});
+            const int   phys  = it == entity_tag_.end() ? 0 : it->second;
+            for (long long i = 0; i < block.count; ++i)
               {
                 long long  tag = 0;
                 RawElement e;
-                e.type = type;
+                e.type = block.kind;
                 e.tag  = phys;
                 in_ >> tag;
                 read_element_nodes(in_, e);

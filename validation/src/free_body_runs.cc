@@ -25,17 +25,6 @@ namespace irdm::validation::free_body
   {
     using Clock = std::chrono::steady_clock;
 
-    Eigen::Vector3d
-    vec(const Vec3 &a)
-    {
-      return {a[0], a[1], a[2]};
-    }
-    Vec3
-    arr(const Eigen::Vector3d &v)
-    {
-      return {v(0), v(1), v(2)};
-    }
-
     // A FEM run at tau / M (the truth's own step, --fem-divisions) as samples at tau, the
     // runtime's step: the plane forces, the centre of mass and the surface taken at every
     // tau, in place. Returns the plane forces' impulse over each step of tau (index 1..n; 0

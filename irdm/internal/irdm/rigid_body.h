@@ -33,8 +33,22 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 
+#include <array>
+
 namespace irdm
 {
+  /// A 3-vector between the model files' arrays and Eigen.
+  inline Eigen::Vector3d
+  vec(const std::array<double, 3> &a)
+  {
+    return {a[0], a[1], a[2]};
+  }
+  inline std::array<double, 3>
+  arr(const Eigen::Vector3d &v)
+  {
+    return {v(0), v(1), v(2)};
+  }
+
   /// Mass properties of the undeformed body in the model frame.
   struct RigidBodyInertia
   {
