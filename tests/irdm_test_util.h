@@ -48,9 +48,8 @@ namespace irdm_test
   }
 
   inline ImpulseResponseModel
-  make_model(const fem::Scene &s, const std::string &file)
+  make_model(const fem::Scene &s, const std::string &file, fem::PrecomputeOptions o = {})
   {
-    fem::PrecomputeOptions o;
     o.output  = tmp(file);
     o.restart = true;
     fem::precompute_impulse_responses(s, o);

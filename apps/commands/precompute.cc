@@ -17,7 +17,7 @@ namespace irdm::cli
     struct PrecomputeArgs
     {
       std::string scene, out, storage, free_route = "modal", fit_weights = "uniform";
-      unsigned    length = 0, chunk = 0, modes = 0;
+      unsigned    length = 0, chunk = 0, modes = 0, inertial_modes = 0;
       bool        restart = false, quiet = false, allow_large = false, every_mode_every_step = false,
                   modal_only = false;
     };
@@ -34,6 +34,8 @@ namespace irdm::cli
       o.inputs_per_chunk = a.chunk;
       if (a.modes > 0)
         o.modes = a.modes;
+      if (a.inertial_modes > 0)
+        o.inertial_modes = a.inertial_modes;
       o.double_storage   = storage_choice(a.storage);
       o.restart          = a.restart;
       o.allow_large      = a.allow_large;
@@ -111,6 +113,13 @@ namespace irdm::cli
                            "the seed's; mass: each vertex's lumped mass)")
       ->check(CLI::IsMember({"uniform", "mass"}))
       ->capture_default_str();
+    precompute->add_option("--inertial-modes", pre->inertial_modes,
+                           "free body, dense route: store the inertial couplings of the lowest "
+                           "N elastic modes (9 N^2 numbers), on which the runtime's Euler, "
+                           "spin-softening and Coriolis forces act (default: " +
+                             std::to_string(irdm::fem::default_inertial_modes) +
+                             ", or every mode if fewer)")
+      ->check(CLI::Range(1u, 1000000u));
     precompute->add_flag("--restart", pre->restart, "ignore a partial file and start over");
     precompute->add_flag("--allow-large", pre->allow_large,
                          "run even if the memory or disk estimate exceeds what is free");

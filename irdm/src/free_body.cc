@@ -44,7 +44,9 @@ namespace irdm
   {
     if ((options.centrifugal || options.deformed_inertia) && model.centrifugal_load.empty())
       throw InputError("free body: the centrifugal force and the deformed inertia need a model "
-                       "with /modes/centrifugal_load (irdm precompute's dense route, this version)");
+                       "with /modes/centrifugal_load (irdm precompute's dense route, this version)");    if (!interaction_.set_frame_forces(options.euler, options.spin_softening, options.coriolis))
+      throw InputError("free body: the Euler, spin-softening and Coriolis forces need a model "
+                       "with /modes/inertial_coupling (irdm precompute's dense route, this version)");
   }
 
   bool
@@ -102,9 +104,9 @@ namespace irdm
     : model_(model)
     , interaction_(model, options.mapping)
   {
-    if (options.centrifugal || options.deformed_inertia)
+    if (options.centrifugal || options.deformed_inertia || options.frame_forces())
       throw InputError("free body: the virtual DOFs hold no mode shapes, so neither the "
-                       "centrifugal force nor the deformed inertia can be taken in");
+                       "frame's inertial forces nor the deformed inertia can be taken in");
   }
 
   bool
@@ -200,6 +202,11 @@ namespace irdm
           return false;
         compliance_ = rigid_.step_compliance(tau_);
       }
+    if (!started_) // the spin of the initial state loads the deformation from t = 0
+      {
+        deformation_.start(rigid_.rotation().transpose() * rigid_.angular_velocity());
+        started_ = true;
+      }
     const RigidBodyState   start  = rigid_.state();
     const Eigen::Vector3d  weight = rigid_.inertia().mass * options_.gravity;
     const Eigen::Vector3d &center = rigid_.inertia().center;
@@ -207,7 +214,20 @@ namespace irdm
     rigid_.step(weight, Eigen::Vector3d::Zero(), tau_);
     const Eigen::Matrix3d R  = rigid_.rotation();
     const Eigen::Vector3d c1 = rigid_.state().position;
-    deformation_.set_spin(R.transpose() * rigid_.angular_velocity()); // at the step's end
+    {
+      // The frame's motion at the step's end, model frame: the angular acceleration from
+      // Euler's equations with the last step's contact torque. With the deformed inertia, the
+      // spin at the step's end is that of the inertia there, extrapolated from the last two
+      // steps' (the rigid step holds the step start's), so that the spin's loads on the
+      // deformation do not lag it by a step.
+      Eigen::Matrix3d I = rigid_.inertia().inertia;
+      if (options_.deformed_inertia && started_inertia_)
+        I = 2 * I - previous_inertia_;
+      previous_inertia_ = rigid_.inertia().inertia;
+      started_inertia_  = options_.deformed_inertia;
+      const Eigen::Vector3d omega = I.ldlt().solve(R.transpose() * rigid_.state().angular_momentum);
+      deformation_.set_frame_motion(omega, I.ldlt().solve(contact_torque_ - omega.cross(I * omega)));
+    }
     for (int p = 0; p < n_planes; ++p)
       {
         body_planes_[p]        = world_planes[p];
@@ -231,6 +251,7 @@ namespace irdm
     deformation_.contact_wrench(center, force, torque);
     for (int p = 0; p < n_planes; ++p)
       world_force_[p] = R * deformation_.plane_force(p);
+    contact_torque_ = torque;
     rigid_.set_state(start);
     rigid_.step(weight + R * force, R * torque, tau_);
     return true;

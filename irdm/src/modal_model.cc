@@ -185,6 +185,8 @@ namespace irdm
     out.highest_frequency_hz = md.frequency_hz[M - 1];
     out.step                 = md.step;
     out.centrifugal_load     = md.centrifugal_load;
+    out.inertial_modes       = md.inertial_modes;
+    out.inertial_coupling    = md.inertial_coupling;
     out.w2.resize(N);
     for (unsigned i = 0; i < N; ++i)
       {
@@ -244,6 +246,9 @@ namespace irdm
         coef_[e * static_cast<size_t>(N_) + i] = model.step[15 * static_cast<size_t>(i) + e];
     g_prev_.assign(N_, 0.0);
     spin_load_.assign(N_, 0.0);
+    R_ = std::min(N_, model.inertial_modes);
+    frame_load_.assign(R_, 0.0);
+    frame_scratch_.assign(R_, 0.0);
     force_now_.assign(model.n_inputs, 0.0);
     is_pushed_.assign(model.n_inputs, 0);
     pushed_.reserve(model.n_inputs);
@@ -349,6 +354,87 @@ namespace irdm
         ArrMut(fv_.data(), N) += coef(8) * c;
         ArrMut(fa_.data(), N) += coef(13) * c;
       }
+    if (frame_forces_on())
+      add_frame_load();
+  }
+
+  void
+  ModalInteraction::add_frame_load()
+  {
+    // f = -sum_ab J_ab (A_ab q + B_ab q') + |omega|^2 q (spin softening's), with
+    // A = [alpha]x (Euler) + omega omega^T (spin softening) and B = 2 [omega]x (Coriolis):
+    // sum_a alpha_a G_a = sum_ab [alpha]x_ab J_ab, G_a = Phi^T M [e_a]x Phi.
+    const auto cross = [](const Eigen::Vector3d &v) {
+      Eigen::Matrix3d m;
+      m << 0, -v(2), v(1), v(2), 0, -v(0), -v(1), v(0), 0;
+      return m;
+    };
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero(), B = Eigen::Matrix3d::Zero();
+    if (euler_)
+      A += cross(alpha_);
+    if (spin_softening_)
+      A += omega_ * omega_.transpose();
+    if (coriolis_)
+      B = 2 * cross(omega_);
+    const Eigen::Index R = R_;
+    const Vec          q(fu_.data(), R), p(fv_.data(), R);
+    VecMut             f(frame_load_.data(), R), y(frame_scratch_.data(), R);
+    using Block = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>,
+                             0, Eigen::OuterStride<>>;
+    f.setZero();
+    if (spin_softening_)
+      f = omega_.squaredNorm() * q;
+    const auto   stored = static_cast<Eigen::Index>(model_.inertial_modes);
+    const size_t block  = static_cast<size_t>(stored) * static_cast<size_t>(stored);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        {
+          if (A(a, b) == 0 && B(a, b) == 0)
+            continue;
+          y = A(a, b) * q + B(a, b) * p;
+          // The stored block is inertial_modes wide; its first R_ rows and columns.
+          const Block J(&model_.inertial_coupling[static_cast<size_t>(3 * a + b) * block], R, R,
+                        Eigen::OuterStride<>(stored));
+          f.noalias() -= J * y;
+        }
+    const auto coef = [&](const int e) { return Arr(&coef_[static_cast<size_t>(e) * N_], R); };
+    ArrMut(fu_.data(), R) += coef(3) * f.array();
+    ArrMut(fv_.data(), R) += coef(8) * f.array();
+    ArrMut(fa_.data(), R) += coef(13) * f.array();
+  }
+
+  bool
+  ModalInteraction::set_frame_forces(const bool euler, const bool spin_softening, const bool coriolis)
+  {
+    if ((euler || spin_softening || coriolis) && R_ == 0)
+      return false;
+    euler_          = euler;
+    spin_softening_ = spin_softening;
+    coriolis_       = coriolis;
+    return true;
+  }
+
+  bool
+  ModalInteraction::load_from_start()
+  {
+    if (n_ != 0)
+      return false;
+    if (spinning_) // at rest, q'' = the modal force (M-orthonormal shapes)
+      {
+        VecMut(g_prev_.data(), N_) += Vec(spin_load_.data(), N_);
+        VecMut(xa_.data(), N_) += Vec(spin_load_.data(), N_);
+      }
+    return true;
+  }
+
+  bool
+  ModalInteraction::set_frame_motion(const Eigen::Vector3d &omega, const Eigen::Vector3d &alpha)
+  {
+    if (!omega.allFinite() || !alpha.allFinite())
+      return false;
+    omega_ = omega;
+    alpha_ = alpha;
+    return true;
   }
 
   bool
@@ -407,6 +493,8 @@ namespace irdm
     ArrMut(xa_.data(), N) = Arr(fa_.data(), N) + coef(13) * g;
     if (spinning_) // fu_ holds its response already; the next step's history needs it in g
       VecMut(g_prev_.data(), N_) += Vec(spin_load_.data(), N_);
+    if (frame_forces_on())
+      VecMut(g_prev_.data(), R_) += Vec(frame_load_.data(), R_);
     ++n_;
   }
 

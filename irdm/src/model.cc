@@ -267,8 +267,17 @@ namespace irdm
           md.load_shapes = r.read_double("/modes/load_shapes", shape);
         if (r.exists("/modes/centrifugal_load"))
           md.centrifugal_load = r.read_double("/modes/centrifugal_load", {shape[1], 3, 3});
+        if (r.exists("/modes/inertial_coupling"))
+          {
+            const auto j = r.shape("/modes/inertial_coupling");
+            if (j.size() != 4 || j[0] != 3 || j[1] != 3 || j[2] != j[3] || j[2] < 1 ||
+                j[2] > shape[1])
+              fail("modes/inertial_coupling must have shape (3, 3, r, r), 1 <= r <= modes");
+            md.inertial_modes    = static_cast<unsigned>(j[2]);
+            md.inertial_coupling = r.read_double("/modes/inertial_coupling", j);
+          }
         for (const auto *v : {&md.frequency_hz, &md.damping_ratio, &md.shapes, &md.load_shapes,
-                              &md.step, &md.centrifugal_load})
+                              &md.step, &md.centrifugal_load, &md.inertial_coupling})
           for (const double x : *v)
             if (!std::isfinite(x))
               fail("the modal realization (/modes) contains NaN or Inf");

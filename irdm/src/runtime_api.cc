@@ -519,8 +519,8 @@ namespace irdm
       throw InputError("BodyOptions: contact_margin must be >= 0 m and max_contact_vertices > 0");
     if (!d.free_body)
       {
-        if (o.centrifugal || o.deformed_inertia)
-          throw InputError("BodyOptions: centrifugal and deformed_inertia are for a free body; "
+        if (o.centrifugal || o.deformed_inertia || o.euler || o.spin_softening || o.coriolis)
+          throw InputError("BodyOptions: the frame's forces and deformed_inertia are for a free body; "
                            "this model is grounded");
         if (d.kind == "modal")
           s.runtime.emplace<ModalInteraction>(d.modal, contact);
@@ -542,6 +542,9 @@ namespace irdm
                                                      : OrientationMapping::nearest;
     fo.centrifugal      = o.centrifugal;
     fo.deformed_inertia = o.deformed_inertia;
+    fo.euler            = o.euler;
+    fo.spin_softening   = o.spin_softening;
+    fo.coriolis         = o.coriolis;
     if (d.kind == "modal")
       s.runtime.emplace<FreeBodyInteraction>(d.modal, fo);
     else if (d.kind == "virtual_dof")

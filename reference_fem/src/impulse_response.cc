@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdio>
 #include <future>
+#include <map>
 #include <set>
 #include <memory>
 #include <numeric>
@@ -337,6 +338,8 @@ namespace irdm::fem
       void
       centrifugal_loads(const DenseSystem &sys, const std::vector<double> &phi);
       void
+      inertial_couplings(const DenseSystem &sys, const std::vector<double> &phi);
+      void
       fit_route1(const DenseSystem &sys);
       void
       modal_responses();
@@ -398,6 +401,12 @@ namespace irdm::fem
       // mass): the modal force of -M (omega x (omega x r)) is sum_ab S_ab [i][a][b] with
       // S = |omega|^2 I - omega omega^T (docs/model-format.md).
       std::vector<double> centrifugal;
+      // Free body, dense route: the mass couplings of the first n_inertial elastic modes'
+      // components, [a][b][i][j] = Phi_a(i)^T M_s Phi_b(j) (M = M_s (x) I_3), from which the
+      // runtime forms the frame's Euler, spin-softening and Coriolis forces on the
+      // deformation (docs/free-body.md).
+      unsigned            n_inertial = 0;
+      std::vector<double> inertial;
 
       // The modal responses h[s][i] and the modes alive at each step; h and Phi_in with their
       // modes in live order, so that a row of a chunk's GEMM operand is a contiguous product.
@@ -689,7 +698,10 @@ namespace irdm::fem
     phi_out = restrict_rows(out_free);
     phi_in  = restrict_rows(in_free);
     if (free_body)
-      centrifugal_loads(sys, phi);
+      {
+        centrifugal_loads(sys, phi);
+        inertial_couplings(sys, phi);
+      }
     if (rigid_fit)
       fit_route1(sys);
   }
@@ -717,6 +729,50 @@ namespace irdm::fem
         for (unsigned r = 0; r < n; ++r)
           for (unsigned e = 0; e < 9; ++e)
             centrifugal[static_cast<size_t>(i) * 9 + e] += col[r] * mw[static_cast<size_t>(r) * 9 + e];
+      }
+  }
+
+  /// The free body's inertial couplings J_ab of its first n_inertial elastic modes (phi: every
+  /// mode, column-major).
+  void
+  ImpulseResponsePrecompute::inertial_couplings(const DenseSystem &sys, const std::vector<double> &phi)
+  {
+    n_inertial = std::min(nm, options.inertial_modes.value_or(default_inertial_modes));
+    // The three DoFs of a node share its support point; a free body has all three free.
+    std::map<Vec3, std::array<int, 3>> node_of_point;
+    for (unsigned r = 0; r < n; ++r)
+      node_of_point.try_emplace(sys.free_dof_offset[r], std::array<int, 3>{-1, -1, -1})
+        .first->second[sys.free_dof_axis[r]] = static_cast<int>(r);
+    std::vector<std::array<int, 3>> dofs;
+    dofs.reserve(node_of_point.size());
+    for (const auto &[point, d] : node_of_point)
+      {
+        if (d[0] < 0 || d[1] < 0 || d[2] < 0)
+          throw std::logic_error("precompute: a free body's node without three free DoFs");
+        dofs.push_back(d);
+      }
+    // M = M_s (x) I_3: the scalar mass from the x-components' rows.
+    const auto      nodes = static_cast<Eigen::Index>(dofs.size());
+    Eigen::MatrixXd Ms(nodes, nodes);
+    for (Eigen::Index p = 0; p < nodes; ++p)
+      for (Eigen::Index q = 0; q < nodes; ++q)
+        Ms(p, q) = sys.mass[static_cast<size_t>(dofs[p][0]) * n + dofs[q][0]];
+    std::array<Eigen::MatrixXd, 3> component; // [a] nodes x n_inertial
+    for (int a = 0; a < 3; ++a)
+      {
+        component[a].resize(nodes, n_inertial);
+        for (unsigned i = 0; i < n_inertial; ++i)
+          for (Eigen::Index p = 0; p < nodes; ++p)
+            component[a](p, i) = phi[static_cast<size_t>(i + n_rigid) * n + dofs[p][a]];
+      }
+    const size_t r2 = static_cast<size_t>(n_inertial) * n_inertial;
+    inertial.assign(9 * r2, 0.0);
+    for (int b = 0; b < 3; ++b)
+      {
+        const Eigen::MatrixXd MsPhi = Ms * component[b];
+        for (int a = 0; a < 3; ++a)
+          Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+            &inertial[(3 * a + b) * r2], n_inertial, n_inertial) = component[a].transpose() * MsPhi;
       }
   }
 
@@ -923,6 +979,8 @@ namespace irdm::fem
       spec << " rigid_fit " << static_cast<int>(options.fit_weights);
     if (options.modal_only)
       spec << " modal_only";
+    if (free_body)
+      spec << " inertial " << n_inertial;
     spec << " live " << live.tolerance;
     spec << " in";
     for (const unsigned v : in_v)
@@ -1079,6 +1137,15 @@ namespace irdm::fem
                                 "mode i by sum_ab S_ab [i][a][b] N, S = |omega|^2 I - "
                                 "omega omega^T, the centrifugal force -M (omega x "
                                 "(omega x r))"));
+      }
+    if (!inertial.empty())
+      {
+        f.write("/modes/inertial_coupling", {3, 3, n_inertial, n_inertial}, inertial.data());
+        f.attribute("/modes/inertial_coupling", "meaning",
+                    std::string("[a][b][i][j] = phi_i,a^T M_s phi_j,b over the first modes "
+                                "(kg per unit modal coordinates squared; phi_i,a the a-components "
+                                "of mode i, M = M_s (x) I_3): the frame's Euler, spin-softening "
+                                "and Coriolis forces on the deformation (docs/free-body.md)"));
       }
 
     if (options.modal_only)

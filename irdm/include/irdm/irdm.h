@@ -196,6 +196,10 @@ namespace irdm
     // body's inertia (both need a model with /modes/centrifugal_load).
     bool centrifugal      = false;
     bool deformed_inertia = false;
+    // Free modal body: the moving frame's other forces on the deformation, the Euler force,
+    // the spin softening and the Coriolis force (need /modes/inertial_coupling;
+    // docs/free-body.md).
+    bool euler = false, spin_softening = false, coriolis = false;
     // Virtual DOFs: blend the dome's orientations around a plane's normal instead of taking
     // the nearest.
     bool interpolate_orientations = false;

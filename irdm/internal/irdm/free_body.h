@@ -89,6 +89,16 @@ namespace irdm
     // exchange energy and create none (the centrifugal load is the gradient of the spin's
     // kinetic energy in the deformation). Needs /modes/centrifugal_load, as `centrifugal`.
     bool deformed_inertia = false;
+    // FreeBodyInteraction: the moving frame's other forces on the deformation
+    // (ModalInteraction::set_frame_forces; docs/free-body.md): the Euler force of the frame's
+    // angular acceleration, the spin softening, the Coriolis force. Need a model with
+    // /modes/inertial_coupling (dense route); the constructor refuses one without.
+    bool euler = false, spin_softening = false, coriolis = false;
+    bool
+    frame_forces() const
+    {
+      return euler || spin_softening || coriolis;
+    }
   };
 
   /// The modal deformation under many-vertex contact (FreeBodyInteraction's).
@@ -112,11 +122,25 @@ namespace irdm
          const InputForce *applied, int n_applied);
     /// The spin (rad/s, model frame) whose centrifugal force loads the next steps, if
     /// FreeBodyOptions::centrifugal.
+    /// The frame's angular velocity and acceleration at the next step's end (rad/s, rad/s^2,
+    /// model frame): the centrifugal load and the frame forces the options turn on.
     void
-    set_spin(const Eigen::Vector3d &omega)
+    set_frame_motion(const Eigen::Vector3d &omega, const Eigen::Vector3d &alpha)
     {
       if (centrifugal_)
         interaction_.set_spin(omega);
+      interaction_.set_frame_motion(omega, alpha);
+    }
+    /// Before the first step: the spin at t = 0 (rad/s, model frame) loads the deformation
+    /// from the start (ModalInteraction::load_from_start).
+    void
+    start(const Eigen::Vector3d &omega)
+    {
+      if (centrifugal_)
+        {
+          interaction_.set_spin(omega);
+          interaction_.load_from_start();
+        }
     }
     /// The deformed body's inertia less the undeformed one (ModalInteraction::inertia_change).
     Eigen::Matrix3d
@@ -190,9 +214,12 @@ namespace irdm
     {
       return model_.time_step;
     }
-    /// The spin's centrifugal force is not in the model (header): a no-op.
+    /// The frame's forces are not in the model (header): a no-op.
     void
-    set_spin(const Eigen::Vector3d &)
+    set_frame_motion(const Eigen::Vector3d &, const Eigen::Vector3d &)
+    {}
+    void
+    start(const Eigen::Vector3d &)
     {}
     /// The mode shapes are not in the model: the constructor refuses
     /// FreeBodyOptions::deformed_inertia, and this is never called with it.
@@ -322,6 +349,12 @@ namespace irdm
     std::array<InputForce, max_point_forces>       body_forces_{};
     std::array<Eigen::Vector3d, contact::max_planes> world_force_{};
     mutable std::vector<double>                      u_; // surface displacement, model frame
+    Eigen::Vector3d contact_torque_ = Eigen::Vector3d::Zero(); // the last step's, model frame
+    bool            started_        = false; // a step was taken
+    // The deformed inertia of the last step (model frame), for the extrapolation to the
+    // step's end; started_inertia_: it is set.
+    Eigen::Matrix3d previous_inertia_ = Eigen::Matrix3d::Zero();
+    bool            started_inertia_  = false;
   };
 
   using FreeBodyInteraction = FreeBody<ModalDeformation>;

@@ -51,12 +51,15 @@ namespace irdm
                                       // modes, plus the dropped modes' static correction)
     std::vector<float>  residual;     // static correction E, [input DoF][output DoF]
     std::vector<double> centrifugal_load; // [mode][3][3], as ModalData's; empty: none
+    unsigned            inertial_modes = 0;  // as ModalData's
+    std::vector<double> inertial_coupling;   // [3][3][mode][mode], as ModalData's; empty: none
     /// Bytes in memory.
     double
     bytes() const
     {
       return 8.0 * (input_shapes.size() + input_load_shapes.size() + step.size() +
-                    h0_inputs.size() + centrifugal_load.size()) +
+                    h0_inputs.size() + centrifugal_load.size() +
+                    inertial_coupling.size()) +
              4.0 * (shapes.size() + residual.size());
     }
   };
@@ -160,6 +163,28 @@ namespace irdm
     /// omega is not finite. Allocates nothing.
     bool
     set_spin(const Eigen::Vector3d &omega);
+    /// Which of the moving frame's forces on the deformation the next steps take (a free
+    /// body's; docs/free-body.md), on the first min(inertial modes, force-loop modes) modes
+    /// (ModalModel::inertial_coupling): the Euler force -sum_a alpha_a G_a q, the spin
+    /// softening -(sum_ab omega_a omega_b J_ab - |omega|^2 I) q and the Coriolis force
+    /// -2 sum_a omega_a G_a q'. Each step evaluates them at the state the step reaches without
+    /// its own force (q, q' at the step's end but for this step's contact) with the frame's
+    /// motion of set_frame_motion, and takes them as a known load of the step, in the history
+    /// the contact solve reads. Returns false (and changes nothing) if a term is asked of a
+    /// model without the couplings.
+    bool
+    set_frame_forces(bool euler, bool spin_softening, bool coriolis);
+    /// Before the first step: the spin's centrifugal load (set_spin's) acts from t = 0, as the
+    /// FEM's balance at t = 0 has it (a body that starts spinning is loaded at once): the
+    /// state's acceleration and the previous step's force take it. Without it the first step
+    /// would ramp the load in over the step, half a step late. Returns false (and changes
+    /// nothing) after a step.
+    bool
+    load_from_start();
+    /// The frame's angular velocity and acceleration at the next step's end (rad/s, rad/s^2,
+    /// model frame). Returns false (and changes nothing) if either is not finite.
+    bool
+    set_frame_motion(const Eigen::Vector3d &omega, const Eigen::Vector3d &alpha);
     /// A free body's inertia tensor less the undeformed one (kg m^2, model frame, about the
     /// centre of mass), to first order in the deformation of the force loop's modes:
     ///   dI = sum_i u_i (2 tr(C_i) I - C_i - C_i^T),  C_i[a][b] = phi_i^T M w_ab, w_ab the field
@@ -210,6 +235,19 @@ namespace irdm
     std::vector<double>    g_prev_;  // [mode] modal force of the last step
     std::vector<double>    spin_load_; // [mode] the spin's centrifugal load (set_spin)
     bool                   spinning_ = false;
+    // The frame forces (set_frame_forces): on the first R_ modes, this step's load [mode],
+    // scratch [mode], and the frame's motion.
+    unsigned               R_ = 0;
+    bool                   euler_ = false, spin_softening_ = false, coriolis_ = false;
+    std::vector<double>    frame_load_, frame_scratch_;
+    Eigen::Vector3d        omega_ = Eigen::Vector3d::Zero(), alpha_ = Eigen::Vector3d::Zero();
+    bool
+    frame_forces_on() const
+    {
+      return euler_ || spin_softening_ || coriolis_;
+    }
+    void
+    add_frame_load();
     std::vector<double>    force_now_;  // [input DoF] this step's force
     std::vector<unsigned>  pushed_;     // inputs with force this step
     std::vector<char>      is_pushed_;

@@ -56,6 +56,11 @@ namespace irdm
     // e_a (x_b - c_b) about the centre of mass c (the modal load of the spin's centrifugal
     // force; docs/model-format.md). Empty: the file has none.
     std::vector<double> centrifugal_load;
+    // A free body's dense-route model: the mass couplings of the first inertial_modes modes'
+    // components, [a][b][i][j] = phi_i,a^T M_s phi_j,b (M = M_s (x) I_3; docs/free-body.md),
+    // for the frame's Euler, spin-softening and Coriolis forces. Empty: the file has none.
+    unsigned            inertial_modes = 0;
+    std::vector<double> inertial_coupling;
   };
 
   /// The uncompressed model: H in full, or only its modal realization (modal_only).

@@ -59,6 +59,8 @@ namespace irdm::fem
     mass     // each output vertex by its lumped (row-sum) mass
   };
 
+  inline constexpr unsigned default_inertial_modes = 300;
+
   struct PrecomputeOptions
   {
     std::string             output;         // model file (.h5)
@@ -88,6 +90,10 @@ namespace irdm::fem
     // disk or in memory (inputs x T x outputs: 15 GB for a converged trace region), while the
     // realization is modes x (inputs + outputs).
     bool modal_only = false;
+    // A free body on the dense route: the modes whose inertial couplings the file stores
+    // (/modes/inertial_coupling, 9 r^2 numbers; the runtime's frame forces act on them). Unset:
+    // the lowest default_inertial_modes, or every mode if there are fewer.
+    std::optional<unsigned> inertial_modes;
     FreeBodyRoute   free_route  = FreeBodyRoute::modal;    // free bodies only
     RigidFitWeights fit_weights = RigidFitWeights::uniform; // rigid_fit only
     std::function<void(const std::string &)> log;      // progress lines (rank 0 only)
