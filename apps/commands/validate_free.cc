@@ -119,6 +119,15 @@ namespace irdm::cli
                             "(to first order in the deformation; the spin slows as the body "
                             "stretches); with --centrifugal, spin and stretch exchange energy "
                             "and create none; free flight then runs with it as well");
+    validate_free->add_flag("--frame-forces", vfb->frame_forces,
+                            "the modal routes take the moving frame's Euler, spin-softening and "
+                            "Coriolis forces into the deformation (the model's "
+                            "/modes/inertial_coupling; docs/free-body.md); with --centrifugal "
+                            "and --deformed-inertia, the linear floating-frame theory");
+    validate_free->add_option("--frame-modes", vfb->frame_modes,
+                              "with --frame-forces: the lowest modes they act on (9 N^2 "
+                              "multiply-adds per step; default: every mode whose couplings the "
+                              "model holds, irdm precompute --inertial-modes)");
     validate_free->add_flag("--reuse-models", vfb->reuse_models,
                             "take a virtual-DOF model already in --model-dir instead of "
                             "precomputing it (it must be of the same scene and material)");

@@ -404,10 +404,13 @@ namespace irdm
   }
 
   bool
-  ModalInteraction::set_frame_forces(const bool euler, const bool spin_softening, const bool coriolis)
+  ModalInteraction::set_frame_forces(const bool euler, const bool spin_softening,
+                                     const bool coriolis, const unsigned modes)
   {
-    if ((euler || spin_softening || coriolis) && R_ == 0)
+    const unsigned held = static_cast<unsigned>(frame_load_.size());
+    if ((euler || spin_softening || coriolis) && held == 0)
       return false;
+    R_ = modes == 0 ? held : std::min(modes, held);
     euler_          = euler;
     spin_softening_ = spin_softening;
     coriolis_       = coriolis;

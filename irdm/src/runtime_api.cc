@@ -545,6 +545,7 @@ namespace irdm
     fo.euler            = o.euler;
     fo.spin_softening   = o.spin_softening;
     fo.coriolis         = o.coriolis;
+    fo.frame_modes      = o.frame_modes;
     if (d.kind == "modal")
       s.runtime.emplace<FreeBodyInteraction>(d.modal, fo);
     else if (d.kind == "virtual_dof")

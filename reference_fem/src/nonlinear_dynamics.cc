@@ -181,6 +181,7 @@ namespace irdm::fem
     // linear in u within it), taken at the alpha level of the step's constant-velocity
     // predictor, u + (1 - alpha_f) h v: the turn within the step is then off by O((w h)^2).
     Tensor<2, 3> frame = I.identity();
+    Tensor<1, 3> frame_spin; // rad/s, world: the frame's turn over the step (damping_force)
     double       scale = 0; // a force scale of the latest residual, for the convergence test
     double       total_mass   = sc.density * L.total_volume; // kg
     double       energy_start = 0; // J, the total energy of the first sample
@@ -305,7 +306,8 @@ namespace irdm::fem
     if (sc.rayleigh_beta != 0)
       {
         // Objective: no damping of rigid motion however far the body has turned.
-        I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr, T ? &K_Du : nullptr, frame);
+        I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr, T ? &K_Du : nullptr, frame,
+                        frame_spin);
         res.add(sc.rayleigh_beta, tmp);
       }
     res += f_int;
@@ -345,6 +347,9 @@ namespace irdm::fem
         u_alpha = u;
         u_alpha.add((1 - af) * h, v);
         frame = I.body_rotation(u_alpha);
+        Vector<double> v_alpha = v; // the predictor's velocity at the alpha level
+        v_alpha.add((1 - af) * h, a);
+        frame_spin = I.body_angular_velocity(u_alpha, v_alpha);
       }
     u_new = u;
     u_new.add(h, v);

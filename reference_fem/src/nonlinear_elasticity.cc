@@ -135,6 +135,38 @@ namespace irdm::fem
     return out;
   }
 
+  Tensor<1, 3>
+  NonlinearElasticity::Impl::body_angular_velocity(const Vector<double> &u, const Vector<double> &v) const
+  {
+    const auto     &X  = linear.mesh.vertices;
+    const auto     &dv = linear.dofs_of_vertex;
+    const auto at = [&](const Vector<double> &w, const unsigned i) {
+      return Eigen::Vector3d(w(dv[i][0]), w(dv[i][1]), w(dv[i][2]));
+    };
+    Eigen::Vector3d c = Eigen::Vector3d::Zero(), vc = Eigen::Vector3d::Zero();
+    double          m = 0;
+    for (unsigned i = 0; i < X.size(); ++i)
+      {
+        c += vertex_volume[i] * (Eigen::Vector3d(X[i][0], X[i][1], X[i][2]) + at(u, i));
+        vc += vertex_volume[i] * at(v, i);
+        m += vertex_volume[i];
+      }
+    c /= m, vc /= m;
+    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d L = Eigen::Vector3d::Zero();
+    for (unsigned i = 0; i < X.size(); ++i)
+      {
+        const Eigen::Vector3d r = Eigen::Vector3d(X[i][0], X[i][1], X[i][2]) + at(u, i) - c;
+        J += vertex_volume[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+        L += vertex_volume[i] * r.cross(at(v, i) - vc);
+      }
+    const Eigen::Vector3d w = J.ldlt().solve(L);
+    Tensor<1, 3>          out;
+    for (unsigned a = 0; a < 3; ++a)
+      out[a] = w(a);
+    return out;
+  }
+
   bool
   NonlinearElasticity::Impl::assemble(const Vector<double> &u, Vector<double> &f_int,
                                        SparseMatrix<double> *K, const bool constrained,
@@ -270,7 +302,8 @@ namespace irdm::fem
   NonlinearElasticity::Impl::damping_force(const Vector<double> &u, const Vector<double> &v,
                                            Vector<double> &f_d, SparseMatrix<double> *D,
                                            SparseMatrix<double> *D_u,
-                                           const Tensor<2, 3> &frame) const
+                                           const Tensor<2, 3> &frame,
+                                           const Tensor<1, 3> &frame_spin) const
   {
     if (linear.scene.small_strain_law && D_u)
       {
@@ -292,6 +325,11 @@ namespace irdm::fem
       *D = 0;
     if (D_u)
       *D_u = 0;
+    // [w_b]x, w_b = R^T frame_spin: the frame's spin in its own axes.
+    const Tensor<1, 3> w_b = transpose(frame) * frame_spin;
+    Tensor<2, 3>       spin_b;
+    spin_b[0][1] = -w_b[2], spin_b[0][2] = w_b[1], spin_b[1][0] = w_b[2];
+    spin_b[1][2] = -w_b[0], spin_b[2][0] = -w_b[1], spin_b[2][1] = w_b[0];
     const size_t n_cells = R.dofs.size() / n_dofs;
     for (size_t c = 0; c < n_cells; ++c)
       {
@@ -307,7 +345,9 @@ namespace irdm::fem
         for (unsigned q = 0; q < n_q; ++q)
           {
             const Tensor<2, 3> F = L.scene.small_strain_law ? frame : identity() + grad_u[q];
-            const Tensor<2, 3> FtG   = transpose(F) * grad_v[q];
+            Tensor<2, 3> FtG = transpose(F) * grad_v[q];
+            if (L.scene.small_strain_law) // the frame's turn is not a strain rate
+              FtG -= spin_b * (transpose(F) * (identity() + grad_u[q]));
             const Tensor<2, 3> E_dot = 0.5 * (FtG + transpose(FtG));
             const Tensor<2, 3> S = lambda * trace(E_dot) * Tensor<2, 3>(unit_symmetric_tensor<3>()) +
                                    2 * mu * E_dot;

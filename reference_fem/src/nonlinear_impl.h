@@ -46,6 +46,13 @@ namespace irdm::fem
     Tensor<2, 3>
     body_rotation(const Vector<double> &u) const;
 
+    /// The angular velocity (rad/s, world) of the body at displacement u and velocity v that
+    /// carries its angular momentum about the centre, with the same lumped vertex weights:
+    /// J^-1 sum_v m_v (x_v - c) x (v_v - v_c), J the weights' inertia tensor at x. To first
+    /// order in the deformation it is the rate of body_rotation's frame.
+    Tensor<1, 3>
+    body_angular_velocity(const Vector<double> &u, const Vector<double> &v) const;
+
     static Tensor<2, 3>
     identity()
     {
@@ -62,11 +69,17 @@ namespace irdm::fem
     /// its quadratic rate only to the extent the skew part is small). The small-strain law
     /// keeps K0 v exactly (F = I, no dependence on u).
     /// Scene::body_frame_law: F = R (`frame`) in place of I, so that the body's spin as a
-    /// whole is not damped either.
+    /// whole is not damped either, and the strain rate is that of the law's own strain,
+    /// e = sym(R^T F) - I, with the frame turning at `frame_spin` (rad/s, world):
+    /// de/dt = sym(R^T grad v) - sym([w_b]x R^T F), w_b = R^T frame_spin. Without the second
+    /// term a deformed body's spin would be damped (sym([w_b]x grad u)), which the linear
+    /// theory's beta K q' of the body-frame displacement has not. Its dependence on u is left
+    /// out of D_u (it is beta |w| against the stiffness).
     void
     damping_force(const Vector<double> &u, const Vector<double> &v, Vector<double> &f_d,
                   SparseMatrix<double> *D, SparseMatrix<double> *D_u = nullptr,
-                  const Tensor<2, 3> &frame = identity()) const;
+                  const Tensor<2, 3> &frame = identity(),
+                  const Tensor<1, 3> &frame_spin = Tensor<1, 3>()) const;
 
     /// Penalty contact of the scene's planes at time t on the body displaced by u: sets f_c
     /// (force on the body) and, if K is given, adds the penalty tangent

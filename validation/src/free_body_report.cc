@@ -60,7 +60,8 @@ namespace irdm::validation::free_body
     free_rows(const FreeStudy &s, std::ostringstream &csv, std::ostringstream &md)
     {
       csv << "case,material,method,com_error,angle_error_deg,force_error,impulse_error,"
-             "deformation_error,irdm_us_per_step,fem_ms_per_step,stable\n";
+             "deformation_error,irdm_us_per_step,fem_ms_per_step,stable,method_force_error,"
+             "method_impulse_error,method_deformation_error\n";
       for (const Row &r : s.rows)
         {
           if (r.impact_speed > 0)
@@ -69,13 +70,14 @@ namespace irdm::validation::free_body
           md << "| " << r.c << " | " << material_name(r.E) << " | " << r.method;
           if (!r.fem_failed.empty())
             {
-              csv << "nan,nan,nan,nan,nan,nan,nan,fem_failed\n";
+              csv << "nan,nan,nan,nan,nan,nan,nan,fem_failed,nan,nan,nan\n";
               md << " | the FEM failed: " << r.fem_failed << " ||||||||||\n";
               continue;
             }
           csv << r.com_error << ',' << r.angle_error << ',' << r.force_error << ','
               << r.impulse_error << ',' << r.deformation_error << ',' << r.irdm_us << ','
-              << r.fem_ms << ',' << (r.stable ? "yes" : "no") << '\n';
+              << r.fem_ms << ',' << (r.stable ? "yes" : "no") << ',' << r.method_force_error << ','
+              << r.method_impulse_error << ',' << r.method_deformation_error << '\n';
           md << " | " << r.com_error << " | " << r.angle_error << " | " << r.force_error << " | "
              << r.impulse_error << " | " << r.peak_ratio << " | " << r.deformation_error << " | "
              << r.rotation_deg << " / " << r.turned_deg << " | " << r.centrifugal << " | "
@@ -239,7 +241,9 @@ namespace irdm::validation::free_body
         << (o.surface_modes ? " --surface-modes " + std::to_string(o.surface_modes) : std::string())
         << (o.small_strain ? "" : " --no-small-strain")
         << (o.small_strain && !o.body_frame ? " --linear-law linear" : "")
-        << (o.centrifugal ? " --centrifugal" : "") << (o.deformed_inertia ? " --deformed-inertia" : "");
+        << (o.centrifugal ? " --centrifugal" : "") << (o.deformed_inertia ? " --deformed-inertia" : "")
+        << (o.frame_forces ? " --frame-forces" : "")
+        << (o.frame_forces && o.frame_modes > 0 ? " --frame-modes " + std::to_string(o.frame_modes) : "");
       return c.str();
     }
 
@@ -263,6 +267,7 @@ namespace irdm::validation::free_body
               {"vdof_length", std::to_string(o.vdof_length)},
               {"centrifugal", o.centrifugal ? "1" : ""},
               {"deformed_inertia", o.deformed_inertia ? "1" : ""},
+              {"frame_forces", o.frame_forces ? "1" : ""},
               {"small_strain", o.small_strain ? "1" : ""},
               {"body_frame", o.body_frame ? "1" : ""},
               {"truth_check", o.truth_check ? "1" : ""},

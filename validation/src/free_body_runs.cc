@@ -578,6 +578,9 @@ namespace irdm::validation::free_body
         {
           LinearizationRow against = linearization_row(m, c, method, linear_fem_name(m.o));
           against.errors           = compare(*c.small_strain, run, m.c0, c.first_begin, c.first_end);
+          row.method_force_error       = against.errors.force;
+          row.method_impulse_error     = against.errors.impulse;
+          row.method_deformation_error = against.errors.deformation;
           study.linearization.push_back(against);
         }
       row.peak_ratio  = peak_i / std::max(peak_f, 1e-300);
@@ -609,6 +612,8 @@ namespace irdm::validation::free_body
       fo.gravity          = k.gravity ? Eigen::Vector3d(-9.81 * k.up) : Eigen::Vector3d::Zero();
       fo.centrifugal      = m.o.centrifugal;
       fo.deformed_inertia = m.o.deformed_inertia;
+      fo.euler = fo.spin_softening = fo.coriolis = m.o.frame_forces;
+      fo.frame_modes = m.o.frame_modes;
       std::vector<unsigned> identity(m.rest.size());
       for (unsigned v = 0; v < identity.size(); ++v)
         identity[v] = v;
@@ -625,6 +630,7 @@ namespace irdm::validation::free_body
           FreeBodyOptions vo  = fo;
           vo.centrifugal      = false;
           vo.deformed_inertia = false;
+          vo.euler = vo.spin_softening = vo.coriolis = false;
           FreeBodyVirtualDofs irdm(*m.vdof, vo);
           run_method(irdm, vdof_method, m.vdof_order, m, c, vo.gravity, study, log);
         }

@@ -112,6 +112,9 @@ namespace irdm::validation::free_body
     // without, after it): before the paths can part at a later bounce.
     double first_start = 0, first_end = 0, first_force_error = 0, first_impulse_error = 0,
            first_deformation_error = 0;
+    // Against the linear FEM over the whole run (the method's own error); NaN: not run.
+    double method_force_error = std::nan(""), method_impulse_error = std::nan(""),
+           method_deformation_error = std::nan("");
   };
 
   /// One row of linearization.csv: a run against a reference over the first contact and the

@@ -200,6 +200,7 @@ namespace irdm
     // the spin softening and the Coriolis force (need /modes/inertial_coupling;
     // docs/free-body.md).
     bool euler = false, spin_softening = false, coriolis = false;
+    unsigned frame_modes = 0; // the lowest modes they act on; 0: every one the model holds
     // Virtual DOFs: blend the dome's orientations around a plane's normal instead of taking
     // the nearest.
     bool interpolate_orientations = false;

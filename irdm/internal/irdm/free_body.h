@@ -94,6 +94,9 @@ namespace irdm
     // angular acceleration, the spin softening, the Coriolis force. Need a model with
     // /modes/inertial_coupling (dense route); the constructor refuses one without.
     bool euler = false, spin_softening = false, coriolis = false;
+    // The lowest modes they act on (9 frame_modes^2 multiply-adds per step); 0: every mode
+    // whose couplings the model holds (within the force loop's).
+    unsigned frame_modes = 0;
     bool
     frame_forces() const
     {

@@ -172,8 +172,9 @@ namespace irdm
     /// motion of set_frame_motion, and takes them as a known load of the step, in the history
     /// the contact solve reads. Returns false (and changes nothing) if a term is asked of a
     /// model without the couplings.
+    /// `modes`: on the lowest that many of them only (0: every one the model holds).
     bool
-    set_frame_forces(bool euler, bool spin_softening, bool coriolis);
+    set_frame_forces(bool euler, bool spin_softening, bool coriolis, unsigned modes = 0);
     /// Before the first step: the spin's centrifugal load (set_spin's) acts from t = 0, as the
     /// FEM's balance at t = 0 has it (a body that starts spinning is loaded at once): the
     /// state's acceleration and the previous step's force take it. Without it the first step

@@ -60,6 +60,11 @@ namespace irdm::validation
     // The modal routes' rigid body takes the deformed body's inertia (FreeBodyOptions::
     // deformed_inertia): with `centrifugal`, spin and stretch exchange energy and create none.
     bool     deformed_inertia = false;
+    // The modal routes take the moving frame's other forces on the deformation too: the Euler
+    // force, the spin softening and the Coriolis force (FreeBodyOptions::euler, ...; the
+    // models' /modes/inertial_coupling; docs/free-body.md).
+    bool     frame_forces = false;
+    unsigned frame_modes  = 0; // the lowest modes they act on (0: every one the model holds)
     // The impact study: the upright cat moving at these speeds (m/s) onto the floor, gravity
     // off (impact.csv). Runs in a full run, or with only_cases holding "impact"; empty: not run.
     // The last two are the impact speeds of the 2 and 5 cm drops, sqrt(2 g h).
