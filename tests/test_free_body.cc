@@ -1534,3 +1534,38 @@ TEST(FreeBodyRuntime, FreeBeamHitWhileSpinningAgreesWithTheBodyFrameFem)
   EXPECT_GT(none.deformation, 0.5);
   EXPECT_GT(none.force, 30 * all.force);
 }
+
+// A deformation too large for the first-order deformed inertia (FreeBodyOptions::
+// deformed_inertia): a moment of I0 + dI(u) would not be positive, and the step would be
+// refused, every step after it too (the deformation stays). The step takes the largest share
+// of dI that keeps the moments positive instead, and counts it. Stood in for by the free beam
+// with its centrifugal data scaled up (dI and the centrifugal load grow with it): every step is
+// taken, some limited; the beam as it is limits none.
+TEST(FreeBodyRuntime, ADeformationTooLargeForTheFirstOrderInertiaIsLimitedNotRefused)
+{
+  const auto limited = [](const irdm::ModalModel &m) {
+    irdm::FreeBodyOptions o;
+    o.gravity     = Eigen::Vector3d::Zero();
+    o.centrifugal = o.deformed_inertia = true;
+    irdm::FreeBodyInteraction body(m, o);
+    body.rigid().set_velocity(Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 10));
+    unsigned refused = 0;
+    for (int n = 0; n < 200; ++n)
+      {
+        g_allocations = 0;
+        refused += !body.step(nullptr, 0);
+        EXPECT_EQ(g_allocations, 0);
+      }
+    EXPECT_EQ(refused, 0u);
+    EXPECT_TRUE(body.rigid().state().angular_momentum.allFinite());
+    EXPECT_TRUE(std::isfinite(body.energy()));
+    return body.limited_steps();
+  };
+  irdm::ModalModel strong = free_beam_modal();
+  for (double &c : strong.centrifugal_load)
+    c *= 30;
+  EXPECT_EQ(limited(free_beam_modal()), 0u);
+  const unsigned long n = limited(strong);
+  std::printf("centrifugal data x 30: %lu of 200 steps with a limited deformed inertia\n", n);
+  EXPECT_GT(n, 0u);
+}

@@ -45,8 +45,8 @@ namespace irdm::cli
     validate_free->add_option("--fem-divisions", vfb->fem_divisions,
                               "the truth's step: the nonlinear FEM runs at tau / M, sampled at "
                               "tau; one M for every material, or one per material of "
-                              "--materials (the default: 4 for 2 kPa, 1 for 50 kPa)")
-      ->capture_default_str()
+                              "--materials (default: 4 below 10 kPa, where the soft truth at "
+                              "tau gains energy, else 1)")
       ->delimiter(',')
       ->check(CLI::Range(1u, 64u));
     validate_free->add_option("--duration", vfb->duration, "seconds per case")
@@ -131,7 +131,13 @@ namespace irdm::cli
     validate_free->add_flag("--reuse-models", vfb->reuse_models,
                             "take a virtual-DOF model already in --model-dir instead of "
                             "precomputing it (it must be of the same scene and material)");
-    return {validate_free, [vfb] {
+    return {validate_free, [vfb, validate_free] {
+               if (validate_free->count("--fem-divisions") == 0)
+                 {
+                   vfb->fem_divisions.clear();
+                   for (const double E : vfb->materials)
+                     vfb->fem_divisions.push_back(E < 1e4 ? 4 : 1);
+                 }
                irdm::check_output_folder("--out", vfb->report_dir);
                vfb->plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_free.py";
                irdm::validation::run_free_body_validation(*vfb, std::cout);

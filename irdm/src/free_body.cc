@@ -199,8 +199,19 @@ namespace irdm
     // in the rigid step and in its compliance.
     if (options_.deformed_inertia)
       {
-        if (!rigid_.set_inertia(undeformed_inertia_ + deformation_.inertia_change()))
-          return false;
+        // A deformation too large for the first-order inertia (a moment that is not
+        // positive) takes the largest share of its inertia change, halved until every moment
+        // is, so that the step is limited rather than refused; such steps are counted.
+        const Eigen::Matrix3d change = deformation_.inertia_change();
+        inertia_share_               = 1;
+        int halvings                 = 0;
+        while (!rigid_.set_inertia(undeformed_inertia_ + inertia_share_ * change))
+          {
+            if (inertia_share_ == 0)
+              return false; // the undeformed inertia itself refused: not a body
+            inertia_share_ = ++halvings < 30 ? 0.5 * inertia_share_ : 0;
+          }
+        limited_steps_ += inertia_share_ < 1;
         compliance_ = rigid_.step_compliance(tau_);
       }
     if (!started_) // the spin of the initial state loads the deformation from t = 0
@@ -268,7 +279,7 @@ namespace irdm
     // of the deformation now.
     const RigidBodyState &s = rigid_.state();
     const Eigen::Vector3d L = rigid_.rotation().transpose() * s.angular_momentum; // model frame
-    const Eigen::Matrix3d I = undeformed_inertia_ + deformation_.inertia_change();
+    const Eigen::Matrix3d I = undeformed_inertia_ + inertia_share_ * deformation_.inertia_change();
     return 0.5 * s.linear_momentum.squaredNorm() / rigid_.inertia().mass +
            0.5 * L.dot(I.ldlt().solve(L)) + deformation_.elastic_energy();
   }

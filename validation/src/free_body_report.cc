@@ -207,7 +207,7 @@ namespace irdm::validation::free_body
         else
           md << "| " << r.run << " | " << material_name(r.E) << " | " << r.method << " | "
              << r.growth << " | " << r.turned << " | " << r.final_growth << " | " << r.failed
-             << " | " << r.deepest << " | " << r.us << " |\n";
+             << " (" << r.limited << ") | " << r.deepest << " | " << r.us << " |\n";
       return md.str();
     }
 

@@ -155,6 +155,7 @@ namespace irdm::validation::free_body
     double      E = 0, growth = 0, turned = 0, final_growth = 0, deepest = 0, us = 0;
     unsigned    failed = 0;
     bool        flight = false;
+    unsigned long limited = 0; // steps whose deformed inertia was limited (FreeBody::limited_steps)
   };
 
   /// A free flight's conservation: what the report lists.

@@ -67,7 +67,8 @@ namespace irdm::validation::free_body
                               << turned << ',' << active << ',' << below << '\n';
         }
       study.stability.push_back({"rolling, " + plain(m.o.stability_seconds) + " s", method, m.E, growth, turned, watch.growth(),
-                                 1e3 * deepest, 1e6 * seconds / steps, failed, false});
+                                 1e3 * deepest, 1e6 * seconds / steps, failed, false,
+                                 irdm.limited_steps()});
       log << "validate-free: " << m.o.stability_seconds << " s rolling, " << method
           << ": largest energy gain " << growth << " of the energy brought in, turned " << turned
           << " deg, " << failed << " failed steps" << std::endl;

@@ -340,6 +340,14 @@ namespace irdm
     {
       return tau_;
     }
+    /// Steps whose deformed inertia (FreeBodyOptions::deformed_inertia) was limited: the
+    /// deformation was too large for the first-order inertia to keep every moment positive,
+    /// so the step took the largest share of the inertia change that did (halving it).
+    unsigned long
+    limited_steps() const
+    {
+      return limited_steps_;
+    }
 
   private:
     FreeBodyOptions                                  options_;
@@ -358,6 +366,8 @@ namespace irdm
     // step's end; started_inertia_: it is set.
     Eigen::Matrix3d previous_inertia_ = Eigen::Matrix3d::Zero();
     bool            started_inertia_  = false;
+    double          inertia_share_    = 1; // of the deformed inertia's change, this step
+    unsigned long   limited_steps_    = 0;
   };
 
   using FreeBodyInteraction = FreeBody<ModalDeformation>;
