@@ -608,12 +608,8 @@ namespace irdm::validation::free_body
       for (unsigned step = 1; step <= c.n; ++step)
         if (is_frame(c, step))
           write_frame(study, m, c, "fem", step, c.fem_x[step]);
-      FreeBodyOptions fo;
+      FreeBodyOptions fo  = spin_options(m.o);
       fo.gravity          = k.gravity ? Eigen::Vector3d(-9.81 * k.up) : Eigen::Vector3d::Zero();
-      fo.centrifugal      = m.o.centrifugal;
-      fo.deformed_inertia = m.o.deformed_inertia;
-      fo.euler = fo.spin_softening = fo.coriolis = m.o.frame_forces;
-      fo.frame_modes = m.o.frame_modes;
       std::vector<unsigned> identity(m.rest.size());
       for (unsigned v = 0; v < identity.size(); ++v)
         identity[v] = v;
@@ -733,5 +729,15 @@ namespace irdm::validation::free_body
     for (const Case &k : chosen_cases(o))
       run_case(m, k, study, log);
     run_stability(m, study, log);
+  }
+  FreeBodyOptions
+  spin_options(const FreeBodyValidationOptions &o)
+  {
+    FreeBodyOptions fo;
+    fo.centrifugal      = o.centrifugal;
+    fo.deformed_inertia = o.deformed_inertia;
+    fo.euler = fo.spin_softening = fo.coriolis = o.frame_forces;
+    fo.frame_modes                              = o.frame_modes;
+    return fo;
   }
 } // namespace irdm::validation::free_body

@@ -286,4 +286,9 @@ namespace irdm::validation::free_body
   /// flight for 10 s (free_body_stability.cc).
   void
   run_stability(const Material &m, FreeStudy &study, std::ostream &log);
+
+  /// The modal routes' runtime options from the study's: the spin's terms it asks for (no
+  /// gravity), the same in every run (the cases, the rolls, the free flights).
+  FreeBodyOptions
+  spin_options(const FreeBodyValidationOptions &o);
 } // namespace irdm::validation::free_body

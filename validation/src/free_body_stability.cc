@@ -81,9 +81,7 @@ namespace irdm::validation::free_body
     void
     fly_free(const Material &m, const bool coupled, FreeStudy &study)
     {
-      FreeBodyOptions fo;
-      fo.centrifugal      = coupled && m.o.centrifugal;
-      fo.deformed_inertia = coupled && m.o.deformed_inertia;
+      const FreeBodyOptions fo = coupled ? spin_options(m.o) : FreeBodyOptions{};
       FreeBodyInteraction   irdm(m.frame(), fo);
       const Eigen::Vector3d v0(0.3, -0.2, 1.0), w0(3, 8, -5);
       irdm.rigid().set_velocity(v0, w0);
@@ -105,11 +103,13 @@ namespace irdm::validation::free_body
         !coupled ? ""
         : fo.centrifugal && fo.deformed_inertia ? ", with the centrifugal force and the deformed inertia"
         : fo.centrifugal                        ? ", with the centrifugal force"
-                                                : ", with the deformed inertia";
-      study.stability.push_back({"free flight, 10 s" + what,
+        : fo.deformed_inertia                   ? ", with the deformed inertia"
+                                                : "";
+      const std::string frame = coupled && fo.frame_forces() ? " and the frame's forces" : "";
+      study.stability.push_back({"free flight, 10 s" + what + frame,
                                  coupled ? m.models.back().method : "either (no contact)", m.E,
                                  growth, 0, 0, 0, 0, 0, true});
-      study.free_flight.push_back({material_name(m.E), what, dp, dL, growth,
+      study.free_flight.push_back({material_name(m.E), what + frame, dp, dL, growth,
                                    irdm.deformation().elastic_energy()});
     }
   } // namespace
@@ -120,10 +120,7 @@ namespace irdm::validation::free_body
     for (size_t r = 0; r < m.models.size() && m.floor_penalty > 0; ++r)
       if (!m.models[r].impact_study_only)
         {
-          FreeBodyOptions fo;
-          fo.centrifugal      = m.o.centrifugal;
-          fo.deformed_inertia = m.o.deformed_inertia;
-          FreeBodyInteraction irdm(m.models[r].model, fo);
+          FreeBodyInteraction irdm(m.models[r].model, spin_options(m.o));
           roll_for_long(irdm, m.models[r].method.c_str(), m, study, log);
         }
     if (m.vdof && m.floor_penalty > 0)
@@ -132,7 +129,7 @@ namespace irdm::validation::free_body
         roll_for_long(irdm, vdof_method, m, study, log);
       }
     for (const bool coupled : {false, true})
-      if (!coupled || m.o.centrifugal || m.o.deformed_inertia)
+      if (!coupled || m.o.centrifugal || m.o.deformed_inertia || m.o.frame_forces)
         fly_free(m, coupled, study);
   }
 } // namespace irdm::validation::free_body
