@@ -76,6 +76,16 @@ def free_headline(folder):
             f"{span(route2)}; linear elasticity itself {span(linear)}")
 
 
+def free_frame_headline(folder):
+    lin = [r for r in rows(os.path.join(folder, "linearization.csv"))
+           if r["material"] == "50kPa" and r["reference"].startswith("fem_linear")
+           and r["method"] == "route2_modal"]
+    force = [float(r["first_force_error"]) for r in lin]
+    deformation = [float(r["first_deformation_error"]) for r in lin]
+    return (f"50 kPa, first contact: route 2 (every mode, every frame force) against the "
+            f"body-frame linear FEM, force {span(force)}, deformation {span(deformation)}")
+
+
 def converged_headline(folder):
     data = rows(os.path.join(folder, "converged.csv"))
     method = [float(r["method_force_error"]) for r in data if r["discretization"] == "converged"]
@@ -147,6 +157,11 @@ STUDIES = [
      "planes/planes.png", planes_headline,
      PLANES),
     ("Free bodies against the nonlinear FEM", "free/report.md", "free/impact.png", free_headline,
+     RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/impulse_response*",
+                "validation/src/free_body_*", "validation/src/metrics.h",
+                "validation/templates/free.md"]),
+    ("Free bodies with every frame force (50 kPa)", "free-frame/report.md", "free-frame/impact.png",
+     free_frame_headline,
      RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/impulse_response*",
                 "validation/src/free_body_*", "validation/src/metrics.h",
                 "validation/templates/free.md"]),
