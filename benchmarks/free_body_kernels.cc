@@ -13,6 +13,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "time_collector.h"
+
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -51,20 +53,6 @@ namespace
         benchmark::ClobberMemory();
       }
   }
-
-  class Collector : public benchmark::ConsoleReporter
-  {
-  public:
-    std::vector<std::pair<std::string, double>> rows; // name, us per step
-    void
-    ReportRuns(const std::vector<Run> &runs) override
-    {
-      for (const auto &r : runs)
-        if (r.run_type == Run::RT_Iteration && !r.error_occurred)
-          rows.emplace_back(r.benchmark_name(), r.GetAdjustedRealTime());
-      ConsoleReporter::ReportRuns(runs);
-    }
-  };
 } // namespace
 
 int
@@ -105,13 +93,13 @@ main(int argc, char **argv)
   for (const auto &v : variants)
     benchmark::RegisterBenchmark(v.name.c_str(), [v](benchmark::State &s) { run(s, v); })
       ->Unit(benchmark::kMicrosecond);
-  Collector collector;
+  irdm_bench::TimeCollector collector;
   benchmark::RunSpecifiedBenchmarks(&collector);
   std::printf("\nfree-body step, K = %u of %u modes, couplings held for %u: ratio to '%s'\n",
               g_modal->force_modes, g_modal->n_modes, g_modal->inertial_modes,
               variants[0].name.c_str());
-  for (const auto &[name, us] : collector.rows)
+  for (const auto &[name, us] : collector.times)
     std::printf("  %-45s %8.2f us  %.3f\n", name.c_str(), us,
-                collector.rows.empty() ? 0.0 : us / collector.rows[0].second);
+                collector.times.empty() ? 0.0 : us / collector.times[0].second);
   return 0;
 }

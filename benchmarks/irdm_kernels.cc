@@ -18,6 +18,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "time_collector.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -89,21 +91,6 @@ namespace
         benchmark::ClobberMemory();
       }
   }
-
-  // Collects each benchmark's real time per iteration, for the ratio table.
-  class Collector : public benchmark::ConsoleReporter
-  {
-  public:
-    std::vector<std::pair<std::string, double>> times; // name, ns
-    void
-    ReportRuns(const std::vector<Run> &runs) override
-    {
-      for (const auto &r : runs)
-        if (r.run_type == Run::RT_Iteration)
-          times.emplace_back(r.benchmark_name(), r.GetAdjustedRealTime());
-      ConsoleReporter::ReportRuns(runs);
-    }
-  };
 } // namespace
 
 int
@@ -217,7 +204,7 @@ main(int argc, char **argv)
                   cold);
         }
     }
-  Collector collector;
+  irdm_bench::TimeCollector collector;
   benchmark::RunSpecifiedBenchmarks(&collector);
 
   // Each group's baseline: the direct convolution, or for the product the portable kernel
