@@ -67,9 +67,9 @@ namespace irdm::cli
     validate_planes->add_flag("!--no-direct", vp->direct,
                               "skip vertex_contact_direct (its H needs GBs of memory)");
     validate_planes->add_option("--perturbations", vp->perturbations,
-                                "runs of every method with the walls' penetration scaled by "
-                                "1 +- 1, 2, ... parts per million, for the range of each error "
-                                "(spread.csv; 0: none)")
+                                "runs of every method with the walls' penetration, speed or "
+                                "stiffness scaled by 1 + eps, eps = +-1e-6 or +-1e-3 in turn, for "
+                                "the range of each error (spread.csv; 0: none)")
       ->capture_default_str()
       ->check(CLI::Range(0u, 1000u));
     validate_planes->add_flag("--quick", vp->quick,

@@ -404,10 +404,17 @@ namespace irdm::validation::planes
       return sweep;
     }
 
-    /// Every method again with the walls' penetration scaled by 1 + eps, eps a few parts per
-    /// million either way: a figure that moves under so small a change is decided by round-off
-    /// (unilateral contact chatters, and the order of touches follows the last bits), so its
-    /// range is reported with it. The truth is not run again: it moves by parts per million.
+    /// Every method again under small perturbations of the scene. A figure that moves under
+    /// so small a change is not decided by the scene: a unilateral contact that chatters
+    /// follows the order of its touches, and a wall that creeps in can leave the body in
+    /// steady contact or in a bouncing cycle, which of the two the last bits decide (another
+    /// CPU's BLAS kernels in the precompute switch it). Perturbation i scales, by 1 + eps,
+    /// the walls' penetration (i % 3 = 0), the time of the walls' motion, that is their speed
+    /// (1), or the vertex contact's wall stiffness (2); eps = +-1e-6 or +-1e-3 in turn, so that
+    /// both the round-off's scale and a change that moves a figure decided by the scene by a
+    /// thousandth are tried. The truth is not run again: it moves by as little. The time is
+    /// scaled by 1e-6 only: by 1e-3 it would move the release by a third of a millisecond,
+    /// which a force error measured sample by sample against the truth's does feel.
     void
     run_perturbed(Row &row, const Truth &truth, const PlaneValidationOptions &o,
                   const std::vector<unsigned> &fem_order)
@@ -418,26 +425,34 @@ namespace irdm::validation::planes
             m.displacement_range.add(m.displacement_error);
       for (unsigned i = 0; i < o.perturbations; ++i)
         {
-          const double eps = (i % 2 ? -1.0 : 1.0) * (1 + i / 2) * 1e-6;
-          Case         c   = truth.c;
-          for (double &p : c.penetration)
-            p *= 1 + eps;
+          const unsigned kind = i % 3, size = i / 3;
+          const double   eps  = (size % 2 ? -1.0 : 1.0) * (size / 2 % 2 && kind != 1 ? 1e-3 : 1e-6);
+          Case           c    = truth.c;
+          double         k    = row.vertex_stiffness;
+          if (kind == 0)
+            for (double &p : c.penetration)
+              p *= 1 + eps;
+          else if (kind == 1)
+            for (double &t : c.times)
+              t *= 1 + eps;
+          else
+            k *= 1 + eps;
           const Truth  t{c, truth.models, truth.tau, truth.scene, truth.N, truth.run, truth.u_max};
           std::array<MethodResult, method_names.size()> m;
           run_virtual_dofs(m[0], t, row, OrientationMapping::nearest, 0);
           run_virtual_dofs(m[1], t, row, OrientationMapping::interpolated, 0);
-          run_vertex_modal(m[2], t, row, row.vertex_stiffness, fem_order);
+          run_vertex_modal(m[2], t, row, k, fem_order);
           if (o.direct)
             {
               PointInteraction run(t.models.vertex, 0, t.models.contact);
-              run_vertex_contact(run, m[3], t, row, row.vertex_stiffness, fem_order);
+              run_vertex_contact(run, m[3], t, row, k, fem_order);
             }
-          for (size_t k = 0; k < m.size(); ++k)
-            if (m[k].ran)
+          for (size_t j = 0; j < m.size(); ++j)
+            if (m[j].ran)
               {
-                row.method[k].force_range.add(m[k].force_error);
-                row.method[k].impulse_range.add(m[k].impulse_error);
-                row.method[k].displacement_range.add(m[k].displacement_error);
+                row.method[j].force_range.add(m[j].force_error);
+                row.method[j].impulse_range.add(m[j].impulse_error);
+                row.method[j].displacement_range.add(m[j].displacement_error);
               }
         }
     }

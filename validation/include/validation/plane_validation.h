@@ -38,9 +38,10 @@ namespace irdm::validation
     std::vector<double>      stiffness_sweep = {0, 10, 30, 100, 300, 1000, 3000, 10000, 100000};
     std::vector<std::string> sweep_cases     = {"press_side_5mm", "press_top_5mm",
                                                 "impact_side_100mm_s", "slide_side_5mm"};
-    // Each method's run again with the walls' penetration scaled by 1 + eps, eps = +-1, +-2,
-    // ... parts per million, this many times: the range of each error is reported beside it.
-    unsigned    perturbations = 8;
+    // Each method's run again this many times with the walls' penetration, their speed or
+    // their stiffness scaled by 1 + eps, eps = +-1e-6 or +-1e-3 (plane_runs.cc): the range
+    // of each error is reported beside it.
+    unsigned    perturbations = 12;
     std::string plot_script;        // python script for the charts; "" skips charts
     // Fewer depths and speeds (every kind of case and the sweep's cases kept): the main job's
     // default, within its 10-minute budget.
