@@ -29,6 +29,7 @@ namespace
     std::string name;
     bool        spin = false, frame = false; // centrifugal + deformed inertia; frame forces
     unsigned    frame_modes = 0;
+    bool        momentum    = false; // the deformation's momentum in the rigid body
   };
 
   void
@@ -39,6 +40,7 @@ namespace
     o.centrifugal = o.deformed_inertia = v.spin;
     o.euler = o.spin_softening = o.coriolis = v.frame;
     o.frame_modes                           = v.frame_modes;
+    o.deformation_momentum                  = v.momentum;
     irdm::FreeBodyInteraction body(*g_modal, o);
     body.rigid().set_velocity(Eigen::Vector3d::Zero(), Eigen::Vector3d(3, 8, -5));
     for (int n = 0; n < 200; ++n)
@@ -90,6 +92,7 @@ main(int argc, char **argv)
     variants.push_back({"+ frame forces on " + (r ? std::to_string(r) : std::string("every held")) +
                           " modes",
                         true, true, r});
+  variants.push_back({"+ frame forces and momentum on 50 modes", true, true, 50, true});
   for (const auto &v : variants)
     benchmark::RegisterBenchmark(v.name.c_str(), [v](benchmark::State &s) { run(s, v); })
       ->Unit(benchmark::kMicrosecond);

@@ -124,8 +124,13 @@ namespace irdm::cli
                             "Coriolis forces into the deformation (the model's "
                             "/modes/inertial_coupling; docs/free-body.md); with --centrifugal "
                             "and --deformed-inertia, the linear floating-frame theory");
+    validate_free->add_flag("--deformation-momentum", vfb->deformation_momentum,
+                            "the modal routes' rigid body takes the deformation's own angular "
+                            "momentum and, with --deformed-inertia, the inertia's second-order "
+                            "change (the model's /modes/inertial_coupling, on --frame-modes; "
+                            "docs/free-body.md)");
     validate_free->add_option("--frame-modes", vfb->frame_modes,
-                              "with --frame-forces: the lowest modes they act on (9 N^2 "
+                              "with --frame-forces or --deformation-momentum: the lowest modes they act on (9 N^2 "
                               "multiply-adds per step; default: every mode whose couplings the "
                               "model holds, irdm precompute --inertial-modes)");
     validate_free->add_flag("--reuse-models", vfb->reuse_models,

@@ -46,9 +46,11 @@ namespace irdm
       throw InputError("free body: the centrifugal force and the deformed inertia need a model "
                        "with /modes/centrifugal_load (irdm precompute's dense route, this version)");
     if (!interaction_.set_frame_forces(options.euler, options.spin_softening, options.coriolis,
-                                       options.frame_modes))
-      throw InputError("free body: the Euler, spin-softening and Coriolis forces need a model "
-                       "with /modes/inertial_coupling (irdm precompute's dense route, this version)");
+                                       options.frame_modes) ||
+        (options.deformation_momentum && model.inertial_modes == 0))
+      throw InputError("free body: the Euler, spin-softening and Coriolis forces and the "
+                       "deformation's momentum need a model with /modes/inertial_coupling "
+                       "(irdm precompute's dense route, this version)");
   }
 
   bool
@@ -106,7 +108,8 @@ namespace irdm
     : model_(model)
     , interaction_(model, options.mapping)
   {
-    if (options.centrifugal || options.deformed_inertia || options.frame_forces())
+    if (options.centrifugal || options.deformed_inertia || options.frame_forces() ||
+        options.deformation_momentum)
       throw InputError("free body: the virtual DOFs hold no mode shapes, so neither the "
                        "frame's inertial forces nor the deformed inertia can be taken in");
   }
@@ -196,14 +199,22 @@ namespace irdm
       if (forces[a].vertex >= deformation_.n_vertices() ||
           deformation_.input_vertex(forces[a].vertex) < 0 || !vec(forces[a].force).allFinite())
         return false;
+    // The deformation's own angular momentum and second-order inertia at the step's start;
+    // the rigid step holds h at the step's middle, extrapolated from the last two steps' (held
+    // at the start, its share of the turn would be first order in the step).
+    Eigen::Vector3d h  = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d I2 = Eigen::Matrix3d::Zero();
+    if (options_.deformation_momentum)
+      deformation_.second_order_momentum(h, I2);
+    rigid_.set_deformation_momentum(started_inertia_ ? Eigen::Vector3d(1.5 * h - 0.5 * previous_momentum_) : h);
     // The deformed body's inertia (its mass moved by the deformation at the step's start),
     // in the rigid step and in its compliance.
     if (options_.deformed_inertia)
       {
-        // A deformation too large for the first-order inertia (a moment that is not
+        // A deformation too large for the truncated inertia (a moment that is not
         // positive) takes the largest share of its inertia change, halved until every moment
         // is, so that the step is limited rather than refused; such steps are counted.
-        const Eigen::Matrix3d change = deformation_.inertia_change();
+        const Eigen::Matrix3d change = deformation_.inertia_change() + I2;
         inertia_share_               = 1;
         int halvings                 = 0;
         while (!rigid_.set_inertia(undeformed_inertia_ + inertia_share_ * change))
@@ -233,13 +244,15 @@ namespace irdm
       // spin at the step's end is that of the inertia there, extrapolated from the last two
       // steps' (the rigid step holds the step start's), so that the spin's loads on the
       // deformation do not lag it by a step.
-      Eigen::Matrix3d I = rigid_.inertia().inertia;
-      if (options_.deformed_inertia && started_inertia_)
-        I = 2 * I - previous_inertia_;
-      previous_inertia_ = rigid_.inertia().inertia;
-      started_inertia_  = options_.deformed_inertia;
-      const Eigen::Vector3d omega = I.ldlt().solve(R.transpose() * rigid_.state().angular_momentum);
-      deformation_.set_frame_motion(omega, I.ldlt().solve(contact_torque_ - omega.cross(I * omega)));
+      Eigen::Matrix3d I  = rigid_.inertia().inertia;
+      Eigen::Vector3d h1 = h;
+      if (started_inertia_)
+        I = 2 * I - previous_inertia_, h1 = 2 * h - previous_momentum_;
+      previous_inertia_  = rigid_.inertia().inertia;
+      previous_momentum_ = h;
+      started_inertia_   = options_.deformed_inertia || options_.deformation_momentum;
+      const Eigen::Vector3d omega = I.ldlt().solve(R.transpose() * rigid_.state().angular_momentum - h1);
+      deformation_.set_frame_motion(omega, I.ldlt().solve(contact_torque_ - omega.cross(I * omega + h1)));
     }
     for (int p = 0; p < n_planes; ++p)
       {
@@ -274,15 +287,23 @@ namespace irdm
   double
   FreeBody<Deformation>::energy() const
   {
-    if (!options_.deformed_inertia)
+    if (!options_.deformed_inertia && !options_.deformation_momentum)
       return rigid_.kinetic_energy() + deformation_.elastic_energy();
-    // The rigid body holds the inertia of the last step's start; the spin's energy is that
-    // of the deformation now.
+    // The rigid body holds the inertia and h of the last step's start; the spin's energy is
+    // that of the deformation now: 1/2 l^T I^-1 l - 1/2 h^T I^-1 h (RigidBody::kinetic_energy).
+    Eigen::Vector3d h;
+    Eigen::Matrix3d I2;
+    deformation_.second_order_momentum(h, I2);
+    if (!options_.deformation_momentum)
+      h.setZero(), I2.setZero();
     const RigidBodyState &s = rigid_.state();
-    const Eigen::Vector3d L = rigid_.rotation().transpose() * s.angular_momentum; // model frame
-    const Eigen::Matrix3d I = undeformed_inertia_ + inertia_share_ * deformation_.inertia_change();
+    const Eigen::Vector3d l = rigid_.rotation().transpose() * s.angular_momentum; // model frame
+    const Eigen::Matrix3d I =
+      options_.deformed_inertia ? Eigen::Matrix3d(undeformed_inertia_ + inertia_share_ * (deformation_.inertia_change() + I2))
+                                : rigid_.inertia().inertia;
+    const auto solve = I.ldlt();
     return 0.5 * s.linear_momentum.squaredNorm() / rigid_.inertia().mass +
-           0.5 * L.dot(I.ldlt().solve(L)) + deformation_.elastic_energy();
+           0.5 * l.dot(solve.solve(l)) - 0.5 * h.dot(solve.solve(h)) + deformation_.elastic_energy();
   }
 
   template <class Deformation>

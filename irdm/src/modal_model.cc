@@ -249,6 +249,7 @@ namespace irdm
     R_ = std::min(N_, model.inertial_modes);
     frame_load_.assign(R_, 0.0);
     frame_scratch_.assign(R_, 0.0);
+    momentum_scratch_.assign(R_, 0.0);
     force_now_.assign(model.n_inputs, 0.0);
     is_pushed_.assign(model.n_inputs, 0);
     pushed_.reserve(model.n_inputs);
@@ -477,6 +478,36 @@ namespace irdm
       for (int b = 0; b < 3; ++b)
         Q(a, b) = q(3 * a + b);
     return 2 * Q.trace() * Eigen::Matrix3d::Identity() - Q - Q.transpose();
+  }
+
+  void
+  ModalInteraction::second_order_momentum(Eigen::Vector3d &h, Eigen::Matrix3d &I2) const
+  {
+    h.setZero();
+    I2.setZero();
+    const Eigen::Index R = R_;
+    if (R == 0)
+      return;
+    using Block = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>,
+                             0, Eigen::OuterStride<>>;
+    const auto   stored = static_cast<Eigen::Index>(model_.inertial_modes);
+    const size_t block  = static_cast<size_t>(stored) * static_cast<size_t>(stored);
+    const Vec    q(xu_.data(), R), p(xv_.data(), R);
+    VecMut       z(momentum_scratch_.data(), R);
+    // S_ab = q^T J_ab q, T_ab = q'^T J_ab q.
+    Eigen::Matrix3d S, T;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        {
+          const Block J(&model_.inertial_coupling[static_cast<size_t>(3 * a + b) * block], R, R,
+                        Eigen::OuterStride<>(stored));
+          z.noalias() = J * q;
+          S(a, b) = q.dot(z);
+          T(a, b) = p.dot(z);
+        }
+    // h_a = q'^T G_a q with G_x = J_zy - J_yz (cyclic).
+    h = Eigen::Vector3d(T(2, 1) - T(1, 2), T(0, 2) - T(2, 0), T(1, 0) - T(0, 1));
+    I2 = S.trace() * Eigen::Matrix3d::Identity() - 0.5 * (S + S.transpose());
   }
 
   void

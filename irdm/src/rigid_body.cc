@@ -81,22 +81,27 @@ namespace irdm
   RigidBody::set_velocity(const Eigen::Vector3d &velocity, const Eigen::Vector3d &angular_velocity)
   {
     state_.linear_momentum = inertia_.mass * velocity;
-    // L = R I R^T omega
+    // L = R (I R^T omega + h)
     state_.angular_momentum =
-      rotation_ * (inertia_.inertia * (rotation_.transpose() * angular_velocity));
+      rotation_ * (inertia_.inertia * (rotation_.transpose() * angular_velocity) + deformation_momentum_);
   }
 
   Eigen::Vector3d
   RigidBody::angular_velocity() const
   {
-    return rotation_ * (inverse_inertia_ * (rotation_.transpose() * state_.angular_momentum));
+    return rotation_ * (inverse_inertia_ * (rotation_.transpose() * state_.angular_momentum -
+                                            deformation_momentum_));
   }
 
   double
   RigidBody::kinetic_energy() const
   {
+    // With l = R^T L and omega = I^-1 (l - h): 1/2 omega^T I omega + omega . h
+    // = 1/2 l^T I^-1 l - 1/2 h^T I^-1 h.
+    const Eigen::Vector3d l = rotation_.transpose() * state_.angular_momentum;
+    const Eigen::Vector3d h = deformation_momentum_;
     return 0.5 * state_.linear_momentum.squaredNorm() / inertia_.mass +
-           0.5 * state_.angular_momentum.dot(angular_velocity());
+           0.5 * l.dot(inverse_inertia_ * l) - 0.5 * h.dot(inverse_inertia_ * h);
   }
 
   Eigen::Matrix3d
@@ -117,9 +122,10 @@ namespace irdm
   RigidBody::rotate_about_principal_axis(const int axis, const double tau)
   {
     // The body-frame angular momentum's component along the axis is constant in this flow,
-    // so the flow is a rotation about the axis at the rate L_axis / I_axis.
+    // and h is held, so the flow is a rotation about the axis at the rate
+    // (L_axis - h_axis) / I_axis.
     const Eigen::Vector3d a      = axes_.col(axis);
-    const double          l_axis = a.dot(rotation_.transpose() * state_.angular_momentum);
+    const double          l_axis = a.dot(rotation_.transpose() * state_.angular_momentum - deformation_momentum_);
     const double          angle  = tau * l_axis / principal_(axis);
     state_.orientation = (state_.orientation * Eigen::Quaterniond(Eigen::AngleAxisd(angle, a)))
                            .normalized();

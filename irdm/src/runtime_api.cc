@@ -519,7 +519,8 @@ namespace irdm
       throw InputError("BodyOptions: contact_margin must be >= 0 m and max_contact_vertices > 0");
     if (!d.free_body)
       {
-        if (o.centrifugal || o.deformed_inertia || o.euler || o.spin_softening || o.coriolis)
+        if (o.centrifugal || o.deformed_inertia || o.euler || o.spin_softening || o.coriolis ||
+            o.deformation_momentum)
           throw InputError("BodyOptions: the frame's forces and deformed_inertia are for a free body; "
                            "this model is grounded");
         if (d.kind == "modal")
@@ -546,6 +547,7 @@ namespace irdm
     fo.spin_softening   = o.spin_softening;
     fo.coriolis         = o.coriolis;
     fo.frame_modes      = o.frame_modes;
+    fo.deformation_momentum = o.deformation_momentum;
     if (d.kind == "modal")
       s.runtime.emplace<FreeBodyInteraction>(d.modal, fo);
     else if (d.kind == "virtual_dof")

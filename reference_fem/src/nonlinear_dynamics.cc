@@ -296,6 +296,8 @@ namespace irdm::fem
     v_new.add(h * (1 - c.gamma), a, h * c.gamma, a_new);
     combine(u_alpha, 1 - af, x, af, u); // u at the alpha level
     const bool ok = I.assemble(u_alpha, f_int, T ? &K_T : nullptr, false, nullptr, nullptr, frame);
+    if (sc.body_frame_law)
+      I.remove_net_torque(u_alpha, f_int);
     cs            = I.plane_contact(x, t1, f_c_new, T ? &K_T : nullptr);
     combine(w, 1 - am, a_new, am, a);
     L.mass.vmult(res, w);
@@ -308,6 +310,8 @@ namespace irdm::fem
         // Objective: no damping of rigid motion however far the body has turned.
         I.damping_force(u_alpha, w, tmp, T ? &K_D : nullptr, T ? &K_Du : nullptr, frame,
                         frame_spin);
+        if (sc.body_frame_law)
+          I.remove_net_torque(u_alpha, tmp);
         res.add(sc.rayleigh_beta, tmp);
       }
     res += f_int;

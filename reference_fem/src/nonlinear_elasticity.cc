@@ -50,18 +50,8 @@ namespace irdm::fem
             free_boundary_vertices.push_back(v);
         }
     const double h = edge_sum / std::max(1u, n_edges);
-    const auto  &X = linear.mesh.vertices;
-    vertex_volume.assign(X.size(), 0.0);
-    for (const auto &t : linear.mesh.tets)
-      {
-        Tensor<2, 3> edges;
-        for (unsigned e = 0; e < 3; ++e)
-          for (unsigned d = 0; d < 3; ++d)
-            edges[e][d] = X[t[e + 1]][d] - X[t[0]][d];
-        const double share = std::abs(determinant(edges)) / 24; // a quarter of volume det / 6
-        for (const unsigned v : t)
-          vertex_volume[v] += share;
-      }
+    if (scene.body_frame_law)
+      setup_body_frame();
     for (const auto &p : scene.planes)
       penalty.push_back(p.penalty > 0 ? p.penalty : 100 * E / h);
 
@@ -105,27 +95,72 @@ namespace irdm::fem
     return G;
   }
 
+  void
+  NonlinearElasticity::Impl::setup_body_frame()
+  {
+    // A node's three DoFs: the local DoFs of a cell with the same index in the base element.
+    const auto &dh = linear.dof_handler;
+    const auto &fe = linear.fe;
+    std::vector<types::global_dof_index> dofs(fe.n_dofs_per_cell());
+    std::vector<int> node_of(dh.n_dofs(), -1);
+    for (const auto &cell : dh.active_cell_iterators())
+      {
+        cell->get_dof_indices(dofs);
+        for (unsigned i = 0; i < dofs.size(); ++i)
+          {
+            const auto [component, base] = fe.system_to_component_index(i);
+            if (component != 0 || node_of[dofs[i]] >= 0)
+              continue;
+            std::array<types::global_dof_index, 3> triple{};
+            for (unsigned j = 0; j < dofs.size(); ++j)
+              if (fe.system_to_component_index(j).second == base)
+                triple[fe.system_to_component_index(j).first] = dofs[j];
+            node_of[dofs[i]] = static_cast<int>(node_dofs.size());
+            node_dofs.push_back(triple);
+          }
+      }
+    const std::vector<Point<3>> x = linear.dof_support_points();
+    for (const auto &d : node_dofs)
+      node_position.emplace_back(x[d[0]][0], x[d[0]][1], x[d[0]][2]);
+    // M_s applied to a scalar field on the nodes: the vector mass matrix on the field placed
+    // in the x components (M = M_s (x) I_3), read back there.
+    Vector<double> in(dh.n_dofs()), out(dh.n_dofs());
+    const auto apply_scalar_mass = [&](const auto &field, std::vector<double> &result) {
+      in = 0;
+      for (size_t n = 0; n < node_dofs.size(); ++n)
+        in(node_dofs[n][0]) = field(n);
+      linear.mass.vmult(out, in);
+      result.resize(node_dofs.size());
+      for (size_t n = 0; n < node_dofs.size(); ++n)
+        result[n] = out(node_dofs[n][0]);
+    };
+    apply_scalar_mass([](size_t) { return 1.0; }, node_mass);
+    double          m = 0;
+    Eigen::Vector3d C = Eigen::Vector3d::Zero();
+    for (size_t n = 0; n < node_dofs.size(); ++n)
+      m += node_mass[n], C += node_mass[n] * node_position[n];
+    C /= m;
+    node_moment.assign(node_dofs.size(), Eigen::Vector3d::Zero());
+    std::vector<double> moment;
+    for (int a = 0; a < 3; ++a)
+      {
+        apply_scalar_mass([&](size_t n) { return node_position[n](a) - C(a); }, moment);
+        for (size_t n = 0; n < node_dofs.size(); ++n)
+          node_moment[n](a) = moment[n];
+      }
+  }
+
   Tensor<2, 3>
   NonlinearElasticity::Impl::body_rotation(const Vector<double> &u) const
   {
-    const auto     &X  = linear.mesh.vertices;
-    const auto     &dv = linear.dofs_of_vertex;
-    Eigen::Vector3d c = Eigen::Vector3d::Zero(), C = Eigen::Vector3d::Zero();
-    double          m = 0;
-    for (unsigned v = 0; v < X.size(); ++v)
+    // sum_ij M_ij X~_j x_i^T: the centre of the deformed nodes drops out, since
+    // sum_n node_moment = M_s-weighted sum of X - C = 0.
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    for (size_t n = 0; n < node_dofs.size(); ++n)
       {
-        const Eigen::Vector3d Xv(X[v][0], X[v][1], X[v][2]);
-        C += vertex_volume[v] * Xv;
-        c += vertex_volume[v] * (Xv + Eigen::Vector3d(u(dv[v][0]), u(dv[v][1]), u(dv[v][2])));
-        m += vertex_volume[v];
-      }
-    c /= m, C /= m;
-    Eigen::Matrix3d H = Eigen::Matrix3d::Zero(); // sum_v m_v (X_v - C)(x_v - c)^T
-    for (unsigned v = 0; v < X.size(); ++v)
-      {
-        const Eigen::Vector3d Xv(X[v][0], X[v][1], X[v][2]);
-        const Eigen::Vector3d xv = Xv + Eigen::Vector3d(u(dv[v][0]), u(dv[v][1]), u(dv[v][2]));
-        H += vertex_volume[v] * (Xv - C) * (xv - c).transpose();
+        const auto           &d = node_dofs[n];
+        const Eigen::Vector3d xn = node_position[n] + Eigen::Vector3d(u(d[0]), u(d[1]), u(d[2]));
+        H += node_moment[n] * xn.transpose();
       }
     const Eigen::Matrix3d R = kabsch_rotation(H);
     Tensor<2, 3>          out;
@@ -138,33 +173,75 @@ namespace irdm::fem
   Tensor<1, 3>
   NonlinearElasticity::Impl::body_angular_velocity(const Vector<double> &u, const Vector<double> &v) const
   {
-    const auto     &X  = linear.mesh.vertices;
-    const auto     &dv = linear.dofs_of_vertex;
-    const auto at = [&](const Vector<double> &w, const unsigned i) {
-      return Eigen::Vector3d(w(dv[i][0]), w(dv[i][1]), w(dv[i][2]));
+    const size_t    N = node_dofs.size();
+    const auto      at = [&](const Vector<double> &w, const size_t n) {
+      return Eigen::Vector3d(w(node_dofs[n][0]), w(node_dofs[n][1]), w(node_dofs[n][2]));
     };
-    Eigen::Vector3d c = Eigen::Vector3d::Zero(), vc = Eigen::Vector3d::Zero();
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
     double          m = 0;
-    for (unsigned i = 0; i < X.size(); ++i)
-      {
-        c += vertex_volume[i] * (Eigen::Vector3d(X[i][0], X[i][1], X[i][2]) + at(u, i));
-        vc += vertex_volume[i] * at(v, i);
-        m += vertex_volume[i];
-      }
-    c /= m, vc /= m;
-    Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+    for (size_t n = 0; n < N; ++n)
+      c += node_mass[n] * (node_position[n] + at(u, n)), m += node_mass[n];
+    c /= m;
+    // M r and M v in the vector mass matrix (M = M_s (x) I_3): L = sum_n r_n x (M v)_n,
+    // J = tr(S) I - S with S = sum_n r_n (M r)_n^T. A velocity or offset common to every node
+    // drops out (sum_n M_s r_n = 0 about the centre of mass).
+    Vector<double> r(u.size()), Mr(u.size()), Mv(u.size());
+    for (size_t n = 0; n < N; ++n)
+      for (int a = 0; a < 3; ++a)
+        r(node_dofs[n][a]) = node_position[n](a) + u(node_dofs[n][a]) - c(a);
+    linear.mass.vmult(Mr, r);
+    linear.mass.vmult(Mv, v);
+    Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
     Eigen::Vector3d L = Eigen::Vector3d::Zero();
-    for (unsigned i = 0; i < X.size(); ++i)
+    for (size_t n = 0; n < N; ++n)
       {
-        const Eigen::Vector3d r = Eigen::Vector3d(X[i][0], X[i][1], X[i][2]) + at(u, i) - c;
-        J += vertex_volume[i] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
-        L += vertex_volume[i] * r.cross(at(v, i) - vc);
+        const Eigen::Vector3d rn = at(r, n);
+        S += rn * at(Mr, n).transpose();
+        L += rn.cross(at(Mv, n));
       }
+    const Eigen::Matrix3d J = S.trace() * Eigen::Matrix3d::Identity() - 0.5 * (S + S.transpose());
     const Eigen::Vector3d w = J.ldlt().solve(L);
     Tensor<1, 3>          out;
     for (unsigned a = 0; a < 3; ++a)
       out[a] = w(a);
     return out;
+  }
+
+  void
+  NonlinearElasticity::Impl::remove_net_torque(const Vector<double> &u, Vector<double> &f) const
+  {
+    const size_t N  = node_dofs.size();
+    const auto   at = [&](const Vector<double> &w, const size_t n) {
+      return Eigen::Vector3d(w(node_dofs[n][0]), w(node_dofs[n][1]), w(node_dofs[n][2]));
+    };
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    double          m = 0;
+    for (size_t n = 0; n < N; ++n)
+      c += node_mass[n] * (node_position[n] + at(u, n)), m += node_mass[n];
+    c /= m;
+    Vector<double> r(u.size()), Mr(u.size());
+    for (size_t n = 0; n < N; ++n)
+      for (int a = 0; a < 3; ++a)
+        r(node_dofs[n][a]) = node_position[n](a) + u(node_dofs[n][a]) - c(a);
+    linear.mass.vmult(Mr, r);
+    Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d torque = Eigen::Vector3d::Zero();
+    for (size_t n = 0; n < N; ++n)
+      {
+        const Eigen::Vector3d rn = at(r, n);
+        S += rn * at(Mr, n).transpose();
+        torque += rn.cross(at(f, n));
+      }
+    const Eigen::Matrix3d J   = S.trace() * Eigen::Matrix3d::Identity() - 0.5 * (S + S.transpose());
+    const Eigen::Vector3d psi = J.ldlt().solve(torque);
+    for (size_t n = 0; n < N; ++n)
+      {
+        const Eigen::Vector3d turn = psi.cross(at(r, n));
+        for (int a = 0; a < 3; ++a)
+          r(node_dofs[n][a]) = turn(a);
+      }
+    linear.mass.vmult(Mr, r);
+    f -= Mr;
   }
 
   bool

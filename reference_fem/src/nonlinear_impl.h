@@ -7,6 +7,10 @@
 
 #include "elastodynamics_impl.h"
 
+#include <Eigen/Dense>
+
+#include <array>
+
 namespace irdm::fem
 {
   /// What the rigid planes do to the body in one configuration.
@@ -40,18 +44,36 @@ namespace irdm::fem
              bool constrained, double *energy = nullptr, StrainMeasure *strain = nullptr,
              const Tensor<2, 3> &frame = identity()) const;
 
-    /// The rotation of the body's best rigid fit at displacement u: Kabsch's over the mesh
-    /// vertices (irdm_common/rigid_fit.h), each weighed by its lumped volume (each cell's
-    /// volume shared equally among its vertices), about the weighted centres.
+    /// The body frame's rotation at displacement u (Scene::body_frame_law): the best rigid
+    /// fit of the nodes weighed by the consistent mass, R maximizing
+    /// sum_ij M_ij (R X~_j) . x_i (Kabsch's with H = sum_ij M_ij X~_j x_i^T, X~ = X - C). Its
+    /// stationarity, sum_ij M_ij (R^T x_i) x X~_j = 0, is the mean-axis (Tisserand) condition of
+    /// the elastic modes, Phi^T M (e_a x X~) = 0, for every u: the frame in which a free body's
+    /// modal IRDM (route 2) measures its deformation (docs/free-body.md). A lumped mass would
+    /// give another frame, off it by a rotation linear in u.
     Tensor<2, 3>
     body_rotation(const Vector<double> &u) const;
+    void
+    setup_body_frame();
 
     /// The angular velocity (rad/s, world) of the body at displacement u and velocity v that
-    /// carries its angular momentum about the centre, with the same lumped vertex weights:
-    /// J^-1 sum_v m_v (x_v - c) x (v_v - v_c), J the weights' inertia tensor at x. To first
-    /// order in the deformation it is the rate of body_rotation's frame.
+    /// carries its angular momentum about the centre, with the consistent mass:
+    /// J^-1 sum_ij M_ij (x_i - c) x v_j, J the inertia tensor at x. It is the rate of
+    /// body_rotation's frame but for the deformation's own angular momentum (second order
+    /// in u).
     Tensor<1, 3>
     body_angular_velocity(const Vector<double> &u, const Vector<double> &v) const;
+
+    /// Scene::body_frame_law: takes the net torque (about the centre of mass, at displacement
+    /// u) out of the internal force f, f -= M (psi x r) with J psi = sum_n r_n x f_n, J the
+    /// consistent inertia at u (the correction's net force is zero and its torque J psi).
+    /// The law's P = R sigma(e) with R held is not the derivative of a rotation-invariant
+    /// energy: its torque, the axial vector of skew(sigma (grad u)^T), is of second order in u
+    /// and turns the body, where the floating-frame theory's elastic forces act on the
+    /// elastic coordinates alone. The correction is M times a rigid rotation field, so it
+    /// drives no elastic mode (to third order in u). Left out of the tangent.
+    void
+    remove_net_torque(const Vector<double> &u, Vector<double> &f) const;
 
     static Tensor<2, 3>
     identity()
@@ -102,7 +124,13 @@ namespace irdm::fem
     // three directions, for contact.
     std::vector<std::pair<DoFHandler<3>::active_cell_iterator, unsigned>> boundary_faces;
     std::vector<unsigned> free_boundary_vertices;
-    std::vector<double>   vertex_volume; // m^3, per mesh vertex: its lumped share (body_rotation)
+    // Scene::body_frame_law's frame. A node is a support point with its three DoFs
+    // (node_dofs); node_position its place X; node_moment = M_s (X - C) at the node (M_s the
+    // scalar consistent mass, M = M_s (x) I_3; C the centre of mass): Kabsch's H in
+    // body_rotation is sum_nodes node_moment x^T. Empty without the law.
+    std::vector<std::array<types::global_dof_index, 3>> node_dofs;
+    std::vector<Eigen::Vector3d>                         node_position, node_moment;
+    std::vector<double>                                  node_mass; // kg, M_s's row sums
 
     /// The reference configuration's geometry per cell and quadrature point, computed once:
     /// a Total Lagrangian formulation integrates over the undeformed body, so JxW and the

@@ -243,7 +243,8 @@ namespace irdm::validation::free_body
         << (o.small_strain && !o.body_frame ? " --linear-law linear" : "")
         << (o.centrifugal ? " --centrifugal" : "") << (o.deformed_inertia ? " --deformed-inertia" : "")
         << (o.frame_forces ? " --frame-forces" : "")
-        << (o.frame_forces && o.frame_modes > 0 ? " --frame-modes " + std::to_string(o.frame_modes) : "");
+        << (o.deformation_momentum ? " --deformation-momentum" : "")
+        << ((o.frame_forces || o.deformation_momentum) && o.frame_modes > 0 ? " --frame-modes " + std::to_string(o.frame_modes) : "");
       return c.str();
     }
 
@@ -268,6 +269,7 @@ namespace irdm::validation::free_body
               {"centrifugal", o.centrifugal ? "1" : ""},
               {"deformed_inertia", o.deformed_inertia ? "1" : ""},
               {"frame_forces", o.frame_forces ? "1" : ""},
+              {"deformation_momentum", o.deformation_momentum ? "1" : ""},
               {"small_strain", o.small_strain ? "1" : ""},
               {"body_frame", o.body_frame ? "1" : ""},
               {"truth_check", o.truth_check ? "1" : ""},

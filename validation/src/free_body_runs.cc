@@ -626,7 +626,7 @@ namespace irdm::validation::free_body
           FreeBodyOptions vo  = fo;
           vo.centrifugal      = false;
           vo.deformed_inertia = false;
-          vo.euler = vo.spin_softening = vo.coriolis = false;
+          vo.euler = vo.spin_softening = vo.coriolis = vo.deformation_momentum = false;
           FreeBodyVirtualDofs irdm(*m.vdof, vo);
           run_method(irdm, vdof_method, m.vdof_order, m, c, vo.gravity, study, log);
         }
@@ -738,6 +738,7 @@ namespace irdm::validation::free_body
     fo.deformed_inertia = o.deformed_inertia;
     fo.euler = fo.spin_softening = fo.coriolis = o.frame_forces;
     fo.frame_modes                              = o.frame_modes;
+    fo.deformation_momentum                     = o.deformation_momentum;
     return fo;
   }
 } // namespace irdm::validation::free_body

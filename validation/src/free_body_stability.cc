@@ -105,7 +105,8 @@ namespace irdm::validation::free_body
         : fo.centrifugal                        ? ", with the centrifugal force"
         : fo.deformed_inertia                   ? ", with the deformed inertia"
                                                 : "";
-      const std::string frame = coupled && fo.frame_forces() ? " and the frame's forces" : "";
+      const std::string frame = std::string(coupled && fo.frame_forces() ? " and the frame's forces" : "") +
+                                (coupled && fo.deformation_momentum ? " and the deformation's momentum" : "");
       study.stability.push_back({"free flight, 10 s" + what + frame,
                                  coupled ? m.models.back().method : "either (no contact)", m.E,
                                  growth, 0, 0, 0, 0, 0, true});
@@ -129,7 +130,8 @@ namespace irdm::validation::free_body
         roll_for_long(irdm, vdof_method, m, study, log);
       }
     for (const bool coupled : {false, true})
-      if (!coupled || m.o.centrifugal || m.o.deformed_inertia || m.o.frame_forces)
+      if (!coupled || m.o.centrifugal || m.o.deformed_inertia || m.o.frame_forces ||
+          m.o.deformation_momentum)
         fly_free(m, coupled, study);
   }
 } // namespace irdm::validation::free_body

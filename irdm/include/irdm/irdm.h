@@ -200,6 +200,10 @@ namespace irdm
     // the spin softening and the Coriolis force (need /modes/inertial_coupling;
     // docs/free-body.md).
     bool euler = false, spin_softening = false, coriolis = false;
+    // Free modal body: the rigid body's angular momentum to second order in the deformation,
+    // the deformation's own angular momentum and (with deformed_inertia) the inertia's
+    // second-order change (need /modes/inertial_coupling; docs/free-body.md).
+    bool deformation_momentum = false;
     unsigned frame_modes = 0; // the lowest modes they act on; 0: every one the model holds
     // Virtual DOFs: blend the dome's orientations around a plane's normal instead of taking
     // the nearest.

@@ -28,9 +28,9 @@
 // mass-orthogonal to the six rigid motions, so a body force that is uniform (gravity) or
 // rigid (the inertia forces of the body's linear and angular acceleration, -M a - M (alpha x
 // r)) drives none of them: in the accelerating frame the deformation is driven by the contact
-// forces alone, which is exact for linear elasticity. Left out: the centrifugal and Coriolis
-// forces of the body's spin (-M omega x (omega x r), -2 M omega x v), which are not rigid
-// motions; free_body_validation measures their size against the contact's. With
+// forces alone, which is exact for linear elasticity. Left out by default: the centrifugal
+// and Coriolis forces of the body's spin (-M omega x (omega x r), -2 M omega x v), which are
+// not rigid motions; free_body_validation measures their size against the contact's. With
 // FreeBodyOptions::centrifugal the modal kind takes the centrifugal force of the step's
 // predicted spin into its force history (the model's /modes/centrifugal_load, from the
 // precompute's full mode shapes and mass matrix): a load on the elastic modes only. With
@@ -38,7 +38,9 @@
 // order in the deformation, from the same data), so that the spin slows as the body stretches
 // and the stretch's energy is taken from the spin: the centrifugal load is the gradient of the
 // spin's kinetic energy 1/2 L^T I(u)^-1 L in the deformation at fixed angular momentum, so
-// the two together create no energy. The Coriolis forces stay left out.
+// the two together create no energy. FreeBodyOptions::euler, spin_softening and coriolis take
+// the frame's other forces in, and deformation_momentum the deformation's own angular momentum
+// in the rigid body: the linear floating-frame theory of docs/free-body.md.
 //
 // Virtual DOFs: the deformation is what the nonlinear FEM's free body did after a wall hit,
 // less its best rigid fit, so it holds what the hit's own acceleration did to the body; the
@@ -94,6 +96,12 @@ namespace irdm
     // angular acceleration, the spin softening, the Coriolis force. Need a model with
     // /modes/inertial_coupling (dense route); the constructor refuses one without.
     bool euler = false, spin_softening = false, coriolis = false;
+    // FreeBodyInteraction: the rigid body's angular momentum to second order in the
+    // deformation (ModalInteraction::second_order_momentum): the deformation's own angular
+    // momentum h, which turns the frame at I^-1 (R^T L - h) (the Coriolis force's reaction),
+    // and, with deformed_inertia, the inertia's second-order change I2. Needs
+    // /modes/inertial_coupling, as the frame forces; on the same frame_modes.
+    bool deformation_momentum = false;
     // The lowest modes they act on (9 frame_modes^2 multiply-adds per step); 0: every mode
     // whose couplings the model holds (within the force loop's).
     unsigned frame_modes = 0;
@@ -150,6 +158,12 @@ namespace irdm
     inertia_change() const
     {
       return interaction_.inertia_change();
+    }
+    /// h and I2 (ModalInteraction::second_order_momentum).
+    void
+    second_order_momentum(Eigen::Vector3d &h, Eigen::Matrix3d &I2) const
+    {
+      interaction_.second_order_momentum(h, I2);
     }
     /// The input vertex of surface vertex v, or -1 (no force can be applied there).
     int
@@ -230,6 +244,13 @@ namespace irdm
     inertia_change() const
     {
       return Eigen::Matrix3d::Zero();
+    }
+    /// Likewise (FreeBodyOptions::deformation_momentum is refused): zero.
+    void
+    second_order_momentum(Eigen::Vector3d &h, Eigen::Matrix3d &I2) const
+    {
+      h.setZero();
+      I2.setZero();
     }
     /// Up to PlaneInteraction::max_walls walls, as stiff as the precompute's (a plane's own
     /// stiffness is not used). Known point forces are refused (false): the model holds
@@ -365,6 +386,7 @@ namespace irdm
     // The deformed inertia of the last step (model frame), for the extrapolation to the
     // step's end; started_inertia_: it is set.
     Eigen::Matrix3d previous_inertia_ = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d previous_momentum_ = Eigen::Vector3d::Zero(); // h, likewise
     bool            started_inertia_  = false;
     double          inertia_share_    = 1; // of the deformed inertia's change, this step
     unsigned long   limited_steps_    = 0;

@@ -197,6 +197,16 @@ namespace irdm
     /// O(9 modes); allocates nothing.
     Eigen::Matrix3d
     inertia_change() const;
+    /// A free body's angular momentum and inertia to second order in the deformation (kg m^2/s,
+    /// kg m^2; model frame, about the centre of mass; docs/free-body.md), at the state of the
+    /// last step, on the first modes of set_frame_forces (those the model holds couplings for):
+    ///   h  = sum_ij M_ij u_i x u'_j,                 h_a = q'^T G_a q,
+    ///   I2 = sum_ij M_ij (u_i . u_j I - u_i u_j^T), (I2)_ab = delta_ab sum_c q^T J_cc q - q^T J_ab q.
+    /// h is the deformation's own angular momentum (the Coriolis force's reaction on the rigid
+    /// body): the body's is R (I(q) omega + h). All zero for a model without the couplings.
+    /// 9 R^2 multiply-adds; allocates nothing.
+    void
+    second_order_momentum(Eigen::Vector3d &h, Eigen::Matrix3d &I2) const;
     /// Energy of the modes in the force loop, 1/2 sum (v_i^2 + w_i^2 u_i^2) (J; M-orthonormal
     /// shapes): kinetic plus strain energy of the deformation.
     double
@@ -241,6 +251,7 @@ namespace irdm
     unsigned               R_ = 0;
     bool                   euler_ = false, spin_softening_ = false, coriolis_ = false;
     std::vector<double>    frame_load_, frame_scratch_;
+    mutable std::vector<double> momentum_scratch_; // [mode] (second_order_momentum)
     Eigen::Vector3d        omega_ = Eigen::Vector3d::Zero(), alpha_ = Eigen::Vector3d::Zero();
     bool
     frame_forces_on() const

@@ -121,6 +121,20 @@ namespace irdm
     /// break it). Allocates nothing.
     bool
     set_inertia(const Eigen::Matrix3d &inertia);
+    /// The deformation's own angular momentum h (N m s, model frame, about the centre of
+    /// mass) from now on: the body's is then R (I omega + h), so that the frame turns at
+    /// omega = I^-1 (R^T L - h) (a gyrostat; docs/free-body.md). The drift holds it over a
+    /// step; each of its rotations stays exact. Zero by default.
+    void
+    set_deformation_momentum(const Eigen::Vector3d &h)
+    {
+      deformation_momentum_ = h;
+    }
+    const Eigen::Vector3d &
+    deformation_momentum() const
+    {
+      return deformation_momentum_;
+    }
     /// One step of length tau to a time where the load is force and torque (kick, drift, kick;
     /// see above). Allocates nothing.
     void
@@ -143,10 +157,11 @@ namespace irdm
     {
       return state_.linear_momentum / inertia_.mass;
     }
-    /// omega = R I^-1 R^T L (world).
+    /// omega = R I^-1 (R^T L - h) (world).
     Eigen::Vector3d
     angular_velocity() const;
-    /// J: 1/2 p.p / m + 1/2 L . omega.
+    /// J: 1/2 p.p / m + 1/2 omega^T I omega + omega . h (R^T omega, model frame), the kinetic
+    /// energy of the body but for the deformation's own, 1/2 |q'|^2.
     double
     kinetic_energy() const;
     const RigidBodyInertia &
@@ -175,8 +190,10 @@ namespace irdm
     Eigen::Matrix3d    inverse_inertia_; // model frame
     RigidBodyState     state_;
     Eigen::Matrix3d    rotation_;      // of state_.orientation
+    Eigen::Vector3d    deformation_momentum_ = Eigen::Vector3d::Zero(); // h, model frame
 
-    // R <- R exp(theta [axes_ e_axis]x): the exact flow of L_axis^2 / 2 I_axis for tau.
+    // R <- R exp(theta [axes_ e_axis]x): the exact flow of (L_axis - h_axis)^2 / 2 I_axis for
+    // tau.
     void
     rotate_about_principal_axis(int axis, double tau);
   };

@@ -198,10 +198,11 @@ namespace irdm::fem
     bool       small_strain_law = false;
     // With small_strain_law (material.law "linear_body_frame"): that law in the body's own
     // frame, P = R (lambda tr(e) I + 2 mu e) with e = sym(R^T F) - I and R the rotation of the
-    // body's best rigid fit (its mesh vertices weighed by their lumped volume), taken from the
-    // step's predicted motion. Linear elasticity in a floating frame, what a free body's IRDM
-    // linearizes (irdm/free_body.h): unlike the plain small-strain law it strains nothing when
-    // the body turns as a whole. Nonlinear dynamics only.
+    // body's best rigid fit weighed by the consistent mass (the mean-axis frame of a free
+    // body's elastic modes), taken from the step's predicted motion. Linear elasticity in a
+    // floating frame, what a free body's IRDM linearizes (irdm/free_body.h, docs/free-body.md):
+    // unlike the plain small-strain law it strains nothing when the body turns as a whole.
+    // Nonlinear dynamics only.
     bool       body_frame_law = false;
     Vec3       initial_velocity = {0, 0, 0}; // m/s, of the centre of mass (a thrown or dropped body)
     // rad/s, world: a spin about the centre of mass, v(X) = initial_velocity + w x (X - c)

@@ -64,6 +64,9 @@ namespace irdm::validation
     // force, the spin softening and the Coriolis force (FreeBodyOptions::euler, ...; the
     // models' /modes/inertial_coupling; docs/free-body.md).
     bool     frame_forces = false;
+    // The modal routes' rigid body takes the deformation's own angular momentum and the
+    // inertia's second-order change (FreeBodyOptions::deformation_momentum).
+    bool     deformation_momentum = false;
     unsigned frame_modes  = 0; // the lowest modes they act on (0: every one the model holds)
     // The impact study: the upright cat moving at these speeds (m/s) onto the floor, gravity
     // off (impact.csv). Runs in a full run, or with only_cases holding "impact"; empty: not run.
