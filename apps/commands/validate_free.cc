@@ -97,6 +97,12 @@ namespace irdm::cli
                             "also run the FEM at half its step (tau / 2M) and compare it with "
                             "the FEM at tau / M by the same measures (truth.csv): how well the "
                             "truth itself is determined; triples the FEM's time");
+    validate_free->add_flag("--sensitivity", vfb->sensitivity,
+                            "also run the linear FEM with the floor 1 um lower and compare it with "
+                            "the linear FEM by the same measures (linearization.csv, method "
+                            "<linear FEM>_floor_1um): where a change so small moves a figure as "
+                            "much as the method's error, the scene decides that figure, not the "
+                            "method; doubles the linear FEM's time");
     validate_free->add_flag("--small-strain,!--no-small-strain", vfb->small_strain,
                             "also run the FEM with a linear law (--linear-law) and report linear "
                             "elasticity's own error (it against the truth) and the method's (the "

@@ -238,6 +238,7 @@ namespace irdm::validation::free_body
       for (size_t m = 0; m < o.fem_divisions.size(); ++m)
         c << (m ? "," : "") << o.fem_divisions[m];
       c << (o.reuse_models ? " --reuse-models" : "") << (o.truth_check ? " --truth-check" : "")
+        << (o.sensitivity ? " --sensitivity" : "")
         << (o.surface_modes ? " --surface-modes " + std::to_string(o.surface_modes) : std::string())
         << (o.small_strain ? "" : " --no-small-strain")
         << (o.small_strain && !o.body_frame ? " --linear-law linear" : "")
@@ -273,6 +274,7 @@ namespace irdm::validation::free_body
               {"small_strain", o.small_strain ? "1" : ""},
               {"body_frame", o.body_frame ? "1" : ""},
               {"truth_check", o.truth_check ? "1" : ""},
+              {"sensitivity", o.sensitivity ? "1" : ""},
               {"linear_fem", o.body_frame ? "fem_linear_body_frame" : "fem_small_strain"},
               {"study_surface_modes", std::to_string(o.study_surface_modes)},
               {"stability_seconds", plain(o.stability_seconds)}};

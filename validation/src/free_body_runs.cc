@@ -428,6 +428,37 @@ namespace irdm::validation::free_body
       return o.body_frame ? "fem_linear_body_frame" : "fem_small_strain";
     }
 
+    /// The linear FEM `lin` again with the floor 1 um lower (the body starts that much higher
+    /// above it), against itself by the same measures: what a change of the scene far below
+    /// any the method makes does to each figure.
+    void
+    run_sensitivity(const Material &m, CaseRun &c, const fem::Scene &lin, FreeStudy &study,
+                    std::ostream &log)
+    {
+      const double shift = 1e-6; // m
+      fem::Scene   low   = lin;
+      for (auto &v : low.planes[0].position.values)
+        for (int d = 0; d < 3; ++d)
+          v[d] -= shift * c.k.up(d);
+      LinearizationRow row = linearization_row(m, c, std::string(linear_fem_name(m.o)) + "_floor_1um",
+                                               linear_fem_name(m.o));
+      try
+        {
+          fem::RunResult l = fem::NonlinearElasticity(low).run();
+          row.errors = compare(*c.small_strain, fem_samples(l, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0),
+                               m.c0, c.first_begin, c.first_end);
+          log << "  the linear FEM with the floor 1 um lower against it: whole run: com "
+              << row.errors.com << ", angle " << row.errors.angle << " deg, force "
+              << row.errors.force << ", deformation " << row.errors.deformation << std::endl;
+        }
+      catch (const std::exception &e)
+        {
+          log << "  the linear FEM with the floor 1 um lower failed: " << e.what() << std::endl;
+          row.failed = e.what();
+        }
+      study.linearization.push_back(row);
+    }
+
     /// The linear FEM: the same solver, step, mesh and penalty contact with a linear law.
     /// Against the truth it is what linear elasticity itself misses (every linear method
     /// inherits it); the runtime against it is the method's own error. The body-frame law is
@@ -460,6 +491,8 @@ namespace irdm::validation::free_body
           row.failed = e.what();
         }
       study.linearization.push_back(row);
+      if (o.sensitivity && c.small_strain)
+        run_sensitivity(m, c, lin, study, log);
     }
 
     /// Frames of the rolling cat: six times evenly over the run.

@@ -115,12 +115,13 @@ namespace irdm::validation::planes
       write_csv(dir, "spread.csv", csv);
     }
 
-    /// A figure that does not hold still: it ranges over more than a tenth of its own size
-    /// (and more than 0.1 % points) under the perturbations.
+    /// A figure that does not hold still: it ranges over more than a tenth of its own size,
+    /// and over more than 0.5 % points, five times what the largest perturbation (1e-3) can
+    /// move a relative error that follows the scene smoothly.
     bool
     moves(const Range &r)
     {
-      return !r.empty() && r.hi - r.lo > std::max(0.1 * r.hi, 1e-3);
+      return !r.empty() && r.hi - r.lo > std::max(0.1 * r.hi, 5e-3);
     }
 
     std::string

@@ -43,6 +43,10 @@ namespace irdm::validation
     // Also run the FEM at half the time step and compare it with the FEM at tau by the same
     // measures: how well the truth itself is determined (truth.csv, a table in report.md).
     bool     truth_check = false;
+    // Also run the linear FEM with the floor 1 um lower and compare it with the linear FEM by
+    // the same measures (linearization.csv, fem_linear_body_frame_floor_1um): how far the
+    // scene itself decides each figure, over the first contact and the whole run.
+    bool     sensitivity = false;
     // Also run the FEM with a linear law and measure the linearization (it against the truth)
     // and the method (the runtime against it) apart (linearization.csv, a table in report.md).
     bool     small_strain = true;
