@@ -170,36 +170,45 @@ namespace irdm::fem
     return out;
   }
 
-  Tensor<1, 3>
-  NonlinearElasticity::Impl::body_angular_velocity(const Vector<double> &u, const Vector<double> &v) const
+  Eigen::Vector3d
+  NonlinearElasticity::Impl::node_vector(const Vector<double> &w, const size_t n) const
+  {
+    return Eigen::Vector3d(w(node_dofs[n][0]), w(node_dofs[n][1]), w(node_dofs[n][2]));
+  }
+
+  Eigen::Matrix3d
+  NonlinearElasticity::Impl::about_centre(const Vector<double> &u, Vector<double> &r) const
   {
     const size_t    N = node_dofs.size();
-    const auto      at = [&](const Vector<double> &w, const size_t n) {
-      return Eigen::Vector3d(w(node_dofs[n][0]), w(node_dofs[n][1]), w(node_dofs[n][2]));
-    };
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
     double          m = 0;
     for (size_t n = 0; n < N; ++n)
-      c += node_mass[n] * (node_position[n] + at(u, n)), m += node_mass[n];
+      c += node_mass[n] * (node_position[n] + node_vector(u, n)), m += node_mass[n];
     c /= m;
-    // M r and M v in the vector mass matrix (M = M_s (x) I_3): L = sum_n r_n x (M v)_n,
-    // J = tr(S) I - S with S = sum_n r_n (M r)_n^T. A velocity or offset common to every node
-    // drops out (sum_n M_s r_n = 0 about the centre of mass).
-    Vector<double> r(u.size()), Mr(u.size()), Mv(u.size());
+    r.reinit(u.size());
     for (size_t n = 0; n < N; ++n)
       for (int a = 0; a < 3; ++a)
         r(node_dofs[n][a]) = node_position[n](a) + u(node_dofs[n][a]) - c(a);
+    // J = tr(S) I - S, S = sum_n r_n (M r)_n^T (M = M_s (x) I_3: S_ab = sum_ij M_s,ij r_ia r_jb).
+    Vector<double> Mr(u.size());
     linear.mass.vmult(Mr, r);
-    linear.mass.vmult(Mv, v);
     Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d L = Eigen::Vector3d::Zero();
     for (size_t n = 0; n < N; ++n)
-      {
-        const Eigen::Vector3d rn = at(r, n);
-        S += rn * at(Mr, n).transpose();
-        L += rn.cross(at(Mv, n));
-      }
-    const Eigen::Matrix3d J = S.trace() * Eigen::Matrix3d::Identity() - 0.5 * (S + S.transpose());
+      S += node_vector(r, n) * node_vector(Mr, n).transpose();
+    return S.trace() * Eigen::Matrix3d::Identity() - 0.5 * (S + S.transpose());
+  }
+
+  Tensor<1, 3>
+  NonlinearElasticity::Impl::body_angular_velocity(const Vector<double> &u, const Vector<double> &v) const
+  {
+    // L = sum_n r_n x (M v)_n; a velocity common to every node drops out (sum_n M_s r_n = 0
+    // about the centre of mass).
+    Vector<double>        r, Mv(u.size());
+    const Eigen::Matrix3d J = about_centre(u, r);
+    linear.mass.vmult(Mv, v);
+    Eigen::Vector3d L = Eigen::Vector3d::Zero();
+    for (size_t n = 0; n < node_dofs.size(); ++n)
+      L += node_vector(r, n).cross(node_vector(Mv, n));
     const Eigen::Vector3d w = J.ldlt().solve(L);
     Tensor<1, 3>          out;
     for (unsigned a = 0; a < 3; ++a)
@@ -210,33 +219,15 @@ namespace irdm::fem
   void
   NonlinearElasticity::Impl::remove_net_torque(const Vector<double> &u, Vector<double> &f) const
   {
-    const size_t N  = node_dofs.size();
-    const auto   at = [&](const Vector<double> &w, const size_t n) {
-      return Eigen::Vector3d(w(node_dofs[n][0]), w(node_dofs[n][1]), w(node_dofs[n][2]));
-    };
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    double          m = 0;
-    for (size_t n = 0; n < N; ++n)
-      c += node_mass[n] * (node_position[n] + at(u, n)), m += node_mass[n];
-    c /= m;
-    Vector<double> r(u.size()), Mr(u.size());
-    for (size_t n = 0; n < N; ++n)
-      for (int a = 0; a < 3; ++a)
-        r(node_dofs[n][a]) = node_position[n](a) + u(node_dofs[n][a]) - c(a);
-    linear.mass.vmult(Mr, r);
-    Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d torque = Eigen::Vector3d::Zero();
-    for (size_t n = 0; n < N; ++n)
-      {
-        const Eigen::Vector3d rn = at(r, n);
-        S += rn * at(Mr, n).transpose();
-        torque += rn.cross(at(f, n));
-      }
-    const Eigen::Matrix3d J   = S.trace() * Eigen::Matrix3d::Identity() - 0.5 * (S + S.transpose());
+    Vector<double>        r, Mr(u.size());
+    const Eigen::Matrix3d J      = about_centre(u, r);
+    Eigen::Vector3d       torque = Eigen::Vector3d::Zero();
+    for (size_t n = 0; n < node_dofs.size(); ++n)
+      torque += node_vector(r, n).cross(node_vector(f, n));
     const Eigen::Vector3d psi = J.ldlt().solve(torque);
-    for (size_t n = 0; n < N; ++n)
+    for (size_t n = 0; n < node_dofs.size(); ++n)
       {
-        const Eigen::Vector3d turn = psi.cross(at(r, n));
+        const Eigen::Vector3d turn = psi.cross(node_vector(r, n));
         for (int a = 0; a < 3; ++a)
           r(node_dofs[n][a]) = turn(a);
       }

@@ -74,6 +74,13 @@ namespace irdm::fem
     /// drives no elastic mode (to third order in u). Left out of the tangent.
     void
     remove_net_torque(const Vector<double> &u, Vector<double> &f) const;
+    /// Node n's three entries of the DoF vector w.
+    Eigen::Vector3d
+    node_vector(const Vector<double> &w, size_t n) const;
+    /// r: every node's place at displacement u less the centre of mass (consistent mass),
+    /// as a DoF vector; returns the consistent inertia tensor about that centre.
+    Eigen::Matrix3d
+    about_centre(const Vector<double> &u, Vector<double> &r) const;
 
     static Tensor<2, 3>
     identity()
