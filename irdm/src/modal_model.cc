@@ -359,6 +359,16 @@ namespace irdm
       add_frame_load();
   }
 
+  ModalInteraction::CouplingBlock
+  ModalInteraction::coupling_block(const int a, const int b) const
+  {
+    // The stored block is inertial_modes wide; its first R_ rows and columns.
+    const auto   stored = static_cast<Eigen::Index>(model_.inertial_modes);
+    const size_t block  = static_cast<size_t>(stored) * static_cast<size_t>(stored);
+    return CouplingBlock(&model_.inertial_coupling[static_cast<size_t>(3 * a + b) * block], R_, R_,
+                         Eigen::OuterStride<>(stored));
+  }
+
   void
   ModalInteraction::add_frame_load()
   {
@@ -380,23 +390,16 @@ namespace irdm
     const Eigen::Index R = R_;
     const Vec          q(fu_.data(), R), p(fv_.data(), R);
     VecMut             f(frame_load_.data(), R), y(frame_scratch_.data(), R);
-    using Block = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>,
-                             0, Eigen::OuterStride<>>;
     f.setZero();
     if (spin_softening_)
       f = omega_.squaredNorm() * q;
-    const auto   stored = static_cast<Eigen::Index>(model_.inertial_modes);
-    const size_t block  = static_cast<size_t>(stored) * static_cast<size_t>(stored);
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b)
         {
           if (A(a, b) == 0 && B(a, b) == 0)
             continue;
           y = A(a, b) * q + B(a, b) * p;
-          // The stored block is inertial_modes wide; its first R_ rows and columns.
-          const Block J(&model_.inertial_coupling[static_cast<size_t>(3 * a + b) * block], R, R,
-                        Eigen::OuterStride<>(stored));
-          f.noalias() -= J * y;
+          f.noalias() -= coupling_block(a, b) * y;
         }
     const auto coef = [&](const int e) { return Arr(&coef_[static_cast<size_t>(e) * N_], R); };
     ArrMut(fu_.data(), R) += coef(3) * f.array();
@@ -488,10 +491,6 @@ namespace irdm
     const Eigen::Index R = R_;
     if (R == 0)
       return;
-    using Block = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>,
-                             0, Eigen::OuterStride<>>;
-    const auto   stored = static_cast<Eigen::Index>(model_.inertial_modes);
-    const size_t block  = static_cast<size_t>(stored) * static_cast<size_t>(stored);
     const Vec    q(xu_.data(), R), p(xv_.data(), R);
     VecMut       z(momentum_scratch_.data(), R);
     // S_ab = q^T J_ab q, T_ab = q'^T J_ab q.
@@ -499,9 +498,7 @@ namespace irdm
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b)
         {
-          const Block J(&model_.inertial_coupling[static_cast<size_t>(3 * a + b) * block], R, R,
-                        Eigen::OuterStride<>(stored));
-          z.noalias() = J * q;
+          z.noalias() = coupling_block(a, b) * q;
           S(a, b) = q.dot(z);
           T(a, b) = p.dot(z);
         }

@@ -260,6 +260,12 @@ namespace irdm
     }
     void
     add_frame_load();
+    // J_ab = Phi_a^T M_s Phi_b on the first R_ modes (ModalModel::inertial_coupling).
+    using CouplingBlock =
+      Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>, 0,
+                 Eigen::OuterStride<>>;
+    CouplingBlock
+    coupling_block(int a, int b) const;
     std::vector<double>    force_now_;  // [input DoF] this step's force
     std::vector<unsigned>  pushed_;     // inputs with force this step
     std::vector<char>      is_pushed_;
