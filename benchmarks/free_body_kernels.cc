@@ -4,7 +4,7 @@
 // without any spin term are printed at the end: what each term costs, side by side in one run.
 //
 //   irdm_free_kernels FREE_MODEL.h5 [K] [google-benchmark flags]
-// FREE_MODEL.h5: a free body's model by the dense route, route 2 (irdm precompute of
+// FREE_MODEL.h5: a free body's model, route 2 (irdm precompute of
 // validation/scenes/free/free_cat.json; validate-free writes one in its --model-dir). K: the
 // force loop's modes (default 300).
 #include <irdm/free_body.h>
@@ -64,7 +64,7 @@ main(int argc, char **argv)
   if (argc < 2 || std::string(argv[1]) == "--help")
     {
       std::fprintf(stderr, "Usage: irdm_free_kernels FREE_MODEL.h5 [K] [benchmark flags]\n"
-                           "FREE_MODEL.h5: a free body's model by the dense route (route 2)\n");
+                           "FREE_MODEL.h5: a free body's model (route 2)\n");
       return argc < 2 ? 2 : 0;
     }
   unsigned K = 300;
@@ -79,7 +79,7 @@ main(int argc, char **argv)
       g_modal = std::make_unique<irdm::ModalModel>(irdm::make_modal_model(model, mo));
       if (g_modal->inertial_coupling.empty())
         throw irdm::InputError(std::string("'") + argv[1] + "' holds no inertial couplings "
-                               "(a free body's dense-route model of this version)");
+                               "(a free body's model of this version)");
     }
   catch (const std::exception &e)
     {
@@ -92,7 +92,8 @@ main(int argc, char **argv)
     variants.push_back({"+ frame forces on " + (r ? std::to_string(r) : std::string("every held")) +
                           " modes",
                         true, true, r});
-  variants.push_back({"+ frame forces and momentum on 50 modes", true, true, 50, true});
+  for (const unsigned r : {50u, 25u})
+    variants.push_back({"+ frame forces and momentum on " + std::to_string(r) + " modes", true, true, r, true});
   for (const auto &v : variants)
     benchmark::RegisterBenchmark(v.name.c_str(), [v](benchmark::State &s) { run(s, v); })
       ->Unit(benchmark::kMicrosecond);

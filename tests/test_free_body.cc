@@ -247,7 +247,8 @@ TEST(FreeBody, RigidFitRouteIsTheRecordedResponseMinusItsBestFit)
 // the inertia-relief form. Against the dense route's all-elastic-modes model of the same free
 // beam: the lowest frequencies agree, the inertia-relief static compliance and the feed-through
 // H[0] at the inputs are exact whatever the number of modes, and H converges as modes are
-// added. The rigid-fit route (route 1) stays dense: it is refused with --modes.
+// added; the frame couplings (centrifugal loads, inertial couplings) are the dense route's on the
+// modes both hold. The rigid-fit route (route 1) stays dense: it is refused with --modes.
 TEST(FreeBody, SparseRouteKeepsTheInertiaReliefComplianceAndConverges)
 {
   const FreeBeamModel dense = precompute_free_beam("free_dense.h5", fem::FreeBodyRoute::modal);
@@ -316,6 +317,38 @@ TEST(FreeBody, SparseRouteKeepsTheInertiaReliefComplianceAndConverges)
       EXPECT_LT(feed, 1e-9 * feed_scale);
       EXPECT_LT(error, previous);
       previous = error;
+      // The frame couplings, as the dense route's on the lowest modes both hold: through a
+      // deformation q_i = phi_i^T g of a fixed output field g, sum_i q_i C_i and
+      // sum_ij q_i J_ab(i, j) q_j, which neither a mode's sign nor the basis of a repeated
+      // frequency changes (each cut ends a group of equal frequencies: checked).
+      ASSERT_EQ(model.modes.centrifugal_load.size(), 9 * static_cast<size_t>(model.modes.n_modes));
+      ASSERT_GE(model.modes.inertial_modes, modes);
+      ASSERT_GT(all.modes.frequency_hz[modes] / all.modes.frequency_hz[modes - 1], 1 + 1e-6);
+      const auto frame_invariants = [&](const ImpulseResponseModel &m) {
+        const unsigned nm = m.modes.n_modes, r = m.modes.inertial_modes;
+        Eigen::VectorXd q = Eigen::VectorXd::Zero(modes);
+        for (unsigned j = 0; j < m.n_outputs; ++j)
+          for (unsigned i = 0; i < modes; ++i)
+            q(i) += m.modes.shapes[static_cast<size_t>(j) * nm + i] * std::cos(1.3 * j + 0.2);
+        Eigen::Matrix<double, 18, 1> out = Eigen::Matrix<double, 18, 1>::Zero();
+        for (unsigned e = 0; e < 9; ++e)
+          for (unsigned i = 0; i < modes; ++i)
+            {
+              out(e) += q(i) * m.modes.centrifugal_load[9 * static_cast<size_t>(i) + e];
+              for (unsigned k = 0; k < modes; ++k)
+                out(9 + e) += q(i) * q(k) *
+                              m.modes.inertial_coupling[(e * static_cast<size_t>(r) + i) * r + k];
+            }
+        return out;
+      };
+      const Eigen::Matrix<double, 18, 1> dense_frame = frame_invariants(all),
+                                         sparse_frame = frame_invariants(model);
+      EXPECT_LT((sparse_frame.head(9) - dense_frame.head(9)).norm(), 1e-8 * dense_frame.head(9).norm())
+        << "centrifugal loads: sparse " << sparse_frame.head(9).transpose() << ", dense "
+        << dense_frame.head(9).transpose();
+      EXPECT_LT((sparse_frame.tail(9) - dense_frame.tail(9)).norm(), 1e-8 * dense_frame.tail(9).norm())
+        << "inertial couplings: sparse " << sparse_frame.tail(9).transpose() << ", dense "
+        << dense_frame.tail(9).transpose();
     }
   fem::PrecomputeOptions o;
   o.output     = tmp("free_sparse_fit.h5");
@@ -1301,7 +1334,7 @@ TEST(FreeBodyRuntime, SpinStretchesTheBodyAsTheNonlinearFemDoes)
   EXPECT_GT(with.energy_gain, 1e-3);
   EXPECT_LT(both.energy_gain, 1e-6);
 
-  // A model without the load (the sparse route's, or an older file) is refused, not run
+  // A model without the load (an older file) is refused, not run
   // without it; a spin that is not finite changes nothing.
   irdm::ModalModel bare = m;
   bare.centrifugal_load.clear();

@@ -114,7 +114,7 @@ namespace irdm::cli
       ->check(CLI::IsMember({"uniform", "mass"}))
       ->capture_default_str();
     precompute->add_option("--inertial-modes", pre->inertial_modes,
-                           "free body, dense route: store the inertial couplings of the lowest "
+                           "free body (either route): store the inertial couplings of the lowest "
                            "N elastic modes (9 N^2 numbers), on which the runtime's Euler, "
                            "spin-softening and Coriolis forces act (default: " +
                              std::to_string(irdm::fem::default_inertial_modes) +

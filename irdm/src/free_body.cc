@@ -44,7 +44,7 @@ namespace irdm
   {
     if ((options.centrifugal || options.deformed_inertia) && model.centrifugal_load.empty())
       throw InputError("free body: the centrifugal force and the deformed inertia need a model "
-                       "with /modes/centrifugal_load (irdm precompute's dense route, this version)");
+                       "with /modes/centrifugal_load (irdm precompute, this version)");
     if (!interaction_.set_frame_forces(options.euler, options.spin_softening, options.coriolis,
                                        options.frame_modes) ||
         (options.deformation_momentum && model.inertial_modes == 0))

@@ -54,17 +54,26 @@ namespace irdm::fem
             out.mass[r * nf + free_of_dof[it->column()]] = it->value();
       }
     out.vertex_dof_to_free = vertex_dof_to_free();
-    out.free_dof_offset.resize(nf);
-    out.free_dof_axis.resize(nf);
-    const auto                  c = mass_properties(m.mesh, m.scene.density).center;
-    const std::vector<Point<3>> x = m.dof_support_points();
-    for (unsigned i = 0; i < n; ++i)
-      if (free_of_dof[i] >= 0)
-        {
-          out.free_dof_offset[free_of_dof[i]] = {x[i][0] - c[0], x[i][1] - c[1], x[i][2] - c[2]};
-          out.free_dof_axis[free_of_dof[i]]   = m.dof_component[i];
-        }
+    m.free_dof_geometry(out.free_dof_offset, out.free_dof_axis);
     return out;
+  }
+
+  void
+  ElasticDynamics::Impl::free_dof_geometry(std::vector<Vec3>          &offset,
+                                           std::vector<unsigned char> &axis) const
+  {
+    const std::vector<int> free = free_of_dof();
+    const auto nf = static_cast<size_t>(std::count_if(free.begin(), free.end(), [](int f) { return f >= 0; }));
+    offset.resize(nf);
+    axis.resize(nf);
+    const auto                  c = mass_properties(mesh, scene.density).center;
+    const std::vector<Point<3>> x = dof_support_points();
+    for (unsigned i = 0; i < free.size(); ++i)
+      if (free[i] >= 0)
+        {
+          offset[free[i]] = {x[i][0] - c[0], x[i][1] - c[1], x[i][2] - c[2]};
+          axis[free[i]]   = dof_component[i];
+        }
   }
 
   SurfaceMesh

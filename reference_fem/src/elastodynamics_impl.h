@@ -133,6 +133,10 @@ namespace irdm::fem
     /// Free index of each DoF (-1 if constrained), in DoF order.
     std::vector<int>
     free_of_dof() const;
+    /// Each free DoF's support point less the body's centre of mass (m; uniform density) and
+    /// its axis, in free-index order (DenseSystem::free_dof_offset, free_dof_axis).
+    void
+    free_dof_geometry(std::vector<Vec3> &offset, std::vector<unsigned char> &axis) const;
     std::array<types::global_dof_index, 3>
     vertex_dofs(unsigned vertex) const;
     unsigned

@@ -11,6 +11,7 @@
 #include "blas.h"
 #include "integrator.h"
 #include "mpi_rank.h"
+#include "frame_couplings.h"
 #include "provenance.h"
 
 #include <Eigen/Dense>
@@ -396,12 +397,12 @@ namespace irdm::fem
       std::vector<double> w2, phi_out, phi_in;
       std::vector<double> compliance; // sparse route: the static compliance, nout x nin
       std::vector<double> load_out;   // route 1: the modes' shapes at the outputs before the fit
-      // Free body, dense route: each elastic mode's load of the spin's centrifugal field,
+      // Free body (either route): each elastic mode's load of the spin's centrifugal field,
       // [mode][a][b] = phi_i^T M w_ab, w_ab the field e_a (x_b - c_b) (x - c from the centre of
       // mass): the modal force of -M (omega x (omega x r)) is sum_ab S_ab [i][a][b] with
       // S = |omega|^2 I - omega omega^T (docs/model-format.md).
       std::vector<double> centrifugal;
-      // Free body, dense route: the mass couplings of the first n_inertial elastic modes'
+      // Free body (either route): the mass couplings of the first n_inertial elastic modes'
       // components, [a][b][i][j] = Phi_a(i)^T M_s Phi_b(j) (M = M_s (x) I_3), from which the
       // runtime forms the frame's Euler, spin-softening and Coriolis forces on the
       // deformation (docs/free-body.md).
@@ -615,8 +616,13 @@ namespace irdm::fem
     const IntegratorCoefficients ic = IntegratorCoefficients::from_scene(scene);
     const EffectiveStiffness     step(ic, StepCoefficients(ic, scene.time_step),
                                   scene.rayleigh_alpha, scene.rayleigh_beta);
-    LowestModes lm = fem->lowest_modes(n_lowest, out_free, in_free, step.shift());
+    LowestModes lm = fem->lowest_modes(
+      n_lowest, out_free, in_free, step.shift(),
+      free_body ? options.inertial_modes.value_or(default_inertial_modes) : 0);
     nm             = static_cast<unsigned>(lm.w2.size());
+    centrifugal    = std::move(lm.centrifugal);
+    inertial       = std::move(lm.inertial);
+    n_inertial     = lm.n_inertial;
     w2             = std::move(lm.w2);
     phi_out        = std::move(lm.shapes);
     compliance     = std::move(lm.compliance);
@@ -738,42 +744,23 @@ namespace irdm::fem
   ImpulseResponsePrecompute::inertial_couplings(const DenseSystem &sys, const std::vector<double> &phi)
   {
     n_inertial = std::min(nm, options.inertial_modes.value_or(default_inertial_modes));
-    // The three DoFs of a node share its support point; a free body has all three free.
-    std::map<Vec3, std::array<int, 3>> node_of_point;
-    for (unsigned r = 0; r < n; ++r)
-      node_of_point.try_emplace(sys.free_dof_offset[r], std::array<int, 3>{-1, -1, -1})
-        .first->second[sys.free_dof_axis[r]] = static_cast<int>(r);
-    std::vector<std::array<int, 3>> dofs;
-    dofs.reserve(node_of_point.size());
-    for (const auto &[point, d] : node_of_point)
-      {
-        if (d[0] < 0 || d[1] < 0 || d[2] < 0)
-          throw std::logic_error("precompute: a free body's node without three free DoFs");
-        dofs.push_back(d);
-      }
+    const auto nodes = frame_couplings::node_triples(sys.free_dof_offset, sys.free_dof_axis);
     // M = M_s (x) I_3: the scalar mass from the x-components' rows.
-    const auto      nodes = static_cast<Eigen::Index>(dofs.size());
-    Eigen::MatrixXd Ms(nodes, nodes);
-    for (Eigen::Index p = 0; p < nodes; ++p)
-      for (Eigen::Index q = 0; q < nodes; ++q)
-        Ms(p, q) = sys.mass[static_cast<size_t>(dofs[p][0]) * n + dofs[q][0]];
-    std::array<Eigen::MatrixXd, 3> component; // [a] nodes x n_inertial
+    const auto      n_nodes = static_cast<Eigen::Index>(nodes.size());
+    Eigen::MatrixXd Ms(n_nodes, n_nodes);
+    for (Eigen::Index p = 0; p < n_nodes; ++p)
+      for (Eigen::Index q = 0; q < n_nodes; ++q)
+        Ms(p, q) = sys.mass[static_cast<size_t>(nodes[p][0]) * n + nodes[q][0]];
+    std::array<Eigen::MatrixXd, 3> component, m_component; // [a] nodes x n_inertial
     for (int a = 0; a < 3; ++a)
       {
-        component[a].resize(nodes, n_inertial);
+        component[a].resize(n_nodes, n_inertial);
         for (unsigned i = 0; i < n_inertial; ++i)
-          for (Eigen::Index p = 0; p < nodes; ++p)
-            component[a](p, i) = phi[static_cast<size_t>(i + n_rigid) * n + dofs[p][a]];
+          for (Eigen::Index p = 0; p < n_nodes; ++p)
+            component[a](p, i) = phi[static_cast<size_t>(i + n_rigid) * n + nodes[p][a]];
+        m_component[a] = Ms * component[a];
       }
-    const size_t r2 = static_cast<size_t>(n_inertial) * n_inertial;
-    inertial.assign(9 * r2, 0.0);
-    for (int b = 0; b < 3; ++b)
-      {
-        const Eigen::MatrixXd MsPhi = Ms * component[b];
-        for (int a = 0; a < 3; ++a)
-          Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-            &inertial[(3 * a + b) * r2], n_inertial, n_inertial) = component[a].transpose() * MsPhi;
-      }
+    inertial = frame_couplings::inertial_blocks(component, m_component);
   }
 
   /// Route 1: the best rigid fit taken out of every mode's output shape.

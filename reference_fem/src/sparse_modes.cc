@@ -22,6 +22,7 @@
 
 #include "dense_products.h"
 #include "elastodynamics_impl.h"
+#include "frame_couplings.h"
 
 #include <reference_fem/block_lanczos.h>
 
@@ -477,7 +478,8 @@ namespace irdm::fem
     // Rayleigh-Ritz on span(psi) (M-orthonormal): Kr y = w2 y gives the residual modes psi y,
     // K- and M-orthogonal to each other and to the lowest modes. Their w2 and their shapes
     // at the rows are appended to out's (which holds the lowest modes').
-    void
+    // Returns the Rayleigh-Ritz eigenvectors: residual mode i is psi times column i.
+    Eigen::MatrixXd
     append_residual_modes(const FreeSystem &sys, const Eigen::MatrixXd &psi,
                           const std::vector<int> &rows, LowestModes &out)
     {
@@ -512,24 +514,66 @@ namespace irdm::fem
           for (size_t r = 0; r < rows.size(); ++r)
             out.shapes[r * total + count + i] = residual_rows(static_cast<Eigen::Index>(r), i);
         }
+      return Kr;
+    }
+
+    // Ascending frequency over both kinds (a model's modes are stored so).
+    std::vector<unsigned>
+    frequency_order(const std::vector<double> &w2)
+    {
+      std::vector<unsigned> order(w2.size());
+      for (unsigned i = 0; i < order.size(); ++i)
+        order[i] = i;
+      std::stable_sort(order.begin(), order.end(),
+                       [&](unsigned a, unsigned b) { return w2[a] < w2[b]; });
+      return order;
+    }
+
+    // A free body's frame couplings (frame_couplings.h) of the kept modes, the lowest (phi) and
+    // the residual ones (psi ritz): every mode's centrifugal load, in out's order, and the
+    // inertial couplings of the first n_inertial in frequency order. offset and axis: each
+    // free DoF's support point less the centre of mass, and its axis.
+    void
+    add_frame_couplings(const FreeSystem &sys, const Eigen::MatrixXd &phi,
+                        const Eigen::MatrixXd &psi, const Eigen::MatrixXd &ritz,
+                        const std::vector<unsigned> &order, const std::vector<Vec3> &offset,
+                        const std::vector<unsigned char> &axis, const unsigned n_inertial,
+                        LowestModes &out)
+    {
+      const Eigen::MatrixXd MW = sys.apply(sys.M, frame_couplings::linear_fields(offset, axis));
+      const auto            count = phi.cols(), total = count + ritz.cols();
+      Eigen::MatrixXd       C(total, 9);
+      C.topRows(count)                = phi.transpose() * MW;
+      C.bottomRows(ritz.cols())       = ritz.transpose() * (psi.transpose() * MW);
+      out.centrifugal.resize(static_cast<size_t>(total) * 9);
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>>(out.centrifugal.data(), total, 9) = C;
+      out.n_inertial = std::min<unsigned>(n_inertial, static_cast<unsigned>(total));
+      Eigen::MatrixXd V(sys.n, out.n_inertial); // the first modes in frequency order, whole
+      for (unsigned k = 0; k < out.n_inertial; ++k)
+        V.col(k) = order[k] < count ? Eigen::VectorXd(phi.col(order[k]))
+                                    : Eigen::VectorXd(psi * ritz.col(order[k] - count));
+      const Eigen::MatrixXd MV    = sys.apply_blocked(sys.M, V);
+      const auto            nodes = frame_couplings::node_triples(offset, axis);
+      std::array<Eigen::MatrixXd, 3> component, m_component;
+      for (int a = 0; a < 3; ++a)
+        component[a] = frame_couplings::component(V, nodes, a),
+        m_component[a] = frame_couplings::component(MV, nodes, a);
+      out.inertial = frame_couplings::inertial_blocks(component, m_component);
     }
 
     // Ascending over both kinds (a model's modes are stored in ascending frequency).
     LowestModes
-    sorted_by_frequency(const LowestModes &out, const size_t n_rows)
+    sorted_by_frequency(const LowestModes &out, const size_t n_rows, const std::vector<unsigned> &order)
     {
-      const auto            total = static_cast<unsigned>(out.w2.size());
-      std::vector<unsigned> order(total);
-      for (unsigned i = 0; i < total; ++i)
-        order[i] = i;
-      std::stable_sort(order.begin(), order.end(),
-                       [&](unsigned a, unsigned b) { return out.w2[a] < out.w2[b]; });
+      const auto  total  = static_cast<unsigned>(out.w2.size());
       LowestModes sorted = out;
       for (unsigned i = 0; i < total; ++i)
         {
           sorted.w2[i] = out.w2[order[i]];
           for (size_t r = 0; r < n_rows; ++r)
             sorted.shapes[r * total + i] = out.shapes[r * total + order[i]];
+          if (!out.centrifugal.empty())
+            std::copy_n(&out.centrifugal[9 * static_cast<size_t>(order[i])], 9, &sorted.centrifugal[9 * static_cast<size_t>(i)]);
         }
       return sorted;
     }
@@ -538,7 +582,7 @@ namespace irdm::fem
   LowestModes
   ElasticDynamics::lowest_modes(const unsigned count, const std::vector<int> &rows,
                                 const std::vector<int> &columns, const double step_shift,
-                                const double tolerance) const
+                                const unsigned inertial_modes, const double tolerance) const
   {
     using Clock = std::chrono::steady_clock;
     const Impl &m = *impl_;
@@ -644,8 +688,16 @@ namespace irdm::fem
         psi.V.rightCols(step_basis.V.cols()) = step_basis.V;
       }
     psi.MV = Eigen::MatrixXd(); // the Rayleigh-Ritz needs K psi, not M psi
-    append_residual_modes(sys, psi.V, rows, out);
-    LowestModes sorted    = sorted_by_frequency(out, rows.size());
+    const Eigen::MatrixXd       ritz  = append_residual_modes(sys, psi.V, rows, out);
+    const std::vector<unsigned> order = frequency_order(out.w2);
+    if (free_body && inertial_modes > 0)
+      {
+        std::vector<Vec3>          offset;
+        std::vector<unsigned char> axis;
+        m.free_dof_geometry(offset, axis);
+        add_frame_couplings(sys, phi, psi.V, ritz, order, offset, axis, inertial_modes, out);
+      }
+    LowestModes sorted    = sorted_by_frequency(out, rows.size(), order);
     sorted.seconds_static = std::chrono::duration<double>(Clock::now() - t0).count();
     return sorted;
   }

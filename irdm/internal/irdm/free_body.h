@@ -82,7 +82,7 @@ namespace irdm
     OrientationMapping mapping = OrientationMapping::nearest;
     // FreeBodyInteraction: the spin's centrifugal force on the deformation (the step's
     // predicted angular velocity; ModalInteraction::set_spin). Needs a model with
-    // /modes/centrifugal_load (dense route); the constructor refuses one without.
+    // /modes/centrifugal_load; the constructor refuses one without.
     bool centrifugal = false;
     // FreeBodyInteraction: the rigid body's inertia is the deformed body's, I0 + dI(u) to
     // first order in the deformation (ModalInteraction::inertia_change), updated at every
@@ -94,7 +94,7 @@ namespace irdm
     // FreeBodyInteraction: the moving frame's other forces on the deformation
     // (ModalInteraction::set_frame_forces; docs/free-body.md): the Euler force of the frame's
     // angular acceleration, the spin softening, the Coriolis force. Need a model with
-    // /modes/inertial_coupling (dense route); the constructor refuses one without.
+    // /modes/inertial_coupling; the constructor refuses one without.
     bool euler = false, spin_softening = false, coriolis = false;
     // FreeBodyInteraction: the rigid body's angular momentum to second order in the
     // deformation (ModalInteraction::second_order_momentum): the deformation's own angular

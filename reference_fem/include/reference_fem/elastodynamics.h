@@ -61,6 +61,12 @@ namespace irdm::fem
     double   rigid_shift       = 0; // eps of the factored K + eps M, (rad/s)^2
     unsigned refinement_passes = 0; // inertia-relief refinement passes (most over the blocks)
     double   refinement_change = 0; // the last pass's relative correction (largest)
+    // A free body asked for its frame couplings (inertial_modes > 0), as the dense route makes
+    // them: every kept mode's centrifugal load (modes x 9, [i][3a + b] = phi_i^T M w_ab) and
+    // the inertial couplings of the first n_inertial (9 x n_inertial^2, [3a + b][i][j] =
+    // phi_i,a^T M_s phi_j,b); empty otherwise.
+    std::vector<double> centrifugal, inertial;
+    unsigned            n_inertial = 0;
     // Wall time: seconds_eigen, the lowest modes, holds the factorization of the shifted K
     // and the block Lanczos (of which its block solves); the rest of it is the eigenvectors'
     // purification and check. seconds_static: the residual modes.
@@ -221,11 +227,13 @@ namespace irdm::fem
     /// too. Shapes at the free DoFs `rows`, and K^-1 at (rows, columns).
     /// A free body (nothing fixed): the shift-invert targets -eps, the six rigid-body modes
     /// (w2 = 0) are found and left out, every other vector is M-orthogonal to them, and K^-1
-    /// becomes the inertia-relief K^+ (I - M Phi_r Phi_r^T) (sparse_modes.cc).
+    /// becomes the inertia-relief K^+ (I - M Phi_r Phi_r^T) (sparse_modes.cc); with
+    /// inertial_modes > 0, its frame couplings too (LowestModes::centrifugal, inertial).
     /// Serial (MPI_COMM_SELF).
     LowestModes
     lowest_modes(unsigned count, const std::vector<int> &rows, const std::vector<int> &columns,
-                 double step_shift = 0, double tolerance = 1e-10) const;
+                 double step_shift = 0, unsigned inertial_modes = 0,
+                 double tolerance = 1e-10) const;
 
     /// All boundary triangles with their surface names; vertices in mesh order.
     SurfaceMesh
