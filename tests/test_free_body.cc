@@ -811,7 +811,12 @@ TEST(FreeBody, BodyFrameLawTurnsWithTheBodyAndIsNeoHookeanAtSmallStrain)
   const fem::RunResult plain = fem::NonlinearElasticity(s).run();
   s.body_frame_law         = true;
   const fem::RunResult body  = fem::NonlinearElasticity(s).run();
+  fem::Scene corotational_scene       = s;
+  corotational_scene.small_strain_law = corotational_scene.body_frame_law = false;
+  corotational_scene.corotational_law = true;
+  const fem::RunResult corotational   = fem::NonlinearElasticity(corotational_scene).run();
   ASSERT_EQ(neo.surface_displacement.size(), body.surface_displacement.size());
+  ASSERT_EQ(neo.surface_displacement.size(), corotational.surface_displacement.size());
   ASSERT_EQ(neo.surface_displacement.size(), plain.surface_displacement.size());
   const auto largest = [](const fem::RunResult &r) {
     return *std::max_element(r.largest_strain.begin(), r.largest_strain.end());
@@ -841,11 +846,17 @@ TEST(FreeBody, BodyFrameLawTurnsWithTheBodyAndIsNeoHookeanAtSmallStrain)
       }
     return std::sqrt(diff / norm);
   };
-  const double e_body = against_neo(body), e_plain = against_neo(plain);
+  const double e_body = against_neo(body), e_plain = against_neo(plain),
+               e_corotational = against_neo(corotational);
   std::printf("tumbling free beam, 2 rad: largest strain neo-Hookean %.3g, body-frame law %.3g, "
-              "plain small-strain law %.3g; body-frame deformation against neo-Hookean %.3g "
-              "(body-frame law), %.3g (plain)\n",
-              largest(neo), largest(body), largest(plain), e_body, e_plain);
+              "plain small-strain law %.3g, corotational %.3g; body-frame deformation against "
+              "neo-Hookean %.3g (body-frame law), %.3g (plain), %.3g (corotational)\n",
+              largest(neo), largest(body), largest(plain), largest(corotational), e_body, e_plain,
+              e_corotational);
+  // The corotational law (material.law "corotational") turns each point's strain with the
+  // point, so it too is neo-Hookean to within the strain's order.
+  EXPECT_NEAR(largest(corotational), largest(neo), 0.05 * largest(neo));
+  EXPECT_LT(e_corotational, 0.01);
   EXPECT_GT(largest(body), stretch);
   EXPECT_LT(largest(body), 2 * stretch);
   EXPECT_NEAR(largest(body), largest(neo), 0.05 * largest(neo));

@@ -152,6 +152,9 @@ TEST(Scene, CouplingAndMaterialLawAreChecked)
   expect_error(scene("", m + R"("linear_body_frame")"), "material.law");
   expect_error(scene("", m + R"("linear")"), "material.law");
   expect_error(scene(R"(, "kinematics": "nonlinear")", m + R"("hookean")"), "neo_hookean");
+  const irdm::fem::Scene corotational = parse_scene(scene(R"(, "kinematics": "nonlinear")", m + R"("corotational")"), ".");
+  EXPECT_TRUE(corotational.corotational_law && !corotational.small_strain_law && !corotational.body_frame_law);
+  expect_error(scene("", m + R"("corotational")"), "material.law");
 }
 
 TEST(Scene, NothingIsSilentlyTruncated)

@@ -108,6 +108,12 @@ namespace irdm::cli
                             "elasticity's own error (it against the truth) and the method's (the "
                             "runtime against it) apart (linearization.csv); on by default")
       ->capture_default_str();
+    validate_free->add_flag("--corotational,!--no-corotational", vfb->corotational,
+                            "also run the FEM with the corotational law (fem_corotational: the "
+                            "small-strain law in each point's own rotation) and split each miss "
+                            "of the linear FEM into rotation (the linear FEM against it) and "
+                            "strain (it against the truth) (linearization.csv); on by default")
+      ->capture_default_str();
     validate_free->add_option_function<std::string>(
         "--linear-law",
         [vfb](const std::string &law) { vfb->body_frame = law == "linear_body_frame"; },

@@ -72,6 +72,12 @@ namespace irdm::cli
                                 "the range of each error (spread.csv; 0: none)")
       ->capture_default_str()
       ->check(CLI::Range(0u, 1000u));
+    validate_planes->add_flag("--corotational,!--no-corotational", vp->corotational,
+                              "also run the FEM with the corotational law (each point's own "
+                              "rotation) and the small-strain law on every case, the truth's own "
+                              "contact, and split the linear law's miss into rotation and strain "
+                              "(cases.csv); on by default")
+      ->capture_default_str();
     validate_planes->add_flag("--quick", vp->quick,
                               "15 of the 22 cases: every kind and the sweep's cases, at fewer "
                               "depths and speeds (the main job's default)");

@@ -199,6 +199,8 @@ namespace irdm::fem
                                     ? "nonlinear (Total Lagrangian, small-strain law in the body frame)"
                                   : scene.small_strain_law
                                     ? "nonlinear (Total Lagrangian, small-strain law)"
+                                  : scene.corotational_law
+                                    ? "nonlinear (Total Lagrangian, corotational small-strain law)"
                                     : "nonlinear (Total Lagrangian neo-Hookean)"));
           dataset("/time", {N});
           w.create_group("/energy");

@@ -6,6 +6,8 @@
 #include <irdm_common/error.h>
 #include <irdm_common/rigid_fit.h>
 
+#include <Eigen/Dense>
+
 #include <cmath>
 #include <random>
 
@@ -13,6 +15,77 @@
 
 namespace irdm::fem
 {
+  namespace
+  {
+    // [w]x: the skew matrix of w x.
+    Tensor<2, 3>
+    cross_matrix(const Tensor<1, 3> &w)
+    {
+      Tensor<2, 3> W;
+      W[0][1] = -w[2], W[0][2] = w[1], W[1][0] = w[2];
+      W[1][2] = -w[0], W[2][0] = -w[1], W[2][1] = w[0];
+      return W;
+    }
+
+    // The corotational law at a point (Scene::corotational_law), from H = grad u: F = I + H =
+    // R S with R proper (a reflected F keeps det R = 1: its smallest singular value takes the
+    // sign), e = S - I, energy density psi = mu e:e + lambda/2 tr(e)^2 (a function of S: objective),
+    // P = d psi / dF = R (lambda tr(e) I + 2 mu e). The tangent, with dR = R [w]x and
+    // (tr(S) I - S) w = axial(R^T dF - dF^T R) (the derivative of the polar rotation):
+    //   dP = 2 mu dF + (lambda tr(e) - 2 mu) dR + lambda tr(R^T dF) R.
+    // dP_dF[a][B][c][D] = d P_aB / d F_cD. False where tr(S) I - S is singular (a point
+    // collapsed onto a line), which no admissible deformation reaches.
+    bool
+    corotational_point(const Tensor<2, 3> &H, const double mu, const double lambda,
+                       Tensor<2, 3> &P, double &psi, Tensor<4, 3> *dP_dF)
+    {
+      Eigen::Matrix3d F;
+      for (unsigned a = 0; a < 3; ++a)
+        for (unsigned b = 0; b < 3; ++b)
+          F(a, b) = (a == b) + H[a][b];
+      const Eigen::JacobiSVD<Eigen::Matrix3d> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Eigen::Matrix3d U = svd.matrixU();
+      if ((U * svd.matrixV().transpose()).determinant() < 0)
+        U.col(2) *= -1; // the smallest singular value's direction: S takes the sign
+      const Eigen::Matrix3d Re = U * svd.matrixV().transpose();
+      Tensor<2, 3>          R;
+      for (unsigned a = 0; a < 3; ++a)
+        for (unsigned b = 0; b < 3; ++b)
+          R[a][b] = Re(a, b);
+      // e = R^T F - I = R^T H + (R^T - I): no digits lost to I at small strain.
+      const Tensor<2, 3> I  = unit_symmetric_tensor<3>();
+      const Tensor<2, 3> Rt = transpose(R);
+      const Tensor<2, 3> X  = Rt * H + (Rt - I);
+      const Tensor<2, 3> e  = 0.5 * (X + transpose(X));
+      const double       te = trace(e);
+      P   = R * (lambda * te * I + 2 * mu * e);
+      psi = mu * scalar_product(e, e) + 0.5 * lambda * te * te;
+      if (!dP_dF)
+        return true;
+      const Tensor<2, 3> S = I + e;
+      const Tensor<2, 3> G = (3 + te) * I - S; // tr(S) I - S
+      if (!(std::abs(determinant(G)) > 1e-12))
+        return false;
+      const Tensor<2, 3> G_inv = invert(G);
+      for (unsigned c = 0; c < 3; ++c)
+        for (unsigned D = 0; D < 3; ++D)
+          {
+            Tensor<2, 3> dF;
+            dF[c][D]              = 1;
+            const Tensor<2, 3> A  = Rt * dF - transpose(dF) * R; // skew
+            Tensor<1, 3>       axial;
+            axial[0] = A[2][1], axial[1] = A[0][2], axial[2] = A[1][0];
+            const Tensor<1, 3> w  = G_inv * axial;
+            const Tensor<2, 3> dR = R * cross_matrix(w);
+            const Tensor<2, 3> dP = 2 * mu * dF + (lambda * te - 2 * mu) * dR + lambda * R[c][D] * R;
+            for (unsigned a = 0; a < 3; ++a)
+              for (unsigned B = 0; B < 3; ++B)
+                (*dP_dF)[a][B][c][D] = dP[a][B];
+          }
+      return true;
+    }
+  } // namespace
+
   NonlinearElasticity::Impl::Impl(const Scene &scene)
     : linear(scene)
     , stiffness_quadrature(scene.fe_degree == 1 ? 1 : scene.fe_degree + 1)
@@ -298,7 +371,19 @@ namespace irdm::fem
             double       lnJ   = tH;
             Tensor<2, 3> FinvT = unit_symmetric_tensor<3>();
             Tensor<2, 3> P;
-            if (L.scene.small_strain_law)
+            Tensor<4, 3> dP_dF; // the corotational law's tangent
+            if (L.scene.corotational_law)
+              {
+                double psi = 0;
+                if (!corotational_point(H, mu, lambda, P, psi, K ? &dP_dF : nullptr))
+                  {
+                    ok = false;
+                    continue;
+                  }
+                if (energy)
+                  *energy += dx * psi;
+              }
+            else if (L.scene.small_strain_law)
               {
                 // P = R S(eps): the first Piola stress of the body-frame law, whose tangent
                 // is the formulas below with A = R (R's rows are orthonormal).
@@ -333,6 +418,20 @@ namespace irdm::fem
               }
             if (!K)
               continue;
+            if (L.scene.corotational_law)
+              {
+                // K_ij = grad phi_i : dP[grad phi_j] = sum_BD dP_dF[c_i][B][c_j][D] g_i[B] g_j[D].
+                for (unsigned i = 0; i < n_dofs; ++i)
+                  for (unsigned j = 0; j < n_dofs; ++j)
+                    {
+                      double k_ij = 0;
+                      for (unsigned B = 0; B < 3; ++B)
+                        for (unsigned D = 0; D < 3; ++D)
+                          k_ij += dP_dF[component[i]][B][component[j]][D] * g[i][B] * g[j][D];
+                      cell_K(i, j) += k_ij * dx;
+                    }
+                continue;
+              }
             // K_ij = grad phi_i : dP[grad phi_j], with
             // dP[G] = mu G + (mu - lambda ln J) A G^T A + lambda (A : G) A, A = F^{-T}:
             // K_ij = mu d_{c_i c_j} g_i.g_j + (mu - lambda ln J)(A g_j)_{c_i} (A g_i)_{c_j}

@@ -458,9 +458,11 @@ namespace irdm::fem
           const std::string law = m.at("law").string();
           if (law == "linear" || law == "linear_body_frame")
             s.small_strain_law = true;
-          else if (law != "neo_hookean")
-            fail(m.where + ".law", "must be 'neo_hookean', 'linear' or 'linear_body_frame'");
-          s.body_frame_law = law == "linear_body_frame";
+          else if (law != "neo_hookean" && law != "corotational")
+            fail(m.where + ".law",
+                 "must be 'neo_hookean', 'corotational', 'linear' or 'linear_body_frame'");
+          s.body_frame_law   = law == "linear_body_frame";
+          s.corotational_law = law == "corotational";
         }
     }
     }
@@ -770,7 +772,7 @@ namespace irdm::fem
     void
     check_combinations(const Node &top, const Scene &s)
     {
-    if (s.kinematics == Kinematics::linear && s.small_strain_law)
+    if (s.kinematics == Kinematics::linear && (s.small_strain_law || s.corotational_law))
       fail(top.where + ".material.law", "is for nonlinear kinematics (linear kinematics are "
                                         "small-strain elasticity already)");
     if (s.kinematics == Kinematics::linear && !s.planes.empty() && !s.probes.empty())

@@ -125,7 +125,7 @@ namespace irdm::validation::free_body
     {
       csv << "case,material,method,reference,start_s,end_s,fem_rotation_deg,first_force_error,"
              "first_impulse_error,first_deformation_error,com_error,angle_error_deg,force_error,"
-             "impulse_error,deformation_error\n";
+             "impulse_error,deformation_error,fem_ms_per_step\n";
       for (const LinearizationRow &r : s.linearization)
         {
           if (r.impact_speed > 0)
@@ -138,15 +138,18 @@ namespace irdm::validation::free_body
           const RunErrors &e = r.errors;
           if (!r.failed.empty())
             {
-              csv << "nan,nan,nan,nan,nan,nan,nan,nan\n";
-              md << "the linear FEM failed: " << r.failed << " ||||||\n";
+              csv << "nan,nan,nan,nan,nan,nan,nan,nan,nan\n";
+              md << "the FEM failed: " << r.failed << " |||||||\n";
               continue;
             }
           csv << e.window_force << ',' << e.window_impulse << ',' << e.window_deformation << ','
               << e.com << ',' << e.angle << ',' << e.force << ',' << e.impulse << ','
-              << e.deformation << '\n';
+              << e.deformation << ',' << r.fem_ms << '\n';
           md << e.window_force << " | " << e.window_impulse << " | " << e.window_deformation
-             << " | " << e.com << " | " << e.angle << " | " << e.deformation << " |\n";
+             << " | " << e.com << " | " << e.angle << " | " << e.deformation << " | ";
+          if (r.fem_ms > 0)
+            md << r.fem_ms;
+          md << " |\n";
         }
     }
 
@@ -242,6 +245,7 @@ namespace irdm::validation::free_body
         << (o.surface_modes ? " --surface-modes " + std::to_string(o.surface_modes) : std::string())
         << (o.small_strain ? "" : " --no-small-strain")
         << (o.small_strain && !o.body_frame ? " --linear-law linear" : "")
+        << (o.corotational ? "" : " --no-corotational")
         << (o.centrifugal ? " --centrifugal" : "") << (o.deformed_inertia ? " --deformed-inertia" : "")
         << (o.frame_forces ? " --frame-forces" : "")
         << (o.deformation_momentum ? " --deformation-momentum" : "")
@@ -275,6 +279,7 @@ namespace irdm::validation::free_body
               {"body_frame", o.body_frame ? "1" : ""},
               {"truth_check", o.truth_check ? "1" : ""},
               {"sensitivity", o.sensitivity ? "1" : ""},
+              {"corotational", o.corotational ? "1" : ""},
               {"linear_fem", o.body_frame ? "fem_linear_body_frame" : "fem_small_strain"},
               {"study_surface_modes", std::to_string(o.study_surface_modes)},
               {"stability_seconds", plain(o.stability_seconds)}};
@@ -294,7 +299,7 @@ namespace irdm::validation::free_body
     strain_rows(s, strain_csv, strain_md);
     write(dir, "truth_strain.csv", strain_csv.str());
     linearization_rows(s, lin_csv, lin_md);
-    if (o.small_strain)
+    if (o.small_strain || o.corotational)
       write(dir, "linearization.csv", lin_csv.str());
     const auto impact = impact_lines(s);
     impact_rows(impact, density, impact_csv, impact_md);

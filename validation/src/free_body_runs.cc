@@ -478,9 +478,11 @@ namespace irdm::validation::free_body
       LinearizationRow row = linearization_row(m, c, linear_fem_name(o), "fem_neo_hookean");
       try
         {
-          fem::RunResult l = fem::NonlinearElasticity(lin).run();
-          c.small_strain   = fem_samples(l, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
-          row.errors       = compare(*c.truth, *c.small_strain, m.c0, c.first_begin, c.first_end);
+          const auto     t0 = Clock::now();
+          fem::RunResult l  = fem::NonlinearElasticity(lin).run();
+          row.fem_ms        = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
+          c.small_strain    = fem_samples(l, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
+          row.errors        = compare(*c.truth, *c.small_strain, m.c0, c.first_begin, c.first_end);
           log << "  the linear FEM against the truth: first contact: force "
               << row.errors.window_force << ", impulse " << row.errors.window_impulse
               << ", deformation " << row.errors.window_deformation << std::endl;
@@ -493,6 +495,43 @@ namespace irdm::validation::free_body
       study.linearization.push_back(row);
       if (o.sensitivity && c.small_strain)
         run_sensitivity(m, c, lin, study, log);
+    }
+
+    /// The FEM with the corotational law: against the truth, what the strain's nonlinearity
+    /// adds; the linear FEM against it, what the rotation's does (each point's own rotation,
+    /// which the linear laws take as one frame or none).
+    void
+    run_corotational_fem(const Material &m, const CaseRun &c, FreeStudy &study, std::ostream &log)
+    {
+      if (!m.o.corotational)
+        return;
+      fem::Scene s       = c.s;
+      s.corotational_law = true;
+      log << "  the corotational FEM (fem_corotational)" << std::endl;
+      LinearizationRow strain = linearization_row(m, c, "fem_corotational", "fem_neo_hookean");
+      LinearizationRow turn   = linearization_row(m, c, linear_fem_name(m.o), "fem_corotational");
+      try
+        {
+          const auto     t0 = Clock::now();
+          fem::RunResult r  = fem::NonlinearElasticity(s).run();
+          strain.fem_ms     = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
+          const Samples corotational = fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
+          strain.errors = compare(*c.truth, corotational, m.c0, c.first_begin, c.first_end);
+          log << "  the corotational FEM against the truth: first contact: force "
+              << strain.errors.window_force << ", impulse " << strain.errors.window_impulse
+              << ", deformation " << strain.errors.window_deformation << "; "
+              << strain.fem_ms << " ms/step" << std::endl;
+          if (c.small_strain)
+            turn.errors = compare(corotational, *c.small_strain, m.c0, c.first_begin, c.first_end);
+        }
+      catch (const std::exception &e)
+        {
+          log << "  the corotational FEM failed: " << e.what() << std::endl;
+          strain.failed = turn.failed = e.what();
+        }
+      study.linearization.push_back(strain);
+      if (c.small_strain)
+        study.linearization.push_back(turn);
     }
 
     /// Frames of the rolling cat: six times evenly over the run.
@@ -638,6 +677,7 @@ namespace irdm::validation::free_body
       if (m.o.truth_check && !k.in_study())
         run_truth_check(m, c, study, log);
       run_linear_fem(m, c, study, log);
+      run_corotational_fem(m, c, study, log);
       for (unsigned step = 1; step <= c.n; ++step)
         if (is_frame(c, step))
           write_frame(study, m, c, "fem", step, c.fem_x[step]);

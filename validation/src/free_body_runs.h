@@ -126,6 +126,7 @@ namespace irdm::validation::free_body
     double      impact_speed = 0; // m/s: the impact study's (impact.csv)
     RunErrors   errors;
     std::string failed; // the linear FEM's error message when it could not run
+    double      fem_ms = 0; // the run's cost per step of tau (ms), 0 when not the run's own
   };
 
   /// How far the truth is from small strain in one case (truth_strain.csv): the largest

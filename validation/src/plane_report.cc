@@ -170,7 +170,10 @@ namespace irdm::validation::planes
              "fem_max_penetration_m,open_loop_displacement_error,fem_newton_iterations,"
              "vertex_stiffness_N_m,linear_fem_force_error,linear_fem_impulse_error,"
              "linear_fem_displacement_error,linear_law_force_error,linear_law_impulse_error,"
-             "linear_law_displacement_error\n";
+             "linear_law_displacement_error,corotational_force_error,corotational_impulse_error,"
+             "corotational_displacement_error,rotation_force_error,rotation_impulse_error,"
+             "rotation_displacement_error,fem_ms_per_step,linear_law_ms_per_step,"
+             "corotational_ms_per_step\n";
       for (const auto &r : rows)
         {
           csv << r.c.name << "," << r.c.kind << "," << r.c.d.size() << "," << r.c.d[0][0] << ","
@@ -183,11 +186,17 @@ namespace irdm::validation::planes
                 << r.linear_fem.displacement_error;
           else
             csv << ",,";
+          for (const MethodResult *m : {&r.linear_law, &r.corotational, &r.rotation})
+            if (m->ran)
+              csv << "," << m->force_error << "," << m->impulse_error << "," << m->displacement_error;
+            else
+              csv << ",,,";
+          csv << "," << r.fem_ms_per_step << ",";
           if (r.linear_law.ran)
-            csv << "," << r.linear_law.force_error << "," << r.linear_law.impulse_error << ","
-                << r.linear_law.displacement_error;
-          else
-            csv << ",,,";
+            csv << r.linear_law_ms;
+          csv << ",";
+          if (r.corotational.ran)
+            csv << r.corotational_ms;
           csv << "\n";
         }
       write_csv(dir, "cases.csv", csv);
@@ -260,7 +269,7 @@ namespace irdm::validation::planes
     void
     reference_tables(const std::vector<Row> &rows, TemplateValues &v)
     {
-      std::ostringstream open, lin, law;
+      std::ostringstream open, lin, law, split;
       lin.precision(3);
       for (const auto &r : rows)
         {
@@ -286,7 +295,16 @@ namespace irdm::validation::planes
                 << (r.linear_fem.ran ? percent(r.linear_fem.displacement_error)
                                      : std::string("(turning wall)"))
                 << " |\n";
+          const auto fid = [](const MethodResult &m) {
+            return fmt(100 * m.force_error) + " / " + fmt(100 * m.impulse_error) + " / " +
+                   percent(m.displacement_error);
+          };
+          if (r.corotational.ran)
+            split << "| " << r.c.name << " | " << fid(r.linear_law) << " | " << fid(r.rotation)
+                  << " | " << fid(r.corotational) << " | " << fmt(r.fem_ms_per_step) << " / "
+                  << fmt(r.corotational_ms) << " / " << fmt(r.linear_law_ms) << " |\n";
         }
+      v["corotational_table"] = split.str();
       v["open_loop_table"]  = open.str();
       v["linear_fem_table"] = lin.str();
       v["linear_law_table"] = law.str();
@@ -434,6 +452,7 @@ namespace irdm::validation::planes
     v["sweep_table"]   = sweep_table(s.sweep);
     v["best_table"]    = best_table(s.rows);
     v["perturbations"] = s.options.perturbations > 0 ? std::to_string(s.options.perturbations) : "";
+    v["corotational"]  = s.options.corotational ? "1" : "";
     v["spread_table"]  = spread_table(s.rows);
     v["mapping_table"] = mapping_table(s.mapping);
     v["plate_table"]   = plate_table(s.plate);

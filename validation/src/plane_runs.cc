@@ -348,12 +348,38 @@ namespace irdm::validation::planes
         [&]() -> const std::vector<double> & { return run.surface_displacement[k]; });
     }
 
+    /// The corotational law with the truth's contact against the truth, and the small-strain
+    /// law's run `law` (scene ls) against it.
+    void
+    run_corotational(Row &row, const Truth &truth, const fem::RunResult &law,
+                     const fem::Scene &ls, std::ostream &log)
+    {
+      fem::Scene cs       = truth.scene;
+      cs.corotational_law = true;
+      try
+        {
+          const auto run = std::make_shared<const fem::RunResult>(fem::NonlinearElasticity(cs).run());
+          row.corotational_ms = 1e3 * run->stepping_seconds / truth.N; // as the truth's
+          replay(row.corotational, truth, row, *run, cs);
+          Row against = row; // the corotational run's force as the reference's
+          against.F_fem.assign(1, 0.0);
+          against.F_fem.insert(against.F_fem.end(), row.corotational.F.begin(), row.corotational.F.end());
+          const Truth reference{truth.c, truth.models, truth.tau, cs, truth.N, run, truth.u_max};
+          replay(row.rotation, reference, against, law, ls);
+          log << " corotational " << row.corotational_ms << " ms/step" << std::flush;
+        }
+      catch (const std::exception &e)
+        {
+          log << " the corotational FEM failed: " << e.what() << std::flush;
+        }
+    }
+
     /// The linear FEM with the same vertex contact (fixed walls only: linear planes keep their
     /// normal) and, where vertex contact misses the goal (5 % impulse and displacement, 10 %
-    /// force), the small-strain law with the truth's own contact, which says why; elsewhere it
-    /// would cost a nonlinear run per case for nothing.
+    /// force) or the corotational split is asked, the small-strain law with the truth's own
+    /// contact, which says why; elsewhere it would cost a nonlinear run per case for nothing.
     void
-    run_linear_references(Row &row, const Truth &truth, std::ostream &log)
+    run_linear_references(Row &row, const Truth &truth, const bool corotational, std::ostream &log)
     {
       if (truth.c.turn_times.empty())
         {
@@ -372,13 +398,16 @@ namespace irdm::validation::planes
         if (row.method[m].ran)
           misses = misses || row.method[m].impulse_error > 0.05 ||
                    row.method[m].displacement_error > 0.05 || row.method[m].force_error > 0.10;
-      if (misses)
-        {
-          fem::Scene ls       = truth.scene;
-          ls.small_strain_law = true;
-          replay(row.linear_law, truth, row, fem::NonlinearElasticity(ls).run(), ls);
-          log << " linear law" << std::flush;
-        }
+      if (!misses && !corotational)
+        return;
+      fem::Scene ls       = truth.scene;
+      ls.small_strain_law = true;
+      const fem::RunResult law = fem::NonlinearElasticity(ls).run();
+      row.linear_law_ms        = 1e3 * law.stepping_seconds / truth.N;
+      replay(row.linear_law, truth, row, law, ls);
+      log << " linear law" << std::flush;
+      if (corotational)
+        run_corotational(row, truth, law, ls, log);
     }
 
     /// Compliant walls: vdof_nearest and vertex_contact_modal at each stiffness of the sweep,
@@ -527,7 +556,7 @@ namespace irdm::validation::planes
       }
     if (c.d.size() == 1 && c.turn_times.empty())
       run_virtual_dofs(row.same_contact, truth, row, OrientationMapping::interpolated_same_contact, 0);
-    run_linear_references(row, truth, log);
+    run_linear_references(row, truth, o.corotational, log);
     if (o.perturbations > 0)
       {
         run_perturbed(row, truth, o, fem_order);

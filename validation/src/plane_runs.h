@@ -86,6 +86,12 @@ namespace irdm::validation::planes
     // against the truth, what geometric and material nonlinearity cost; against linear_fem,
     // what lumped vertex contact at a uniform stiffness costs.
     MethodResult linear_law;
+    double       linear_law_ms = 0; // its cost per step (ms), 0 when not run
+    // PlaneValidationOptions::corotational: the nonlinear solver with the corotational law
+    // and the truth's contact against the truth (the strain's share of the linear law's
+    // miss), and the small-strain law against it (the rotation's share).
+    MethodResult corotational, rotation;
+    double       corotational_ms = 0;
     double       vertex_stiffness = 0; // N/m, of vertex contact's walls in the table
   };
 

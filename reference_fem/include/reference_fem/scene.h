@@ -204,6 +204,12 @@ namespace irdm::fem
     // unlike the plain small-strain law it strains nothing when the body turns as a whole.
     // Nonlinear dynamics only.
     bool       body_frame_law = false;
+    // Nonlinear kinematics only (material.law "corotational"): the small-strain law in each
+    // point's own rotation, R from the polar decomposition F = R S, P = R (lambda tr(e) I +
+    // 2 mu e) with e = S - I (Mueller and Gross 2004; SOFA's corotational tetrahedra, with the
+    // consistent tangent): objective like neo-Hookean, linear in the strain like the linear
+    // law. Between the two it splits a miss into rotation and strain.
+    bool       corotational_law = false;
     Vec3       initial_velocity = {0, 0, 0}; // m/s, of the centre of mass (a thrown or dropped body)
     // rad/s, world: a spin about the centre of mass, v(X) = initial_velocity + w x (X - c)
     // (a rigid velocity field: it strains nothing). Free bodies only.

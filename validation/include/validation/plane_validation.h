@@ -42,6 +42,10 @@ namespace irdm::validation
     // their stiffness scaled by 1 + eps, eps = +-1e-6 or +-1e-3 (plane_runs.cc): the range
     // of each error is reported beside it.
     unsigned    perturbations = 12;
+    // Also run the FEM with the corotational law and with the small-strain law (the truth's
+    // own contact) on every case: the first against the truth is the strain's share of a
+    // linear model's miss, the second against the first the rotation's (cases.csv).
+    bool        corotational = true;
     std::string plot_script;        // python script for the charts; "" skips charts
     // Fewer depths and speeds (every kind of case and the sweep's cases kept): the main job's
     // default, within its 10-minute budget.
