@@ -74,6 +74,15 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
   EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
                    " --model-dir " + tmp("vfm") + " --fem-divisions 0"),
             2);
+  // The converged truth: P2 only, and cases of the study.
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --converged-degree 3"),
+            2);
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --converged-cases drop_3cm"),
+            2);
+  EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-degree 1"), 2);
+  EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-cases press_top_3mm"), 2);
   EXPECT_FALSE(fs::exists(tmp("vf") + "/free"));
   EXPECT_FALSE(fs::exists(tmp("vfm")));
   EXPECT_FALSE(fs::exists(tmp("o.h5")));

@@ -103,6 +103,13 @@ namespace irdm::cli
                             "<linear FEM>_floor_1um): where a change so small moves a figure as "
                             "much as the method's error, the scene decides that figure, not the "
                             "method; doubles the linear FEM's time");
+    validate_free->add_option("--sensitivity-um", vfb->sensitivity_um,
+                              "with --sensitivity: the floor's shifts (micrometres), one linear FEM "
+                              "run each (method <linear FEM>_floor_<x>um); a shift whose first "
+                              "contact moves as much as the method's error measures how far the "
+                              "scene amplifies that error over the run")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-3, 1e4));
     validate_free->add_flag("--small-strain,!--no-small-strain", vfb->small_strain,
                             "also run the FEM with a linear law (--linear-law) and report linear "
                             "elasticity's own error (it against the truth) and the method's (the "
@@ -114,6 +121,18 @@ namespace irdm::cli
                             "of the linear FEM into rotation (the linear FEM against it) and "
                             "strain (it against the truth) (linearization.csv); on by default")
       ->capture_default_str();
+    validate_free->add_option("--converged-degree", vfb->converged_degree,
+                              "the truth's own discretization error: on --converged-cases, the "
+                              "nonlinear FEM again with P2 elements on the same mesh, the P1 truth "
+                              "and every run against it (linearization.csv, reference "
+                              "fem_neo_hookean_p2); 0: not run")
+      ->capture_default_str()
+      ->check(CLI::IsMember({0u, 2u}));
+    validate_free->add_option("--converged-cases", vfb->converged_cases,
+                              "the cases of --converged-degree (every material of the run)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"drop_2cm", "drop_5cm", "drop_10cm", "spin_roll", "wall_throw",
+                             "tilted_5cm", "probe_push"}));
     validate_free->add_option_function<std::string>(
         "--linear-law",
         [vfb](const std::string &law) { vfb->body_frame = law == "linear_body_frame"; },

@@ -78,6 +78,15 @@ namespace irdm::cli
                               "contact, and split the linear law's miss into rotation and strain "
                               "(cases.csv); on by default")
       ->capture_default_str();
+    validate_planes->add_option("--converged-degree", vp->converged_degree,
+                                "the truth's own discretization error: on --converged-cases, the "
+                                "nonlinear FEM again with P2 elements on the same mesh, and every "
+                                "run scored against it beside the P1 truth (converged.csv); 0: not run")
+      ->capture_default_str()
+      ->check(CLI::IsMember({0u, 2u}));
+    validate_planes->add_option("--converged-cases", vp->converged_cases,
+                                "the cases of --converged-degree")
+      ->capture_default_str();
     validate_planes->add_flag("--quick", vp->quick,
                               "15 of the 22 cases: every kind and the sweep's cases, at fewer "
                               "depths and speeds (the main job's default)");

@@ -241,7 +241,14 @@ namespace irdm::validation::free_body
       for (size_t m = 0; m < o.fem_divisions.size(); ++m)
         c << (m ? "," : "") << o.fem_divisions[m];
       c << (o.reuse_models ? " --reuse-models" : "") << (o.truth_check ? " --truth-check" : "")
-        << (o.sensitivity ? " --sensitivity" : "")
+        << (o.sensitivity ? " --sensitivity" : "");
+      if (o.sensitivity && o.sensitivity_um != std::vector<double>{1})
+        {
+          c << " --sensitivity-um";
+          for (const double um : o.sensitivity_um)
+            c << ' ' << plain(um);
+        }
+      c
         << (o.surface_modes ? " --surface-modes " + std::to_string(o.surface_modes) : std::string())
         << (o.small_strain ? "" : " --no-small-strain")
         << (o.small_strain && !o.body_frame ? " --linear-law linear" : "")
@@ -249,7 +256,14 @@ namespace irdm::validation::free_body
         << (o.centrifugal ? " --centrifugal" : "") << (o.deformed_inertia ? " --deformed-inertia" : "")
         << (o.frame_forces ? " --frame-forces" : "")
         << (o.deformation_momentum ? " --deformation-momentum" : "")
-        << ((o.frame_forces || o.deformation_momentum) && o.frame_modes > 0 ? " --frame-modes " + std::to_string(o.frame_modes) : "");
+        << ((o.frame_forces || o.deformation_momentum) && o.frame_modes > 0 ? " --frame-modes " + std::to_string(o.frame_modes) : "")
+        << " --converged-degree " << o.converged_degree;
+      if (o.converged_degree > 0)
+        {
+          c << " --converged-cases";
+          for (const auto &name : o.converged_cases)
+            c << ' ' << name;
+        }
       return c.str();
     }
 
@@ -280,6 +294,8 @@ namespace irdm::validation::free_body
               {"truth_check", o.truth_check ? "1" : ""},
               {"sensitivity", o.sensitivity ? "1" : ""},
               {"corotational", o.corotational ? "1" : ""},
+              {"converged", o.converged_degree > 0 && !o.converged_cases.empty() ? "1" : ""},
+              {"converged_degree", std::to_string(o.converged_degree)},
               {"linear_fem", o.body_frame ? "fem_linear_body_frame" : "fem_small_strain"},
               {"study_surface_modes", std::to_string(o.study_surface_modes)},
               {"stability_seconds", plain(o.stability_seconds)}};

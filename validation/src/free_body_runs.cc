@@ -5,6 +5,7 @@
 #include "scene_runs.h"
 
 #include <irdm_common/error.h>
+#include <irdm_common/format.h>
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/nonlinear_elasticity.h>
 #include <reference_fem/virtual_dof.h>
@@ -216,6 +217,7 @@ namespace irdm::validation::free_body
       std::vector<std::vector<Eigen::Vector3d>> fem_x{}; // the truth's surface per step
       unsigned                     n = 0, first_begin = 0, first_end = 0; // steps of tau
       std::optional<Samples>       small_strain{}; // the linear FEM's
+      std::optional<Samples>       converged{};    // the converged truth's, where it ran
       double                       window_rotation = 0; // the truth's largest, to first_end
     };
 
@@ -428,32 +430,90 @@ namespace irdm::validation::free_body
       return o.body_frame ? "fem_linear_body_frame" : "fem_small_strain";
     }
 
-    /// The linear FEM `lin` again with the floor 1 um lower (the body starts that much higher
-    /// above it), against itself by the same measures: what a change of the scene far below
-    /// any the method makes does to each figure.
-    void
-    run_sensitivity(const Material &m, CaseRun &c, const fem::Scene &lin, FreeStudy &study,
-                    std::ostream &log)
+    std::string
+    converged_name(const FreeBodyValidationOptions &o)
     {
-      const double shift = 1e-6; // m
+      return "fem_neo_hookean_p" + std::to_string(o.converged_degree);
+    }
+
+    /// A run's samples against the converged truth, where it ran (linearization.csv).
+    void
+    against_converged(const Material &m, const CaseRun &c, const std::string &method,
+                      const Samples &run, FreeStudy &study)
+    {
+      if (!c.converged)
+        return;
+      LinearizationRow row = linearization_row(m, c, method, converged_name(m.o).c_str());
+      row.errors           = compare(*c.converged, run, m.c0, c.first_begin, c.first_end);
+      study.linearization.push_back(row);
+    }
+
+    /// The converged truth (FreeBodyValidationOptions::converged_degree on the same mesh, so the
+    /// same surface vertices), and the P1 truth against it: the truth's own discretization
+    /// error.
+    void
+    run_converged_truth(const Material &m, CaseRun &c, FreeStudy &study, std::ostream &log)
+    {
+      const auto &o = m.o;
+      if (o.converged_degree == 0 ||
+          std::find(o.converged_cases.begin(), o.converged_cases.end(), c.k.name) == o.converged_cases.end())
+        return;
+      fem::Scene s = c.s;
+      s.fe_degree  = o.converged_degree;
+      log << "  the truth with P" << o.converged_degree << " elements (" << converged_name(o) << ")"
+          << std::endl;
+      LinearizationRow row = linearization_row(m, c, converged_name(o), "fem_neo_hookean");
+      try
+        {
+          const auto     t0 = Clock::now();
+          fem::RunResult r  = fem::NonlinearElasticity(s).run();
+          row.fem_ms        = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
+          c.converged       = fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
+          row.errors        = compare(*c.truth, *c.converged, m.c0, c.first_begin, c.first_end);
+          log << "  the P1 truth against it: first contact: force " << row.errors.window_force
+              << ", impulse " << row.errors.window_impulse << ", deformation "
+              << row.errors.window_deformation << "; " << row.fem_ms << " ms/step" << std::endl;
+        }
+      catch (const std::exception &e)
+        {
+          log << "  the P" << o.converged_degree << " truth failed: " << e.what() << std::endl;
+          row.failed = e.what();
+        }
+      study.linearization.push_back(row);
+      against_converged(m, c, "fem_neo_hookean", *c.truth, study);
+    }
+
+    /// The linear FEM `lin` again with the floor `um` micrometres lower (the body starts that
+    /// much higher above it), against itself by the same measures: what a change of the scene
+    /// far below any the method makes does to each figure (1 um), or one whose first contact
+    /// moves as much as the method's error does (larger shifts): how far the scene amplifies
+    /// a first contact's error over the run.
+    void
+    run_sensitivity(const Material &m, CaseRun &c, const fem::Scene &lin, const double um,
+                    FreeStudy &study, std::ostream &log)
+    {
+      const double shift = 1e-6 * um; // m
       fem::Scene   low   = lin;
       for (auto &v : low.planes[0].position.values)
         for (int d = 0; d < 3; ++d)
           v[d] -= shift * c.k.up(d);
-      LinearizationRow row = linearization_row(m, c, std::string(linear_fem_name(m.o)) + "_floor_1um",
-                                               linear_fem_name(m.o));
+      const std::string floor = "floor " + plain(um) + " um lower";
+      LinearizationRow  row   = linearization_row(
+        m, c, std::string(linear_fem_name(m.o)) + "_floor_" + plain(um) + "um", linear_fem_name(m.o));
       try
         {
           fem::RunResult l = fem::NonlinearElasticity(low).run();
           row.errors = compare(*c.small_strain, fem_samples(l, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0),
                                m.c0, c.first_begin, c.first_end);
-          log << "  the linear FEM with the floor 1 um lower against it: whole run: com "
+          log << "  the linear FEM with the " << floor << " against it: first contact: force "
+              << row.errors.window_force << ", deformation " << row.errors.window_deformation
+              << "; whole run: com "
               << row.errors.com << ", angle " << row.errors.angle << " deg, force "
               << row.errors.force << ", deformation " << row.errors.deformation << std::endl;
         }
       catch (const std::exception &e)
         {
-          log << "  the linear FEM with the floor 1 um lower failed: " << e.what() << std::endl;
+          log << "  the linear FEM with the " << floor << " failed: " << e.what() << std::endl;
           row.failed = e.what();
         }
       study.linearization.push_back(row);
@@ -483,6 +543,7 @@ namespace irdm::validation::free_body
           row.fem_ms        = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
           c.small_strain    = fem_samples(l, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
           row.errors        = compare(*c.truth, *c.small_strain, m.c0, c.first_begin, c.first_end);
+          against_converged(m, c, linear_fem_name(o), *c.small_strain, study);
           log << "  the linear FEM against the truth: first contact: force "
               << row.errors.window_force << ", impulse " << row.errors.window_impulse
               << ", deformation " << row.errors.window_deformation << std::endl;
@@ -494,7 +555,8 @@ namespace irdm::validation::free_body
         }
       study.linearization.push_back(row);
       if (o.sensitivity && c.small_strain)
-        run_sensitivity(m, c, lin, study, log);
+        for (const double um : o.sensitivity_um)
+          run_sensitivity(m, c, lin, um, study, log);
     }
 
     /// The FEM with the corotational law: against the truth, what the strain's nonlinearity
@@ -517,6 +579,7 @@ namespace irdm::validation::free_body
           strain.fem_ms     = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
           const Samples corotational = fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
           strain.errors = compare(*c.truth, corotational, m.c0, c.first_begin, c.first_end);
+          against_converged(m, c, "fem_corotational", corotational, study);
           log << "  the corotational FEM against the truth: first contact: force "
               << strain.errors.window_force << ", impulse " << strain.errors.window_impulse
               << ", deformation " << strain.errors.window_deformation << "; "
@@ -640,6 +703,7 @@ namespace irdm::validation::free_body
             write_frame(study, m, c, method, step, xi);
         }
       const RunErrors err = compare(truth, run, m.c0, c.first_begin, c.first_end);
+      against_converged(m, c, method, run, study);
       row.com_error = err.com, row.angle_error = err.angle, row.force_error = err.force;
       row.impulse_error = err.impulse, row.deformation_error = err.deformation;
       row.first_start       = (c.first_begin - 1) * tau;
@@ -674,6 +738,7 @@ namespace irdm::validation::free_body
       CaseRun c = setup_case(m, k);
       if (!run_truth(m, c, study, log))
         return;
+      run_converged_truth(m, c, study, log);
       if (m.o.truth_check && !k.in_study())
         run_truth_check(m, c, study, log);
       run_linear_fem(m, c, study, log);

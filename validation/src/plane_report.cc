@@ -202,6 +202,60 @@ namespace irdm::validation::planes
       write_csv(dir, "cases.csv", csv);
     }
 
+    // Every run scored against the converged truth where it ran: name and result, in order.
+    std::vector<std::pair<std::string, const MethodResult *>>
+    converged_runs(const Row &r)
+    {
+      std::vector<std::pair<std::string, const MethodResult *>> out;
+      for (size_t j = 0; j < method_names.size(); ++j)
+        out.emplace_back(method_names[j], &r.method[j]);
+      out.emplace_back("vdof_interpolated_same_contact", &r.same_contact);
+      out.emplace_back("fem_linear_vertex_contact", &r.linear_fem);
+      out.emplace_back("fem_small_strain", &r.linear_law);
+      out.emplace_back("fem_corotational", &r.corotational);
+      return out;
+    }
+
+    /// converged.csv and its table: the P1 truth and every run against the converged truth.
+    std::string
+    converged_results(const std::string &dir, const std::vector<Row> &rows)
+    {
+      std::ostringstream csv, md;
+      csv << "case,method,force_error,impulse_error,displacement_error,converged_force_error,"
+             "converged_impulse_error,converged_displacement_error,converged_degree,"
+             "converged_dofs,converged_ms_per_step\n";
+      bool any = false;
+      for (const auto &r : rows)
+        {
+          if (r.converged_degree == 0)
+            continue;
+          any               = true;
+          const auto suffix = "," + std::to_string(r.converged_degree) + "," +
+                              std::to_string(r.converged_dofs) + "," + fmt(r.converged_ms) + "\n";
+          csv << r.c.name << ",fem_neo_hookean_p1,0,0,0," << r.truth_force_error << ","
+              << r.truth_impulse_error << "," << r.truth_displacement_error << suffix;
+          md << "| " << r.c.name << " | P1 truth (fem_neo_hookean) | 0 / 0 / 0 | "
+             << fmt(100 * r.truth_force_error) << " / " << fmt(100 * r.truth_impulse_error) << " / "
+             << percent(r.truth_displacement_error) << " |\n";
+          for (const auto &[name, m] : converged_runs(r))
+            {
+              if (!m->ran || m->converged_force_error < 0)
+                continue;
+              csv << r.c.name << "," << name << "," << m->force_error << "," << m->impulse_error
+                  << "," << m->displacement_error << "," << m->converged_force_error << ","
+                  << m->converged_impulse_error << "," << m->converged_displacement_error << suffix;
+              md << "| " << r.c.name << " | " << name << " | " << fmt(100 * m->force_error) << " / "
+                 << fmt(100 * m->impulse_error) << " / " << percent(m->displacement_error) << " | "
+                 << fmt(100 * m->converged_force_error) << " / "
+                 << fmt(100 * m->converged_impulse_error) << " / "
+                 << percent(m->converged_displacement_error) << " |\n";
+            }
+        }
+      if (any)
+        write_csv(dir, "converged.csv", csv);
+      return md.str();
+    }
+
     void
     write_forces_csv(const std::string &dir, const std::vector<Row> &rows, const double tau)
     {
@@ -453,6 +507,9 @@ namespace irdm::validation::planes
     v["best_table"]    = best_table(s.rows);
     v["perturbations"] = s.options.perturbations > 0 ? std::to_string(s.options.perturbations) : "";
     v["corotational"]  = s.options.corotational ? "1" : "";
+    v["converged_table"] = converged_results(dir, s.rows);
+    v["converged"]       = v["converged_table"].empty() ? "" : "1";
+    v["converged_degree"] = std::to_string(s.options.converged_degree);
     v["spread_table"]  = spread_table(s.rows);
     v["mapping_table"] = mapping_table(s.mapping);
     v["plate_table"]   = plate_table(s.plate);

@@ -145,6 +145,10 @@ namespace irdm::validation::planes
       unsigned       N = 0;
       std::shared_ptr<const fem::RunResult> run; // shared by the perturbed cases
       double         u_max = 0; // m, the FEM's largest surface displacement component
+      // The converged truth (the same walls, higher-degree elements on the same mesh, so the
+      // same surface vertices) and its force along -d per step; null where it did not run.
+      std::shared_ptr<const fem::RunResult> converged;
+      std::vector<double>                   F_converged;
 
       double
       wall_at(const size_t a, const double t) const
@@ -207,6 +211,53 @@ namespace irdm::validation::planes
       log << " " << since(t0) << " s; IRDM";
     }
 
+    /// The walls' total force along -d of a run of scene s, per step 0..N.
+    std::vector<double>
+    wall_force(const Truth &truth, const fem::RunResult &r, const fem::Scene &s)
+    {
+      std::vector<double> F(truth.N + 1, 0.0);
+      for (unsigned k = 0; k <= truth.N; ++k)
+        for (size_t a = 0; a < truth.c.d.size(); ++a)
+          F[k] -= dot(r.plane_force.at(s.planes[a].name)[k], direction(truth.c, a, k * truth.tau));
+      return F;
+    }
+
+    /// The converged truth: the truth's scene with elements of the given degree on the same
+    /// mesh, and the P1 truth against it.
+    void
+    run_converged_truth(Truth &truth, const unsigned degree, Row &row, std::ostream &log)
+    {
+      fem::Scene s = truth.scene;
+      s.fe_degree  = degree;
+      log << " P" << degree << " FEM ..." << std::flush;
+      try
+        {
+          const fem::NonlinearElasticity fem(s);
+          truth.converged      = std::make_shared<const fem::RunResult>(fem.run());
+          truth.F_converged    = wall_force(truth, *truth.converged, s);
+          row.converged_ms     = 1e3 * truth.converged->stepping_seconds / truth.N;
+          row.converged_degree = degree;
+          row.converged_dofs   = fem.n_dofs();
+          RelativeL2   force, displacement;
+          ImpulseError impulse;
+          for (unsigned k = 1; k <= truth.N; ++k)
+            {
+              force.add(row.F_fem[k], truth.F_converged[k]);
+              impulse.add(row.F_fem[k], truth.F_converged[k]);
+              displacement.add(truth.run->surface_displacement[k], truth.converged->surface_displacement[k]);
+            }
+          row.truth_force_error        = force.value();
+          row.truth_impulse_error      = impulse.value();
+          row.truth_displacement_error = displacement.value();
+          log << " " << row.converged_ms << " ms/step;" << std::flush;
+        }
+      catch (const std::exception &e)
+        {
+          truth.converged.reset();
+          log << " the P" << degree << " FEM failed: " << e.what() << ";" << std::flush;
+        }
+    }
+
     /// Scores a method stepped as every method is: IRDM step n (n = 0, 1, ...) is FEM step
     /// n + 1, with the walls where the FEM has them at its end. step(t, F) advances to t and
     /// gives the total wall force along -d; surface() the surface in the FEM's order.
@@ -214,8 +265,8 @@ namespace irdm::validation::planes
     void
     score(MethodResult &m, const Truth &truth, const Row &row, Step &&step, Surface &&surface)
     {
-      RelativeL2     force, displacement;
-      ImpulseError   impulse;
+      RelativeL2     force, displacement, converged_force, converged_displacement;
+      ImpulseError   impulse, converged_impulse;
       double         t_force = 0, t_surface = 0;
       const unsigned N = truth.N;
       m.ran            = true;
@@ -233,12 +284,24 @@ namespace irdm::validation::planes
           force.add(F, row.F_fem[k]);
           impulse.add(F, row.F_fem[k]);
           displacement.add(u, truth.run->surface_displacement[k]);
+          if (truth.converged)
+            {
+              converged_force.add(F, truth.F_converged[k]);
+              converged_impulse.add(F, truth.F_converged[k]);
+              converged_displacement.add(u, truth.converged->surface_displacement[k]);
+            }
           for (const double x : u)
             m.stable = m.stable && std::isfinite(x) && std::abs(x) <= 10 * truth.u_max;
         }
       m.force_error        = force.value();
       m.impulse_error      = impulse.value();
       m.displacement_error = displacement.value();
+      if (truth.converged)
+        {
+          m.converged_force_error        = converged_force.value();
+          m.converged_impulse_error      = converged_impulse.value();
+          m.converged_displacement_error = converged_displacement.value();
+        }
       m.force_us           = 1e6 * t_force / N;
       m.surface_us         = 1e6 * t_surface / N;
     }
@@ -364,7 +427,7 @@ namespace irdm::validation::planes
           Row against = row; // the corotational run's force as the reference's
           against.F_fem.assign(1, 0.0);
           against.F_fem.insert(against.F_fem.end(), row.corotational.F.begin(), row.corotational.F.end());
-          const Truth reference{truth.c, truth.models, truth.tau, cs, truth.N, run, truth.u_max};
+          const Truth reference{truth.c, truth.models, truth.tau, cs, truth.N, run, truth.u_max, nullptr, {}};
           replay(row.rotation, reference, against, law, ls);
           log << " corotational " << row.corotational_ms << " ms/step" << std::flush;
         }
@@ -466,7 +529,7 @@ namespace irdm::validation::planes
               t *= 1 + eps;
           else
             k *= 1 + eps;
-          const Truth  t{c, truth.models, truth.tau, truth.scene, truth.N, truth.run, truth.u_max};
+          const Truth  t{c, truth.models, truth.tau, truth.scene, truth.N, truth.run, truth.u_max, nullptr, {}};
           std::array<MethodResult, method_names.size()> m;
           run_virtual_dofs(m[0], t, row, OrientationMapping::nearest, 0);
           run_virtual_dofs(m[1], t, row, OrientationMapping::interpolated, 0);
@@ -529,8 +592,11 @@ namespace irdm::validation::planes
           best_dot = std::max(best_dot, dot(dk, d));
         row.on_dome = row.on_dome && best_dot > 1 - 1e-12;
       }
-    Truth truth{c, models, body.time_step, {}, 0, nullptr, 0};
+    Truth truth{c, models, body.time_step, {}, 0, nullptr, 0, nullptr, {}};
     run_truth(truth, body, row, log);
+    if (o.converged_degree > 0 &&
+        std::find(o.converged_cases.begin(), o.converged_cases.end(), c.name) != o.converged_cases.end())
+      run_converged_truth(truth, o.converged_degree, row, log);
     if (fem_order.empty())
       {
         std::map<long long, unsigned> at;

@@ -62,6 +62,10 @@ namespace irdm::validation::planes
     // Each error's range over this run and the runs with the walls perturbed by parts per
     // million (PlaneValidationOptions::perturbations; empty when none ran).
     Range force_range, impulse_range, displacement_range;
+    // Against the converged truth (PlaneValidationOptions::converged_degree), the same
+    // measures; -1 where it did not run.
+    double converged_force_error = -1, converged_impulse_error = -1,
+           converged_displacement_error = -1;
   };
 
   /// One case: the truth's figures and every method's.
@@ -92,6 +96,12 @@ namespace irdm::validation::planes
     // miss), and the small-strain law against it (the rotation's share).
     MethodResult corotational, rotation;
     double       corotational_ms = 0;
+    // The converged truth (PlaneValidationOptions::converged_degree) where it ran: its degree,
+    // free DoFs and cost per step, and the P1 truth against it (the truth's own discretization
+    // error; -1 where it did not run).
+    unsigned converged_degree = 0, converged_dofs = 0;
+    double   converged_ms = 0, truth_force_error = -1, truth_impulse_error = -1,
+             truth_displacement_error = -1;
     double       vertex_stiffness = 0; // N/m, of vertex contact's walls in the table
   };
 

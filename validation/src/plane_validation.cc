@@ -6,6 +6,7 @@
 
 #include "plane_runs.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 
@@ -29,6 +30,12 @@ namespace irdm::validation
     const std::string dir = (fs::path(o.report_dir) / "planes").string();
     fs::create_directories(dir);
 
+    // The case names do not depend on the model's directions: checked before any model is made.
+    const std::vector<Case> names = plane_cases(Directions{}, o.quick);
+    for (const std::string &name : o.converged_cases)
+      if (std::none_of(names.begin(), names.end(), [&](const Case &c) { return c.name == name; }))
+        throw InputError("validate-planes: --converged-cases names '" + name +
+                         "', which is not a case of this run" + (o.quick ? " (--quick)" : ""));
     const PlaneModels models = prepare_models(body, o, log);
     PlaneStudy        study{o, body, models, case_directions(models.vdof), {}, {}, {}, {}};
     std::vector<unsigned> fem_order;

@@ -47,6 +47,9 @@ namespace irdm::validation
     // the same measures (linearization.csv, fem_linear_body_frame_floor_1um): how far the
     // scene itself decides each figure, over the first contact and the whole run.
     bool     sensitivity = false;
+    // The floor's shifts of the sensitivity runs (micrometres; one linear FEM run each, method
+    // <linear FEM>_floor_<x>um).
+    std::vector<double> sensitivity_um = {1};
     // Also run the FEM with a linear law and measure the linearization (it against the truth)
     // and the method (the runtime against it) apart (linearization.csv, a table in report.md).
     bool     small_strain = true;
@@ -61,6 +64,12 @@ namespace irdm::validation
     // (linear against nonlinear in the strain); the linear FEM against it, the rotation's
     // (linearized against each point's own rotation) (linearization.csv).
     bool     corotational = true;
+    // The truth's own discretization error: on converged_cases (every material of the run),
+    // the nonlinear FEM again with elements of this degree on the same mesh (0: not run), the
+    // P1 truth against it, and every run against it (linearization.csv, reference
+    // fem_neo_hookean_p<degree>).
+    unsigned                 converged_degree = 2;
+    std::vector<std::string> converged_cases  = {"drop_2cm"};
     // The modal routes take the spin's centrifugal force into the deformation
     // (FreeBodyOptions::centrifugal); false: left out, as the virtual DOFs leave it. Off by
     // default: on the cat's roll it changed no figure at 50 kPa and made 2 kPa worse (README.md)

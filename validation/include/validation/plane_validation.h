@@ -46,6 +46,11 @@ namespace irdm::validation
     // own contact) on every case: the first against the truth is the strain's share of a
     // linear model's miss, the second against the first the rotation's (cases.csv).
     bool        corotational = true;
+    // The truth's own discretization error: on converged_cases, the nonlinear FEM again with
+    // elements of this degree on the same mesh (0: not run), and every method scored against
+    // it beside the P1 truth (converged.csv).
+    unsigned                 converged_degree = 2;
+    std::vector<std::string> converged_cases  = {"press_top_5mm", "press_side_10mm"};
     std::string plot_script;        // python script for the charts; "" skips charts
     // Fewer depths and speeds (every kind of case and the sweep's cases kept): the main job's
     // default, within its 10-minute budget.
