@@ -276,6 +276,42 @@ TEST(NonlinearDynamics, PlaneOnTheFixedSurfaceOnlyPushesNothing)
   EXPECT_GT(moved, 1e-6);
 }
 
+// The penalty holds a sharp corner's vertex at P2 as at P1: a plane tilted to meet the beam's
+// tip corner first, moved 0.5 mm past it. P1 takes the penalty at the face vertices; P2 at its
+// vertices, edge midpoints and centroid. With Gauss points alone (the rule P2 had) the corner
+// passes through the plane unseen until the faces' inner points reach it.
+TEST(NonlinearDynamics, PenaltyHoldsASharpCornerAtP2AsAtP1)
+{
+  const double push = 5e-4, s3 = 1 / std::sqrt(3.0);
+  std::array<double, 2> deepest{};
+  for (const unsigned degree : {1u, 2u})
+    {
+      // The plane's normal points into the body; its point is the corner moved along it, so
+      // the corner's depth n . (x0 - x) is the offset: -0.1 mm at t = 0, 0.5 mm from 0.01 s.
+      const auto at = [&](const double d) {
+        return "[" + std::to_string(0.25 - d * s3) + ", " + std::to_string(0.01 - d * s3) + ", " +
+               std::to_string(0.01 - d * s3) + "]";
+      };
+      const Scene s = parse_scene(
+        beam_scene_json(IRDM_MESH_DIR "/beam_2.msh", degree, BeamModel(),
+                        R"(, "kinematics": "nonlinear", "time": {"step_s": 0.001, "duration_s": 0.02},
+           "planes": [{"name": "wall", "normal": [-1, -1, -1],
+                       "position": {"times_s": [0, 0.01], "points_m": [)" + at(-1e-4) + ", " + at(push) + R"(]}}])"),
+        ".");
+      const auto r = NonlinearElasticity(s).run();
+      const auto &p = r.plane_penetration.at("wall");
+      deepest[degree - 1] = *std::max_element(p.begin(), p.end());
+      double pushed = 0;
+      for (const auto &f : r.plane_force.at("wall"))
+        pushed = std::max(pushed, std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]));
+      EXPECT_GT(pushed, 0) << "P" << degree << ": the plane touches the corner";
+    }
+  std::printf("a plane 0.5 mm past the beam's tip corner: deepest vertex through it %.3g mm "
+              "(P1), %.3g mm (P2)\n", 1e3 * deepest[0], 1e3 * deepest[1]);
+  EXPECT_LT(deepest[0], 0.2 * push);
+  EXPECT_LT(deepest[1], 0.2 * push);
+}
+
 TEST(NonlinearDynamics, TurningFloorPushesAlongItsNormalAtEachTime)
 {
   // The ball falls onto a floor that turns from -3 to +3 degrees about y during the contact

@@ -86,13 +86,30 @@ namespace irdm::fem
     }
   } // namespace
 
+  namespace
+  {
+    // The penalty's face rule. P1: the vertices (the penalty lumped to them by area / 3). P2:
+    // the vertices, edge midpoints and centroid (weights 1/40, 1/15, 9/40 on the unit
+    // triangle; positive, exact to degree 3): with Gauss points alone a vertex at a sharp
+    // feature passes through the plane unseen (an ear tip through a wall pressed into the
+    // cat's top), which the P1 rule does not allow. Higher degrees: Gauss points.
+    Quadrature<2>
+    contact_rule(const unsigned degree)
+    {
+      if (degree == 1)
+        return Quadrature<2>({Point<2>(0, 0), Point<2>(1, 0), Point<2>(0, 1)}, {1. / 6, 1. / 6, 1. / 6});
+      if (degree == 2)
+        return Quadrature<2>({Point<2>(0, 0), Point<2>(1, 0), Point<2>(0, 1), Point<2>(0.5, 0),
+                              Point<2>(0.5, 0.5), Point<2>(0, 0.5), Point<2>(1. / 3, 1. / 3)},
+                             {1. / 40, 1. / 40, 1. / 40, 1. / 15, 1. / 15, 1. / 15, 9. / 40});
+      return Quadrature<2>(QGaussSimplex<2>(degree + 2));
+    }
+  } // namespace
+
   NonlinearElasticity::Impl::Impl(const Scene &scene)
     : linear(scene)
     , stiffness_quadrature(scene.fe_degree == 1 ? 1 : scene.fe_degree + 1)
-    , contact_quadrature(
-        scene.fe_degree == 1
-          ? Quadrature<2>({Point<2>(0, 0), Point<2>(1, 0), Point<2>(0, 1)}, {1. / 6, 1. / 6, 1. / 6})
-          : Quadrature<2>(QGaussSimplex<2>(scene.fe_degree + 2)))
+    , contact_quadrature(contact_rule(scene.fe_degree))
   {
     const double E = scene.youngs_modulus, nu = scene.poisson_ratio;
     lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
