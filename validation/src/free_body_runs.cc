@@ -430,6 +430,17 @@ namespace irdm::validation::free_body
       return o.body_frame ? "fem_linear_body_frame" : "fem_small_strain";
     }
 
+    /// The FEM on scene s, sampled as the truth is; ms: its cost per step of tau (wall time,
+    /// setup included, as the truth's).
+    Samples
+    run_sampled(const Material &m, const CaseRun &c, const fem::Scene &s, double &ms)
+    {
+      const auto     t0 = Clock::now();
+      fem::RunResult r  = fem::NonlinearElasticity(s).run();
+      ms = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
+      return fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
+    }
+
     std::string
     converged_name(const FreeBodyValidationOptions &o)
     {
@@ -465,11 +476,8 @@ namespace irdm::validation::free_body
       LinearizationRow row = linearization_row(m, c, converged_name(o), "fem_neo_hookean");
       try
         {
-          const auto     t0 = Clock::now();
-          fem::RunResult r  = fem::NonlinearElasticity(s).run();
-          row.fem_ms        = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
-          c.converged       = fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
-          row.errors        = compare(*c.truth, *c.converged, m.c0, c.first_begin, c.first_end);
+          c.converged = run_sampled(m, c, s, row.fem_ms);
+          row.errors  = compare(*c.truth, *c.converged, m.c0, c.first_begin, c.first_end);
           log << "  the P1 truth against it: first contact: force " << row.errors.window_force
               << ", impulse " << row.errors.window_impulse << ", deformation "
               << row.errors.window_deformation << "; " << row.fem_ms << " ms/step" << std::endl;
@@ -502,9 +510,8 @@ namespace irdm::validation::free_body
         m, c, std::string(linear_fem_name(m.o)) + "_floor_" + plain(um) + "um", linear_fem_name(m.o));
       try
         {
-          fem::RunResult l = fem::NonlinearElasticity(low).run();
-          row.errors = compare(*c.small_strain, fem_samples(l, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0),
-                               m.c0, c.first_begin, c.first_end);
+          row.errors = compare(*c.small_strain, run_sampled(m, c, low, row.fem_ms), m.c0,
+                               c.first_begin, c.first_end);
           log << "  the linear FEM with the " << floor << " against it: first contact: force "
               << row.errors.window_force << ", deformation " << row.errors.window_deformation
               << "; whole run: com "
@@ -538,11 +545,8 @@ namespace irdm::validation::free_body
       LinearizationRow row = linearization_row(m, c, linear_fem_name(o), "fem_neo_hookean");
       try
         {
-          const auto     t0 = Clock::now();
-          fem::RunResult l  = fem::NonlinearElasticity(lin).run();
-          row.fem_ms        = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
-          c.small_strain    = fem_samples(l, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
-          row.errors        = compare(*c.truth, *c.small_strain, m.c0, c.first_begin, c.first_end);
+          c.small_strain = run_sampled(m, c, lin, row.fem_ms);
+          row.errors     = compare(*c.truth, *c.small_strain, m.c0, c.first_begin, c.first_end);
           against_converged(m, c, linear_fem_name(o), *c.small_strain, study);
           log << "  the linear FEM against the truth: first contact: force "
               << row.errors.window_force << ", impulse " << row.errors.window_impulse
@@ -574,10 +578,7 @@ namespace irdm::validation::free_body
       LinearizationRow turn   = linearization_row(m, c, linear_fem_name(m.o), "fem_corotational");
       try
         {
-          const auto     t0 = Clock::now();
-          fem::RunResult r  = fem::NonlinearElasticity(s).run();
-          strain.fem_ms     = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
-          const Samples corotational = fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
+          const Samples corotational = run_sampled(m, c, s, strain.fem_ms);
           strain.errors = compare(*c.truth, corotational, m.c0, c.first_begin, c.first_end);
           against_converged(m, c, "fem_corotational", corotational, study);
           log << "  the corotational FEM against the truth: first contact: force "
