@@ -10,6 +10,64 @@
 
 namespace irdm::cli
 {
+  namespace
+  {
+    // The FEM runs beside the truth: its check at half the step, the linear and corotational
+    // laws, the sensitivity and the converged (P2) truth.
+    void
+    add_reference_options(CLI::App &app, irdm::validation::FreeBodyValidationOptions &o)
+    {
+      app.add_flag("--truth-check", o.truth_check,
+                              "also run the FEM at half its step (tau / 2M) and compare it with "
+                              "the FEM at tau / M by the same measures (truth.csv): how well the "
+                              "truth itself is determined; triples the FEM's time");
+      app.add_flag("--sensitivity", o.sensitivity,
+                              "also run the linear FEM with the floor 1 um lower and compare it with "
+                              "the linear FEM by the same measures (linearization.csv, method "
+                              "<linear FEM>_floor_1um): where a change so small moves a figure as "
+                              "much as the method's error, the scene decides that figure, not the "
+                              "method; doubles the linear FEM's time");
+      app.add_option("--sensitivity-um", o.sensitivity_um,
+                                "with --sensitivity: the floor's shifts (micrometres), one linear FEM "
+                                "run each (method <linear FEM>_floor_<x>um); a shift whose first "
+                                "contact moves as much as the method's error measures how far the "
+                                "scene amplifies that error over the run")
+        ->capture_default_str()
+        ->check(CLI::Range(1e-3, 1e4));
+      app.add_flag("--small-strain,!--no-small-strain", o.small_strain,
+                              "also run the FEM with a linear law (--linear-law) and report linear "
+                              "elasticity's own error (it against the truth) and the method's (the "
+                              "runtime against it) apart (linearization.csv); on by default")
+        ->capture_default_str();
+      app.add_flag("--corotational,!--no-corotational", o.corotational,
+                              "also run the FEM with the corotational law (fem_corotational: the "
+                              "small-strain law in each point's own rotation) and split each miss "
+                              "of the linear FEM into rotation (the linear FEM against it) and "
+                              "strain (it against the truth) (linearization.csv); on by default")
+        ->capture_default_str();
+      app.add_option("--converged-degree", o.converged_degree,
+                                "the truth's own discretization error: on --converged-cases, the "
+                                "nonlinear FEM again with P2 elements on the same mesh, the P1 truth "
+                                "and every run against it (linearization.csv, reference "
+                                "fem_neo_hookean_p2); 0: not run")
+        ->capture_default_str()
+        ->check(CLI::IsMember({0u, 2u}));
+      app.add_option("--converged-cases", o.converged_cases,
+                                "the cases of --converged-degree (every material of the run)")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"drop_2cm", "drop_5cm", "drop_10cm", "spin_roll", "wall_throw",
+                               "tilted_5cm", "probe_push"}));
+      app.add_option_function<std::string>(
+          "--linear-law",
+          [&o](const std::string &law) { o.body_frame = law == "linear_body_frame"; },
+          "that linear FEM's law: linear_body_frame (the default: the small-strain law in the "
+          "body's best-fit frame, run fem_linear_body_frame) or linear (the plain small-strain "
+          "law, not objective: a spin swells its body instead of turning it; run fem_small_strain, "
+          "not for spin_roll)")
+        ->check(CLI::IsMember({"linear_body_frame", "linear"}));
+    }
+  } // namespace
+
   Command
   add_validate_free(CLI::App &app)
   {
@@ -93,54 +151,7 @@ namespace irdm::cli
                               "samples per virtual-DOF response (T; the step is the scene's)")
       ->capture_default_str()
       ->check(CLI::Range(1u, 100000u));
-    validate_free->add_flag("--truth-check", vfb->truth_check,
-                            "also run the FEM at half its step (tau / 2M) and compare it with "
-                            "the FEM at tau / M by the same measures (truth.csv): how well the "
-                            "truth itself is determined; triples the FEM's time");
-    validate_free->add_flag("--sensitivity", vfb->sensitivity,
-                            "also run the linear FEM with the floor 1 um lower and compare it with "
-                            "the linear FEM by the same measures (linearization.csv, method "
-                            "<linear FEM>_floor_1um): where a change so small moves a figure as "
-                            "much as the method's error, the scene decides that figure, not the "
-                            "method; doubles the linear FEM's time");
-    validate_free->add_option("--sensitivity-um", vfb->sensitivity_um,
-                              "with --sensitivity: the floor's shifts (micrometres), one linear FEM "
-                              "run each (method <linear FEM>_floor_<x>um); a shift whose first "
-                              "contact moves as much as the method's error measures how far the "
-                              "scene amplifies that error over the run")
-      ->capture_default_str()
-      ->check(CLI::Range(1e-3, 1e4));
-    validate_free->add_flag("--small-strain,!--no-small-strain", vfb->small_strain,
-                            "also run the FEM with a linear law (--linear-law) and report linear "
-                            "elasticity's own error (it against the truth) and the method's (the "
-                            "runtime against it) apart (linearization.csv); on by default")
-      ->capture_default_str();
-    validate_free->add_flag("--corotational,!--no-corotational", vfb->corotational,
-                            "also run the FEM with the corotational law (fem_corotational: the "
-                            "small-strain law in each point's own rotation) and split each miss "
-                            "of the linear FEM into rotation (the linear FEM against it) and "
-                            "strain (it against the truth) (linearization.csv); on by default")
-      ->capture_default_str();
-    validate_free->add_option("--converged-degree", vfb->converged_degree,
-                              "the truth's own discretization error: on --converged-cases, the "
-                              "nonlinear FEM again with P2 elements on the same mesh, the P1 truth "
-                              "and every run against it (linearization.csv, reference "
-                              "fem_neo_hookean_p2); 0: not run")
-      ->capture_default_str()
-      ->check(CLI::IsMember({0u, 2u}));
-    validate_free->add_option("--converged-cases", vfb->converged_cases,
-                              "the cases of --converged-degree (every material of the run)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"drop_2cm", "drop_5cm", "drop_10cm", "spin_roll", "wall_throw",
-                             "tilted_5cm", "probe_push"}));
-    validate_free->add_option_function<std::string>(
-        "--linear-law",
-        [vfb](const std::string &law) { vfb->body_frame = law == "linear_body_frame"; },
-        "that linear FEM's law: linear_body_frame (the default: the small-strain law in the "
-        "body's best-fit frame, run fem_linear_body_frame) or linear (the plain small-strain "
-        "law, not objective: a spin swells its body instead of turning it; run fem_small_strain, "
-        "not for spin_roll)")
-      ->check(CLI::IsMember({"linear_body_frame", "linear"}));
+    add_reference_options(*validate_free, *vfb);
     validate_free->add_flag("--centrifugal", vfb->centrifugal,
                             "the modal routes take the spin's centrifugal force into the "
                             "deformation (the model's /modes/centrifugal_load); free flight "

@@ -84,6 +84,23 @@ namespace irdm::fem
           }
       return true;
     }
+
+    // K_ij += dx grad phi_i : dP[grad phi_j] = dx sum_BD dP_dF[c_i][B][c_j][D] g_i[B] g_j[D], for
+    // shape functions e_{c_i} N_i with scalar gradients g_i.
+    void
+    add_tangent(const Tensor<4, 3> &dP_dF, const std::vector<Tensor<1, 3>> &g,
+                const std::vector<unsigned> &component, const double dx, FullMatrix<double> &cell_K)
+    {
+      for (unsigned i = 0; i < g.size(); ++i)
+        for (unsigned j = 0; j < g.size(); ++j)
+          {
+            double k_ij = 0;
+            for (unsigned B = 0; B < 3; ++B)
+              for (unsigned D = 0; D < 3; ++D)
+                k_ij += dP_dF[component[i]][B][component[j]][D] * g[i][B] * g[j][D];
+            cell_K(i, j) += k_ij * dx;
+          }
+    }
   } // namespace
 
   namespace
@@ -437,16 +454,7 @@ namespace irdm::fem
               continue;
             if (L.scene.corotational_law)
               {
-                // K_ij = grad phi_i : dP[grad phi_j] = sum_BD dP_dF[c_i][B][c_j][D] g_i[B] g_j[D].
-                for (unsigned i = 0; i < n_dofs; ++i)
-                  for (unsigned j = 0; j < n_dofs; ++j)
-                    {
-                      double k_ij = 0;
-                      for (unsigned B = 0; B < 3; ++B)
-                        for (unsigned D = 0; D < 3; ++D)
-                          k_ij += dP_dF[component[i]][B][component[j]][D] * g[i][B] * g[j][D];
-                      cell_K(i, j) += k_ij * dx;
-                    }
+                add_tangent(dP_dF, g, component, dx, cell_K);
                 continue;
               }
             // K_ij = grad phi_i : dP[grad phi_j], with
