@@ -157,6 +157,17 @@ namespace irdm::validation::planes
       }
     };
 
+    /// The walls' total force along -d of a run of scene s, per step 0..N.
+    std::vector<double>
+    wall_force(const Truth &truth, const fem::RunResult &r, const fem::Scene &s)
+    {
+      std::vector<double> F(truth.N + 1, 0.0);
+      for (unsigned k = 0; k <= truth.N; ++k)
+        for (size_t a = 0; a < truth.c.d.size(); ++a)
+          F[k] -= dot(r.plane_force.at(s.planes[a].name)[k], direction(truth.c, a, k * truth.tau));
+      return F;
+    }
+
     void
     run_truth(Truth &truth, const fem::Scene &body, Row &row, std::ostream &log)
     {
@@ -194,32 +205,18 @@ namespace irdm::validation::planes
       const auto &r = *truth.run;
       row.fem_ms_per_step = 1e3 * r.stepping_seconds / N;
       row.newton          = r.newton_iterations;
-      row.F_fem.assign(N + 1, 0.0);
+      row.F_fem = wall_force(truth, r, s);
       for (unsigned k = 0; k <= N; ++k)
         {
           for (size_t a = 0; a < c.d.size(); ++a)
-            {
-              row.F_fem[k] -= dot(r.plane_force.at(s.planes[a].name)[k], direction(c, a, k * tau));
-              row.fem_max_penetration =
-                std::max(row.fem_max_penetration, r.plane_penetration.at(s.planes[a].name)[k]);
-            }
+            row.fem_max_penetration =
+              std::max(row.fem_max_penetration, r.plane_penetration.at(s.planes[a].name)[k]);
           row.fem_peak_force = std::max(row.fem_peak_force, row.F_fem[k]);
         }
       for (unsigned k = 1; k <= N; ++k)
         for (const double x : r.surface_displacement[k])
           truth.u_max = std::max(truth.u_max, std::abs(x));
       log << " " << since(t0) << " s; IRDM";
-    }
-
-    /// The walls' total force along -d of a run of scene s, per step 0..N.
-    std::vector<double>
-    wall_force(const Truth &truth, const fem::RunResult &r, const fem::Scene &s)
-    {
-      std::vector<double> F(truth.N + 1, 0.0);
-      for (unsigned k = 0; k <= truth.N; ++k)
-        for (size_t a = 0; a < truth.c.d.size(); ++a)
-          F[k] -= dot(r.plane_force.at(s.planes[a].name)[k], direction(truth.c, a, k * truth.tau));
-      return F;
     }
 
     /// The converged truth: the truth's scene with elements of the given degree on the same
