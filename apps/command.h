@@ -49,6 +49,8 @@ namespace irdm::cli
   Command
   add_validate_converged(CLI::App &app);
   Command
+  add_validate_nonlinear(CLI::App &app);
+  Command
   add_play(CLI::App &app);
 
   // What several commands share (apps/commands/common.cc).

@@ -2,12 +2,15 @@
 // keep a template and its writer in step; every template of the project fills. The error
 // measures every study reports (validation/src/metrics.h).
 #include "metrics.h"
+#include "nonlinear_map.h"
+#include <irdm_common/error.h>
 #include <irdm_common/report_template.h>
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <regex>
 #include <stdexcept>
 
@@ -94,4 +97,68 @@ TEST(Metrics, RelativeL2AndImpulseErrorsOfKnownHistories)
   zero.add(1e-160, 0);
   EXPECT_EQ(same.value(), 0);
   EXPECT_TRUE(std::isfinite(zero.value()));
+}
+
+// The nonlinear map's limits (validation/src/nonlinear_map.h): where a method's error passes a
+// threshold as the load grows, on known lines.
+TEST(NonlinearMap, PassingLoadIsInterpolatedInLogLoadBetweenTheNeighbours)
+{
+  using irdm::validation::nonlinear::passing_load;
+  bool below = false, beyond = false;
+  // 2 % at 1, 8 % at 4: 5 % is half way in log(load), at 2.
+  EXPECT_NEAR(passing_load({{1, 0.02}, {4, 0.08}, {16, 0.3}}, 0.05, below, beyond), 2.0, 1e-12);
+  EXPECT_FALSE(below || beyond);
+  // 10 % between 4 (8 %) and 16 (30 %): a tenth of the way, 4 * 4^(1/11).
+  EXPECT_NEAR(passing_load({{1, 0.02}, {4, 0.08}, {16, 0.3}}, 0.10, below, beyond),
+              4 * std::pow(4.0, 1.0 / 11), 1e-12);
+  // The first crossing counts, not a later return below it.
+  EXPECT_NEAR(passing_load({{1, 0.02}, {4, 0.08}, {16, 0.01}}, 0.05, below, beyond), 2.0, 1e-12);
+  EXPECT_TRUE(std::isnan(passing_load({{1, 0.2}, {4, 0.3}}, 0.05, below, beyond)));
+  EXPECT_TRUE(below);
+  EXPECT_TRUE(std::isnan(passing_load({{1, 0.01}, {4, 0.03}}, 0.05, below, beyond)));
+  EXPECT_TRUE(beyond);
+  // A run that did not measure (NaN: unstable or failed) is past at its load.
+  EXPECT_EQ(passing_load({{1, 0.01}, {4, NAN}}, 0.05, below, beyond), 4.0);
+}
+
+TEST(NonlinearMap, LimitsUseATruthOnlyWhereItCoversTheWholeFamilyAndRowsRoundTrip)
+{
+  using namespace irdm::validation::nonlinear;
+  std::vector<MapRow> rows;
+  const auto add = [&](const std::string &c, const double load, const double e, const char *truth) {
+    MapRow r;
+    r.c = c, r.material = "2kPa", r.method = "m", r.family = "press_top", r.load = load;
+    r.truth = truth, r.displacement_error = e, r.force_error = 2 * e, r.impulse_error = e / 2;
+    rows.push_back(r);
+  };
+  add("a", 0.01, 0.02, p1_truth);
+  add("b", 0.04, 0.08, p1_truth);
+  add("a", 0.01, 0.03, p2_truth); // the P2 truth on one of the two cases only
+  const auto p1 = limits(rows, p1_truth);
+  ASSERT_EQ(p1.size(), 3u); // shape, force, impulse
+  EXPECT_EQ(p1[0].measure, "shape");
+  EXPECT_NEAR(p1[0].limit5, 0.02, 1e-12);
+  EXPECT_TRUE(p1[0].beyond10);
+  EXPECT_TRUE(p1[1].below5 == false && std::abs(p1[1].limit5 - 0.01 * std::pow(4.0, 1.0 / 12)) < 1e-12);
+  EXPECT_TRUE(limits(rows, p2_truth).empty()) << "the P2 truth does not cover the family";
+  add("b", 0.04, 0.06, p2_truth);
+  EXPECT_EQ(limits(rows, p2_truth).size(), 3u);
+
+  const std::string file = IRDM_TEST_TMP "/nonlinear_rows.csv";
+  std::filesystem::create_directories(IRDM_TEST_TMP);
+  {
+    std::ofstream out(file);
+    out << csv_header() << '\n';
+    for (const MapRow &r : rows)
+      out << csv_line(r) << '\n';
+  }
+  const std::vector<MapRow> back = read_rows(file);
+  ASSERT_EQ(back.size(), rows.size());
+  for (size_t i = 0; i < rows.size(); ++i)
+    {
+      EXPECT_EQ(csv_line(back[i]), csv_line(rows[i]));
+      EXPECT_TRUE(std::isnan(back[i].deformation_error)) << "not measured stays not measured";
+    }
+  std::ofstream(file) << "case,material\nx,y\n";
+  EXPECT_THROW(read_rows(file), irdm::InputError);
 }

@@ -2,6 +2,7 @@
 #include "plane_cases.h"
 
 #include <irdm_common/error.h>
+#include <irdm_common/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -10,10 +11,11 @@ namespace irdm::validation::planes
 {
   namespace
   {
+    /// "2", "10", "0.5": the case names' millimetres (a sweep goes below 1 mm).
     std::string
     millimetres(const double x)
     {
-      return std::to_string(static_cast<int>(std::round(x * 1000)));
+      return plain(std::round(x * 1e6) / 1000);
     }
 
     /// One wall along d, its penetration p(t) linear between (times, penetration).
@@ -162,6 +164,28 @@ namespace irdm::validation::planes
     // A tilted wall whose contact patch slides over the side: it turns 50 degrees about z.
     for (const double depth : pair_depths)
       cases.push_back(slide(dirs.side, depth, 25));
+    return cases;
+  }
+
+  std::vector<Case>
+  load_sweep(const Directions &dirs, const std::vector<std::string> &press_directions,
+             const std::vector<double> &depths, const std::vector<double> &speeds)
+  {
+    std::vector<Case> cases;
+    for (const std::string &side : press_directions)
+      {
+        const Vec3 *d = side == "top"       ? &dirs.top
+                        : side == "side"    ? &dirs.side
+                        : side == "between" ? &dirs.between
+                        : side == "oblique" ? &dirs.oblique
+                                            : nullptr;
+        if (!d)
+          throw InputError("no press direction '" + side + "' (top, side, between, oblique)");
+        for (const double depth : depths)
+          cases.push_back(press(side, *d, depth));
+      }
+    for (const double speed : speeds)
+      cases.push_back(impact(dirs.side, speed, 0.002));
     return cases;
   }
 } // namespace irdm::validation::planes

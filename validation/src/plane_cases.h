@@ -67,4 +67,11 @@ namespace irdm::validation::planes
   /// depth, three impact speeds).
   std::vector<Case>
   plane_cases(const Directions &directions, bool quick);
+
+  /// The nonlinear map's load sweeps, the same kinds of case: a press along each named
+  /// direction (top, side, between, oblique) at each depth (m), and a side impact 2 mm deep at
+  /// each speed (m/s).
+  std::vector<Case>
+  load_sweep(const Directions &directions, const std::vector<std::string> &press_directions,
+             const std::vector<double> &depths, const std::vector<double> &speeds);
 } // namespace irdm::validation::planes

@@ -205,6 +205,8 @@ namespace irdm::validation::planes
       const auto &r = *truth.run;
       row.fem_ms_per_step = 1e3 * r.stepping_seconds / N;
       row.newton          = r.newton_iterations;
+      for (const double e : r.largest_strain)
+        row.largest_strain = std::max(row.largest_strain, e);
       row.F_fem = wall_force(truth, r, s);
       for (unsigned k = 0; k <= N; ++k)
         {

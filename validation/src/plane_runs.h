@@ -79,6 +79,7 @@ namespace irdm::validation::planes
     bool     on_dome         = false; // every d is one of the model's directions
     double   fem_ms_per_step = 0;
     unsigned newton          = 0;
+    double   largest_strain  = 0; // the truth's over the run (RunResult::largest_strain)
     std::vector<double>                           F_fem; // per step, total along -d
     std::array<MethodResult, method_names.size()> method;
     MethodResult same_contact; // virtual DOFs, interpolated_same_contact (one fixed wall)

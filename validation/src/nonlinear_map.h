@@ -1,0 +1,101 @@
+#pragma once
+// Internal to validation/: the nonlinear map's rows (nonlinear_map.cc makes them from the plane
+// and free-body studies' runs), its limits and its report (nonlinear_report.cc).
+#include <validation/nonlinear_validation.h>
+
+#include <cmath>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace irdm::validation::nonlinear
+{
+  /// One method's run of one case of one material, against one truth (a row of nonlinear.csv).
+  /// Errors are relative: L2 over the history (force, displacement, deformation), the total's
+  /// (impulse); NaN where the family has no such measure. Grounded cases: over the whole run,
+  /// displacement of the surface (the body does not move, so it is its deformation). Free
+  /// cases: over the first contact, deformation in the best-fit frame (the rigid motion apart).
+  struct MapRow
+  {
+    std::string c, material, method;
+    double      force_error = NAN, impulse_error = NAN, displacement_error = NAN,
+           deformation_error = NAN;
+    double largest_strain  = NAN; // the P1 truth's, max_i |lambda_i - 1| over the window
+    double us_per_step     = NAN; // the method's own cost per step of tau (FEM laws included)
+    double fem_ms_per_step = NAN; // the P1 truth's cost per step of tau
+    bool   stable          = true;
+    // The scene family (press_top, press_side, press_between, impact_side, free_impact,
+    // free_drop), its dimensionless load, and the truth the errors are against
+    // (fem_neo_hookean_p1, fem_neo_hookean_p2).
+    std::string family;
+    double      load = NAN;
+    std::string truth;
+
+    /// The shape error the map draws: the displacement (grounded), else the deformation.
+    double
+    shape_error() const
+    {
+      return std::isnan(displacement_error) ? deformation_error : displacement_error;
+    }
+  };
+
+  inline constexpr const char *p1_truth = "fem_neo_hookean_p1";
+  inline constexpr const char *p2_truth = "fem_neo_hookean_p2";
+
+  /// The two scene families of a run, as --families names them.
+  bool
+  in_planes(const std::string &family);
+
+  /// Every row of the plane family's sweeps against the P1 truth, and against the P2 truth on
+  /// the cases where it ran (nonlinear_map.cc).
+  std::vector<MapRow>
+  run_plane_family(const NonlinearMapOptions &o, std::ostream &log);
+
+  /// The same for the free family, every material.
+  std::vector<MapRow>
+  run_free_family(const NonlinearMapOptions &o, std::ostream &log);
+
+  /// Where one method's error passes a threshold as the load grows, on one family and truth.
+  struct Limit
+  {
+    std::string family, material, method, truth, measure;
+    unsigned    points = 0;
+    double      first_load = 0, last_load = 0;
+    // The load where the error first passes 5 % and 10 %: linear in log(load) between the
+    // last point within and the first past; below: the first point is already past; beyond:
+    // no point is.
+    double limit5 = NAN, limit10 = NAN;
+    bool   below5 = false, below10 = false, beyond5 = false, beyond10 = false;
+  };
+
+  /// The load at which a history of (load, error) first passes `threshold` (sorted by load).
+  /// Returns NAN with below or beyond set when it is not inside the sweep.
+  double
+  passing_load(const std::vector<std::pair<double, double>> &points, double threshold, bool &below,
+               bool &beyond);
+
+  /// Every family, material, method and measure of `rows` against the truth `truth` where each
+  /// of that family's points is against it.
+  std::vector<Limit>
+  limits(const std::vector<MapRow> &rows, const std::string &truth);
+
+  /// nonlinear.csv's columns, in order.
+  std::string
+  csv_header();
+
+  std::string
+  csv_line(const MapRow &r);
+
+  /// Reads rows written by csv_line (IoError, InputError on a file not of this layout).
+  std::vector<MapRow>
+  read_rows(const std::string &file);
+
+  /// nonlinear.csv (each case against its best truth), against_p1.csv (every row against the
+  /// P1 truth) and limits.csv in dir, from every row (both truths).
+  void
+  write_csvs(const std::string &dir, const std::vector<MapRow> &rows);
+
+  /// nonlinear.md (validation/templates/nonlinear.md), showing the charts present in dir.
+  void
+  write_markdown(const std::string &dir, const NonlinearMapOptions &o, const std::vector<MapRow> &rows);
+} // namespace irdm::validation::nonlinear

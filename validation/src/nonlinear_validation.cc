@@ -1,0 +1,107 @@
+// Where each method holds (validation/nonlinear_validation.h): the families' runs
+// (nonlinear_map.cc), merged with the rows an earlier run left of the families not run, and the
+// report (nonlinear_report.cc).
+#include <irdm_common/error.h>
+#include <irdm_common/files.h>
+#include <validation/nonlinear_validation.h>
+
+#include "nonlinear_map.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+namespace fs = std::filesystem;
+
+namespace irdm::validation
+{
+  namespace
+  {
+    using namespace nonlinear;
+
+    bool
+    runs(const NonlinearMapOptions &o, const std::string &family)
+    {
+      return std::find(o.families.begin(), o.families.end(), family) != o.families.end();
+    }
+
+    /// The rows an earlier run wrote in dir of the families this run does not make.
+    std::vector<MapRow>
+    kept_rows(const std::string &dir, const NonlinearMapOptions &o)
+    {
+      const fs::path best = fs::path(dir) / "nonlinear.csv", p1 = fs::path(dir) / "against_p1.csv";
+      if (!fs::exists(best) || !fs::exists(p1))
+        return {};
+      std::vector<MapRow> all = read_rows(p1.string()), kept;
+      for (const MapRow &r : read_rows(best.string()))
+        if (r.truth == p2_truth)
+          all.push_back(r);
+      for (const MapRow &r : all)
+        if (!runs(o, in_planes(r.family) ? "planes" : "free"))
+          kept.push_back(r);
+      return kept;
+    }
+
+    /// The merge's lock: another family's run may be writing; wait for it (at most 10 min).
+    OutputLock
+    merge_lock(const std::string &file, std::ostream &log)
+    {
+      for (int tries = 0;; ++tries)
+        try
+          {
+            return OutputLock(file);
+          }
+        catch (const InputError &)
+          {
+            if (tries == 600)
+              throw;
+            if (tries == 0)
+              log << "validate-nonlinear: waiting for another run to finish writing " << file << "\n";
+            std::this_thread::sleep_for(std::chrono::seconds(1));
+          }
+    }
+  } // namespace
+
+  void
+  run_nonlinear_validation(const NonlinearMapOptions &o, std::ostream &log)
+  {
+    for (const std::string &f : o.families)
+      if (f != "planes" && f != "free")
+        throw InputError("validate-nonlinear: no family '" + f + "' (planes, free)");
+    const std::string dir = (fs::path(o.report_dir) / "nonlinear").string();
+    fs::create_directories(dir);
+    // Two runs of one family never share their models or rows; the planes and the free family
+    // may run at once, and merge their rows in turn.
+    std::vector<OutputLock> family_locks;
+    for (const std::string &f : o.families)
+      family_locks.emplace_back((fs::path(dir) / f).string());
+    std::vector<MapRow> rows;
+    if (runs(o, "planes"))
+      rows = run_plane_family(o, log);
+    if (runs(o, "free"))
+      {
+        const OutputLock    models((fs::path(o.free.model_dir) / "free_cat").string());
+        std::vector<MapRow> free = run_free_family(o, log);
+        rows.insert(rows.end(), free.begin(), free.end());
+      }
+    const OutputLock    lock = merge_lock((fs::path(dir) / "nonlinear.csv").string(), log);
+    std::vector<MapRow> kept = kept_rows(dir, o);
+    rows.insert(rows.begin(), kept.begin(), kept.end());
+    if (rows.empty())
+      throw InputError("validate-nonlinear: no rows to report (no family ran, and '" + dir +
+                       "' holds none from an earlier run)");
+    write_csvs(dir, rows);
+    for (const char *chart : {"map.png", "map_force.png", "speed_accuracy.png"})
+      fs::remove(fs::path(dir) / chart);
+    if (!o.plot_script.empty())
+      {
+        const std::string cmd = "/usr/bin/python3 '" + o.plot_script + "' '" + dir + "'";
+        if (std::system(cmd.c_str()) != 0)
+          log << "validate-nonlinear: the charts were not drawn (" << cmd << " failed)\n";
+      }
+    write_markdown(dir, o, rows);
+    log << "validate-nonlinear: wrote " << dir << "/nonlinear.csv, limits.csv, nonlinear.md\n";
+  }
+} // namespace irdm::validation
