@@ -340,3 +340,110 @@ TEST(Runtime, PlaneContactTakesAVertexTheDeformationCarriedPastTheMargin)
           << "u_z = " << uz << ", reach " << reach;
       }
 }
+
+// The complementarity solver's fallback, projected Gauss-Seidel: on a positive definite W it
+// converges to block principal pivoting's exact answer; on a W that is not, which the solver
+// refuses, it still gives forces that never pull.
+TEST(Planes, ProjectedGaussSeidelConvergesToTheExactAnswerAndNeverPulls)
+{
+  unsigned long long seed    = 777;
+  const auto         uniform = [&] { // in [-1, 1)
+    seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(seed >> 11) / 4503599627370496.0 - 1;
+  };
+  const int           n = 30;
+  std::vector<double> A(n * n), W(n * n, 0.0), q(n), exact(n), pgs(n, 0.0), g(n);
+  for (auto &a : A)
+    a = uniform();
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      {
+        for (int k = 0; k < n; ++k)
+          W[i * n + j] += A[i * n + k] * A[j * n + k] / n;
+        W[i * n + j] += i == j ? 0.5 : 0;
+      }
+  for (auto &x : q)
+    x = uniform();
+  contact::ComplementaritySolver solver(n);
+  std::vector<char>              active(n, 0);
+  ASSERT_GT(solver.solve(n, W.data(), n, q.data(), active.data(), exact.data()), 0);
+  std::vector<double> errors;
+  double              scale = 0;
+  for (const int sweeps : {1, 3, 10, 300})
+    {
+      std::fill(pgs.begin(), pgs.end(), 0.0);
+      contact::projected_gauss_seidel(n, W.data(), n, q.data(), pgs.data(), sweeps, g.data());
+      double error = 0;
+      for (int i = 0; i < n; ++i)
+        error = std::max(error, std::abs(pgs[i] - exact[i])), scale = std::max(scale, exact[i]);
+      errors.push_back(error);
+    }
+  EXPECT_GT(errors[0], 1e-3 * scale) << "one sweep is not the answer: the test sees convergence";
+  for (size_t k = 1; k < errors.size(); ++k)
+    EXPECT_LE(errors[k], errors[k - 1]);
+  EXPECT_LT(errors.back(), 1e-10 * scale);
+  const double bad[4] = {1, 2, 2, 1}, q2[2] = {-1, -1};
+  double       lambda[2] = {0, 0}, g2[2];
+  char         on[2]     = {1, 1};
+  ASSERT_EQ(solver.solve(2, bad, 2, q2, on, lambda), -1);
+  contact::projected_gauss_seidel(2, bad, 2, q2, lambda, 50, g2);
+  for (int i = 0; i < 2; ++i)
+    {
+      EXPECT_GE(lambda[i], 0);
+      EXPECT_TRUE(std::isfinite(lambda[i]) && std::isfinite(g2[i]));
+    }
+}
+
+// More vertices near a plane than the contact's capacity: the step is taken, with the deepest
+// max_candidates solved and the step counted; the same step with room solves them all. Ten
+// vertices 1 mm apart in height under a floor at 4.5 mm, each its own spring of 1e-3 m/N (no
+// coupling): the five below the floor are pushed by their depth over 1e-3 m/N; with room for
+// four, the shallowest of them (4 mm, 0.5 mm deep) is left out this step.
+TEST(Planes, TooManyCandidatesSolveTheDeepestAndAreCounted)
+{
+  irdm::ModelFrame m;
+  const unsigned   nv = 10;
+  m.n_inputs = m.n_outputs = 3 * nv;
+  for (unsigned v = 0; v < nv; ++v)
+    {
+      m.output_coordinates.push_back({0.01 * v, 0.0, 0.001 * v});
+      m.output_input_index.push_back(static_cast<int>(v));
+      m.input_output_index.push_back(static_cast<int>(v));
+    }
+  irdm::PlaneTarget floor;
+  floor.point = {0, 0, 0.0045};
+  for (const unsigned capacity : {4u, 10u})
+    {
+      irdm::VertexContact        contact;
+      irdm::VertexContactOptions o;
+      o.max_candidates = capacity;
+      contact.reset(m, o);
+      std::vector<double> f(nv, 0.0);
+      const bool          ok = contact.step(
+        m, &floor, 1, [](unsigned, unsigned, const std::array<double, 3> &, int, bool) { return 0.0; },
+        [](const unsigned k, const unsigned j) { return k == j ? 1e-3 : 0.0; },
+        [&](const unsigned k, const double x) { f[k / 3] += k % 3 == 2 ? x : 0.0; });
+      ASSERT_TRUE(ok) << capacity;
+      EXPECT_EQ(contact.candidates(), static_cast<int>(std::min(capacity, nv)));
+      EXPECT_EQ(contact.limited_steps(), capacity < nv ? 1u : 0u);
+      EXPECT_EQ(contact.fallback_steps(), 0u);
+      for (unsigned v = 0; v < nv; ++v)
+        {
+          const double depth = std::max(0.0, 0.0045 - 0.001 * v);
+          const bool   left  = capacity == 4 && v == 4;
+          EXPECT_NEAR(f[v], left ? 0.0 : depth / 1e-3, 1e-12) << "vertex " << v << ", room " << capacity;
+        }
+    }
+  // A feed-through that is not positive definite (invalid data): the solve refuses, projected
+  // Gauss-Seidel answers, the step is taken and counted, and no force pulls.
+  irdm::VertexContact contact;
+  contact.reset(m, irdm::VertexContactOptions{});
+  std::vector<double> f(nv, 0.0);
+  ASSERT_TRUE(contact.step(
+    m, &floor, 1, [](unsigned, unsigned, const std::array<double, 3> &, int, bool) { return 0.0; },
+    [](const unsigned k, const unsigned j) { return k % 3 == 2 && j % 3 == 2 ? (k == j ? 1e-3 : 2e-3) : 0.0; },
+    [&](const unsigned k, const double x) { f[k / 3] += k % 3 == 2 ? x : 0.0; }));
+  EXPECT_EQ(contact.fallback_steps(), 1u);
+  for (const double x : f)
+    EXPECT_TRUE(std::isfinite(x) && x >= 0);
+}

@@ -257,8 +257,7 @@ namespace irdm
     const char *const refused_mix    = "a grounded body takes probes, or planes and applied forces, "
                                        "not both in one step";
     const char *const refused_solve  = "the step could not be taken: a probe or force where the "
-                                       "model has no input, a bad value, or more vertices near "
-                                       "the planes than BodyOptions::max_contact_vertices";
+                                       "model has no input, or a bad value";
 
     // Probe -> ProbeTarget, its virtual coupling made a target and a compliance in series.
     void
@@ -690,5 +689,35 @@ namespace irdm
   Body::model() const
   {
     return state_->model_handle;
+  }
+
+  namespace
+  {
+    /// The body's many-vertex contact, or null.
+    const VertexContact *
+    vertex_contact_of(const State &s)
+    {
+      if (const auto *m = std::get_if<ModalInteraction>(&s.runtime))
+        return &m->vertex_contact();
+      if (const auto *p = std::get_if<PointInteraction>(&s.runtime))
+        return &p->vertex_contact();
+      if (const auto *b = std::get_if<FreeBodyInteraction>(&s.runtime))
+        return &b->deformation().interaction().vertex_contact();
+      return nullptr;
+    }
+  } // namespace
+
+  unsigned long
+  Body::contact_limited_steps() const
+  {
+    const VertexContact *c = vertex_contact_of(*state_);
+    return c ? c->limited_steps() : 0;
+  }
+
+  unsigned long
+  Body::contact_fallback_steps() const
+  {
+    const VertexContact *c = vertex_contact_of(*state_);
+    return c ? c->fallback_steps() : 0;
   }
 } // namespace irdm

@@ -8,6 +8,7 @@
 #include <irdm/vertex_contact.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace irdm
 {
@@ -29,9 +30,14 @@ namespace irdm
   {
     if (n_planes < 0 || n_planes > contact::max_planes)
       return false;
-    const int n = gather_candidates(m, planes, n_planes, reach, deformed);
+    int n = gather_candidates(m, planes, n_planes, reach, deformed, INFINITY);
     if (n < 0)
-      return false; // more than max_candidates: no force applied
+      {
+        // More vertices near the planes than rows: the deepest max_candidates, counted.
+        const double admit = deepest_rank_bound(m, planes, n_planes, reach, deformed);
+        n                  = gather_candidates(m, planes, n_planes, reach, deformed, admit);
+        ++limited_steps_;
+      }
     std::fill(was_active_.begin(), was_active_.end(), 0); // O(planes x vertices), cheap
     rounds_ = 0;
     if (n == 0)
@@ -42,21 +48,49 @@ namespace irdm
     assemble_feed_through(m, planes, n, h0);
     remember_rows(planes, n_planes, n, m.n_outputs / 3);
     const double *W = rigid ? with_rigid_compliance(planes, n, *rigid) : previous_.W.data();
-    rounds_         = solver_.solve(n, W, static_cast<int>(options_.max_candidates), q_.data(),
-                                    guess_.data(), lambda_.data());
-    if (rounds_ < 0)
-      return false;
+    const int    ldw = static_cast<int>(options_.max_candidates);
+    rounds_          = solver_.solve(n, W, ldw, q_.data(), guess_.data(), lambda_.data());
+    if (rounds_ >= 0)
+      for (int c = 0; c < n; ++c)
+        gap_[c] = solver_.g(c);
+    else
+      {
+        contact::projected_gauss_seidel(n, W, ldw, q_.data(), lambda_.data(), fallback_sweeps, gap_.data());
+        ++fallback_steps_;
+      }
     apply_forces(m, planes, n, push);
+    return true;
+  }
+
+  template <class Deformed>
+  bool
+  VertexContact::is_candidate(const ModelFrame &m, const PlaneTarget &plane, const unsigned v,
+                              const double reach, Deformed &&deformed, double &rank, bool &known,
+                              Eigen::Vector3d &u) const
+  {
+    const int in = m.output_input_index[v];
+    if (in < 0)
+      return false;
+    const auto  &nn  = plane.normal;
+    const double gap = detail::dot(nn, m.output_coordinates[v]) - detail::dot(nn, plane.point);
+    rank  = gap; // undeformed
+    known = false;
+    if (gap < options_.margin)
+      return true;
+    if (gap >= options_.margin + reach || !deformed(static_cast<unsigned>(in), nn, options_.margin - gap, u))
+      return false;
+    known = true;
+    rank  = gap + u.dot(Eigen::Vector3d(nn[0], nn[1], nn[2]));
     return true;
   }
 
   // Candidates, with the last step's contact set as the solver's first guess: within the
   // margin undeformed, or as deformed (vertex_contact.h). Their gaps q_ start undeformed.
-  // Returns their number, or -1 if there are more than max_candidates.
   template <class Deformed>
   int
   VertexContact::gather_candidates(const ModelFrame &m, const PlaneTarget *planes,
-                                   const int n_planes, const double reach, Deformed &&deformed)
+                                   const int n_planes, const double reach, Deformed &&deformed,
+                                   const double admit)
   {
     const unsigned n_vertices = m.n_outputs / 3;
     const int      cap        = static_cast<int>(options_.max_candidates);
@@ -65,32 +99,25 @@ namespace irdm
     for (int p = 0; p < n_planes; ++p)
       {
         results_[p]     = PlaneContactResult{};
-        const auto  &nn = planes[p].normal;
-        const double at = detail::dot(nn, planes[p].point);
         for (unsigned v = 0; v < n_vertices; ++v)
           {
-            const int in = m.output_input_index[v];
-            if (in < 0)
-              continue;
-            const double    gap   = detail::dot(nn, m.output_coordinates[v]) - at; // undeformed
+            double          rank  = 0;
             bool            known = false;
             Eigen::Vector3d u;
-            if (gap >= options_.margin)
-              {
-                if (gap >= options_.margin + reach ||
-                    !deformed(static_cast<unsigned>(in), nn, options_.margin - gap, u))
-                  continue;
-                known = true;
-              }
+            if (!is_candidate(m, planes[p], v, reach, deformed, rank, known, u) || rank > admit)
+              continue;
             if (n == cap)
               {
+                if (std::isfinite(admit))
+                  continue; // ties at the bound beyond the capacity: left out
                 n_candidates_ = n;
                 return -1;
               }
             plane_[n]       = p;
             vertex_[n]      = v;
             guess_[n]       = was_active_[static_cast<size_t>(p) * n_vertices + v];
-            q_[n]           = gap;
+            q_[n]           = detail::dot(planes[p].normal, m.output_coordinates[v]) -
+                              detail::dot(planes[p].normal, planes[p].point);
             start_known_[n] = known;
             if (known)
               start_u_[n] = u, ++n_deformed_;
@@ -100,6 +127,27 @@ namespace irdm
       }
     n_candidates_ = n;
     return n;
+  }
+
+  template <class Deformed>
+  double
+  VertexContact::deepest_rank_bound(const ModelFrame &m, const PlaneTarget *planes,
+                                    const int n_planes, const double reach, Deformed &&deformed)
+  {
+    const unsigned n_vertices = m.n_outputs / 3;
+    size_t         n          = 0;
+    for (int p = 0; p < n_planes; ++p)
+      for (unsigned v = 0; v < n_vertices; ++v)
+        {
+          double          rank  = 0;
+          bool            known = false;
+          Eigen::Vector3d u;
+          if (is_candidate(m, planes[p], v, reach, deformed, rank, known, u))
+            rank_gap_[n++] = rank;
+        }
+    const auto kth = rank_gap_.begin() + (options_.max_candidates - 1);
+    std::nth_element(rank_gap_.begin(), kth, rank_gap_.begin() + n);
+    return *kth;
   }
 
   // Rows kept from the last step (same plane normal and stiffness) keep their slot; new rows
@@ -249,7 +297,7 @@ namespace irdm
         auto &r = results_[plane_[c]];
         // The solve's gap includes a compliant plane's give lambda / k; the body's does not.
         const double k = stiffness(planes[plane_[c]], c);
-        r.penetration  = std::max(r.penetration, (k > 0 ? lambda_[c] / k : 0) - solver_.g(c));
+        r.penetration  = std::max(r.penetration, (k > 0 ? lambda_[c] / k : 0) - gap_[c]);
         if (lambda_[c] <= 0)
           continue;
         const auto &nn = planes[plane_[c]].normal;

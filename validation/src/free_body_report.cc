@@ -206,11 +206,12 @@ namespace irdm::validation::free_body
       for (const StabilityRow &r : s.stability)
         if (r.flight)
           md << "| " << r.run << " | " << material_name(r.E) << " | " << r.method << " | "
-             << r.growth << " | | | 0 | | |\n";
+             << r.growth << " | | | 0 | | | |\n";
         else
           md << "| " << r.run << " | " << material_name(r.E) << " | " << r.method << " | "
              << r.growth << " | " << r.turned << " | " << r.final_growth << " | " << r.failed
-             << " (" << r.limited << ") | " << r.deepest << " | " << r.us << " |\n";
+             << " (" << r.limited << ") | " << r.contact_limited << " / " << r.contact_fallback
+             << " | " << r.deepest << " | " << r.us << " |\n";
       return md.str();
     }
 

@@ -157,6 +157,8 @@ namespace irdm::validation::free_body
     unsigned    failed = 0;
     bool        flight = false;
     unsigned long limited = 0; // steps whose deformed inertia was limited (FreeBody::limited_steps)
+    // Many-vertex contact's fallbacks (VertexContact::limited_steps, fallback_steps).
+    unsigned long contact_limited = 0, contact_fallback = 0;
   };
 
   /// A free flight's conservation: what the report lists.

@@ -69,6 +69,12 @@ namespace irdm::validation::free_body
       study.stability.push_back({"rolling, " + plain(m.o.stability_seconds) + " s", method, m.E, growth, turned, watch.growth(),
                                  1e3 * deepest, 1e6 * seconds / steps, failed, false,
                                  irdm.limited_steps()});
+      if constexpr (std::is_same_v<Runtime, FreeBodyInteraction>)
+        {
+          const VertexContact &contact = irdm.deformation().interaction().vertex_contact();
+          study.stability.back().contact_limited  = contact.limited_steps();
+          study.stability.back().contact_fallback = contact.fallback_steps();
+        }
       log << "validate-free: " << m.o.stability_seconds << " s rolling, " << method
           << ": largest energy gain " << growth << " of the energy brought in, turned " << turned
           << " deg, " << failed << " failed steps" << std::endl;

@@ -172,4 +172,35 @@ namespace irdm::contact
     std::vector<double> factor_, rhs_, gap_;
     std::vector<int>    rows_;
   };
+
+  /// The fallback when solve() refuses (W not positive definite, or more rounds than it
+  /// allows): projected Gauss-Seidel, `sweeps` sweeps from lambda as given, each row in turn
+  /// lambda_i = max(0, lambda_i - g_i / W_ii). For a positive definite W it converges to the
+  /// solution (monotonically in the LCP's energy) but not in a bounded number of sweeps, so the
+  /// result is approximate; it needs only W_ii > 0 (a row with W_ii <= 0 keeps lambda_i = 0).
+  /// W: lower triangle, row-major, stride ldw (as solve()). Writes the gaps W lambda + q to g.
+  /// Allocates nothing.
+  inline void
+  projected_gauss_seidel(const int n, const double *W, const int ldw, const double *q,
+                         double *lambda, const int sweeps, double *g)
+  {
+    const auto w = [&](const int i, const int j) {
+      return i >= j ? W[static_cast<size_t>(i) * ldw + j] : W[static_cast<size_t>(j) * ldw + i];
+    };
+    const auto gap = [&](const int i) {
+      double s = q[i];
+      for (int j = 0; j < n; ++j)
+        s += w(i, j) * lambda[j];
+      return s;
+    };
+    for (int i = 0; i < n; ++i)
+      if (!(lambda[i] > 0) || !(w(i, i) > 0))
+        lambda[i] = 0;
+    for (int sweep = 0; sweep < sweeps; ++sweep)
+      for (int i = 0; i < n; ++i)
+        if (w(i, i) > 0)
+          lambda[i] = std::max(0.0, lambda[i] - gap(i) / w(i, i));
+    for (int i = 0; i < n; ++i)
+      g[i] = gap(i);
+  }
 } // namespace irdm::contact

@@ -189,7 +189,8 @@ namespace irdm
   {
     std::array<double, 3> gravity = {0, 0, -9.81}; // m/s^2, world; free bodies
     // Many-vertex plane contact: vertices within this distance of a plane (m) are candidates
-    // (it must exceed the surface's motion toward a plane in one step), at most this many.
+    // (it must exceed the surface's motion toward a plane in one step), at most this many: a
+    // step with more solves the deepest of them (Body::contact_limited_steps counts it).
     double   contact_margin       = 0.005;
     unsigned max_contact_vertices = 512;
     // Free modal body: the spin's centrifugal force on the deformation, and the deformed
@@ -259,6 +260,15 @@ namespace irdm
 
     const Model &
     model() const;
+
+    /// Many-vertex contact's fallbacks so far (docs/runtime-api.md): steps with more
+    /// candidates than max_contact_vertices, which solved the deepest of them, and steps whose
+    /// contact solve refused and took projected Gauss-Seidel's approximate answer. Both are
+    /// steps taken, not refused; 0 for a body without many-vertex contact.
+    unsigned long
+    contact_limited_steps() const;
+    unsigned long
+    contact_fallback_steps() const;
 
     struct State;
 

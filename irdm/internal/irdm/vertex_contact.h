@@ -29,6 +29,12 @@
 //   forces      lambda >= 0 complementary to g = W lambda + q >= 0
 //               (irdm_common/complementarity.h: block principal pivoting, exact to round-off,
 //               warm-started from the last step's contact set);
+//   fallbacks   a step is never refused for its contact: with more candidates than
+//               max_candidates, the deepest max_candidates (by their gap, as deformed where the
+//               deformed test took it) are solved and the rest left out this step
+//               (limited_steps()); when the solve refuses (a W that is not positive definite,
+//               or more rounds than it allows), projected Gauss-Seidel from its last iterate
+//               gives an approximate answer (fallback_steps());
 //   history     f[n] += lambda_c n_p on vertex v_c.
 // The full surface follows on demand from the runtime's surface_displacement().
 //
@@ -124,6 +130,9 @@ namespace irdm
       start_u_.assign(cap, Eigen::Vector3d::Zero());
       start_known_.assign(cap, 0);
       was_active_.assign(contact::max_planes * n_vertices, 0);
+      rank_gap_.assign(contact::max_planes * n_vertices, 0.0);
+      gap_.assign(cap, 0.0);
+      limited_steps_ = fallback_steps_ = 0;
       vertex_area_ = lumped_vertex_areas(m);
       n_candidates_ = 0;
       rounds_       = 0;
@@ -195,13 +204,41 @@ namespace irdm
     {
       return n_deformed_;
     }
+    /// Steps that had more candidates than max_candidates and solved the deepest of them.
+    unsigned long
+    limited_steps() const
+    {
+      return limited_steps_;
+    }
+    /// Steps whose solve refused and which took projected Gauss-Seidel's answer instead.
+    unsigned long
+    fallback_steps() const
+    {
+      return fallback_steps_;
+    }
+    /// Sweeps of the projected Gauss-Seidel fallback: bounded, so that a refused solve costs
+    /// at most this many passes over W.
+    static constexpr int fallback_sweeps = 50;
 
   private:
     // The parts of step() (irdm/src/vertex_contact_step.h), in order.
+    // Whether vertex v is a candidate of plane p (see above); rank: its gap, as deformed
+    // where the deformed test took it (u then set, known true).
+    template <class Deformed>
+    bool
+    is_candidate(const ModelFrame &m, const PlaneTarget &plane, unsigned v, double reach,
+                 Deformed &&deformed, double &rank, bool &known, Eigen::Vector3d &u) const;
+    // The candidates whose rank is at most `admit`; with admit infinite, -1 when there are more
+    // than max_candidates, else the first max_candidates of them.
     template <class Deformed>
     int
     gather_candidates(const ModelFrame &m, const PlaneTarget *planes, int n_planes, double reach,
-                      Deformed &&deformed);
+                      Deformed &&deformed, double admit);
+    // The max_candidates-th smallest rank of all candidates.
+    template <class Deformed>
+    double
+    deepest_rank_bound(const ModelFrame &m, const PlaneTarget *planes, int n_planes, double reach,
+                       Deformed &&deformed);
     template <class History>
     void
     add_history(const ModelFrame &m, const PlaneTarget *planes, int n_planes, int n,
@@ -253,6 +290,9 @@ namespace irdm
     std::vector<char>                                     start_known_;
     std::vector<char>                                     guess_;
     std::vector<char> was_active_; // [plane][output vertex]: in contact at the last step
+    std::vector<double> rank_gap_; // [candidate of every plane] scratch of deepest_rank_bound
+    std::vector<double> gap_;      // [candidate] the gaps W lambda + q after the solve
+    unsigned long       limited_steps_ = 0, fallback_steps_ = 0;
     std::vector<double> vertex_area_; // [output vertex] m^2, for a plane's penalty
     // N/m, candidate c's stiffness against its plane; 0: rigid.
     double
