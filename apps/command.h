@@ -22,6 +22,13 @@ namespace irdm::cli
     bool                 parallel = false; // deals its work to MPI ranks (mpirun -np N)
   };
 
+  /// The command line this run was given (argv joined, each argument with a space or a
+  /// quote in quotes): what a report says reproduces it.
+  void
+  set_invocation(int argc, char **argv);
+  const std::string &
+  invocation();
+
   Command
   add_simulate(CLI::App &app);
   Command

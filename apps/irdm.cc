@@ -29,6 +29,7 @@ namespace
   run(int argc, char **argv)
   {
     using namespace irdm::cli;
+    set_invocation(argc, argv);
     CLI::App app{"irdm: impulse response deformation model (IRDM) validation harness.\n"
                  "Units are SI throughout. Scene files: docs/scene-format.md; result files: "
                  "docs/fem-output.md; models: docs/model-format.md; exit codes: "

@@ -24,7 +24,9 @@
 #   same orientations and give the same figures; the oblique and between cases are defined
 #   by the dome's triangles, so they are other directions and give other figures;
 # - validate-planes --quick: 15 of the 22 cases, every kind and the sweep's cases (no 20 mm
-#   press, one two-wall and one sliding depth, no 0.2 m/s impact).
+#   press, one two-wall and one sliding depth, no 0.2 m/s impact);
+# - validate-nonlinear: the grounded family alone, 5 of its 23 cases, against the P1 truth
+#   (the full map of both families takes hours; reports/nonlinear holds one).
 # The scene sections (exactness, truncation, time step, compression) run on every scene.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -72,6 +74,21 @@ stage_done "precompute-vdof"
 build/apps/irdm validate-planes --model "$models/cat_vdof.h5" --length 300 \
   --vertex-model "$models/cat_vertex.h5" --subdivisions "$subdivisions" --out "$out" "${planes_opts[@]}"
 stage_done "validate-planes"
+# Where each method holds, against the size of the load (reports/nonlinear). The quick job:
+# the grounded cat's top and side presses at 2 and 10 mm and one side impact, against the P1
+# truth, on the plane stage's models. The full study: every sweep of both families (hours), the
+# P2 truth on every top and side press.
+if [ "$full" -eq 1 ]; then
+  converged=()
+  for side in top side; do for d in 0.5 1 2 5 10 20; do converged+=("press_${side}_${d}mm"); done; done
+  build/apps/irdm validate-nonlinear --model "$models/cat_vdof.h5" --vertex-model "$models/cat_vertex.h5" \
+    --subdivisions "$subdivisions" --converged-cases "${converged[@]}" --out "$out"
+else
+  build/apps/irdm validate-nonlinear --families planes --model "$models/cat_vdof.h5" \
+    --vertex-model "$models/cat_vertex.h5" --subdivisions "$subdivisions" --press-directions top side \
+    --press-depths 0.002 0.01 --impact-speeds 0.1 --converged-cases none --out "$out"
+fi
+stage_done "validate-nonlinear"
 # The plane contact step at 25 to 200 candidates (Google Benchmark; 2 to 3 minutes, full study
 # only: scripts/benchmark.sh REPORT VERTEX_MODEL runs it on the quick model).
 if [ "$full" -eq 1 ]; then
@@ -85,4 +102,4 @@ if [ "$full" -eq 1 ]; then
 fi
 # Every study in one line, with its date and commit, stale ones flagged (reports/README.md).
 /usr/bin/python3 validation/reports_index.py reports
-echo "reports ($(( (SECONDS - start) / 60 )) min): $out/validation.md, $out/<scene>/report.md, $out/benchmarks.md, $out/fem-verification/report.md, $out/planes/planes.md; the index: reports/README.md"
+echo "reports ($(( (SECONDS - start) / 60 )) min): $out/validation.md, $out/<scene>/report.md, $out/benchmarks.md, $out/fem-verification/report.md, $out/planes/planes.md, $out/nonlinear/nonlinear.md; the index: reports/README.md"

@@ -59,4 +59,39 @@ namespace irdm::cli
   }
 
   const char *const storage_help = "float or double (overrides the scene's model.storage)";
+
+  namespace
+  {
+    std::string &
+    invocation_text()
+    {
+      static std::string text;
+      return text;
+    }
+  } // namespace
+
+  void
+  set_invocation(const int argc, char **argv)
+  {
+    std::string &text = invocation_text();
+    text.clear();
+    for (int i = 0; i < argc; ++i)
+      {
+        std::string a = argv[i];
+        if (a.find_first_of(" '\"") != std::string::npos)
+          {
+            std::string quoted = "'";
+            for (const char c : a)
+              quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+            a = quoted + "'";
+          }
+        text += (i ? " " : "") + a;
+      }
+  }
+
+  const std::string &
+  invocation()
+  {
+    return invocation_text();
+  }
 } // namespace irdm::cli

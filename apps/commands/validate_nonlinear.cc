@@ -139,6 +139,7 @@ namespace irdm::cli
     return {vn, [o] {
               irdm::check_output_folder("--out", o->report_dir);
               o->plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_nonlinear.py";
+              o->command     = invocation();
               irdm::validation::run_nonlinear_validation(*o, std::cout);
               return 0;
             }};

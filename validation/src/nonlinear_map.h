@@ -4,6 +4,7 @@
 #include <validation/nonlinear_validation.h>
 
 #include <cmath>
+#include <map>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -95,7 +96,9 @@ namespace irdm::validation::nonlinear
   void
   write_csvs(const std::string &dir, const std::vector<MapRow> &rows);
 
-  /// nonlinear.md (validation/templates/nonlinear.md), showing the charts present in dir.
+  /// nonlinear.md (validation/templates/nonlinear.md), showing the charts present in dir;
+  /// commands: each family's command line (family -> command).
   void
-  write_markdown(const std::string &dir, const NonlinearMapOptions &o, const std::vector<MapRow> &rows);
+  write_markdown(const std::string &dir, const NonlinearMapOptions &o, const std::vector<MapRow> &rows,
+                 const std::map<std::string, std::string> &commands);
 } // namespace irdm::validation::nonlinear

@@ -322,8 +322,12 @@ namespace irdm::validation::nonlinear
   }
 
   void
-  write_markdown(const std::string &dir, const NonlinearMapOptions &o, const std::vector<MapRow> &rows)
+  write_markdown(const std::string &dir, const NonlinearMapOptions &o, const std::vector<MapRow> &rows,
+                 const std::map<std::string, std::string> &commands)
   {
+    std::ostringstream runs;
+    for (const auto &[family, command] : commands)
+      runs << "- " << family << ": `" << command << "`\n";
     std::set<std::pair<std::string, std::string>> converged;
     for (const MapRow &r : rows)
       if (r.truth == p2_truth)
@@ -337,6 +341,7 @@ namespace irdm::validation::nonlinear
                      {"n_converged", std::to_string(converged.size())},
                      {"limits_table", limits_table(all)},
                      {"truth_table", truth_table(rows)},
+                     {"commands", runs.str()},
                      {"share_table", share_table(rows)},
                      {"map_chart", fs::exists(fs::path(dir) / "map.png") ? "1" : ""},
                      {"speed_chart", fs::exists(fs::path(dir) / "speed_accuracy.png") ? "1" : ""}};

@@ -11,6 +11,9 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <thread>
 
 namespace fs = std::filesystem;
@@ -42,6 +45,25 @@ namespace irdm::validation
         if (!runs(o, in_planes(r.family) ? "planes" : "free"))
           kept.push_back(r);
       return kept;
+    }
+
+    /// Each family's command line (DIR/nonlinear/commands.txt, "family<TAB>command" lines):
+    /// this run's for the families it ran, the earlier run's for the others.
+    std::map<std::string, std::string>
+    family_commands(const std::string &dir, const NonlinearMapOptions &o)
+    {
+      std::map<std::string, std::string> commands;
+      std::ifstream                      in((fs::path(dir) / "commands.txt").string());
+      for (std::string line; std::getline(in, line);)
+        if (const auto tab = line.find('\t'); tab != std::string::npos)
+          commands[line.substr(0, tab)] = line.substr(tab + 1);
+      for (const std::string &f : o.families)
+        commands[f] = o.command.empty() ? "(not recorded)" : o.command;
+      std::ostringstream text;
+      for (const auto &[family, command] : commands)
+        text << family << '\t' << command << '\n';
+      write_text_file((fs::path(dir) / "commands.txt").string(), text.str());
+      return commands;
     }
 
     /// The merge's lock: another family's run may be writing; wait for it (at most 10 min).
@@ -101,7 +123,7 @@ namespace irdm::validation
         if (std::system(cmd.c_str()) != 0)
           log << "validate-nonlinear: the charts were not drawn (" << cmd << " failed)\n";
       }
-    write_markdown(dir, o, rows);
+    write_markdown(dir, o, rows, family_commands(dir, o));
     log << "validate-nonlinear: wrote " << dir << "/nonlinear.csv, limits.csv, nonlinear.md\n";
   }
 } // namespace irdm::validation

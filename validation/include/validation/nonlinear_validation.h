@@ -35,6 +35,7 @@ namespace irdm::validation
     std::vector<double>       free_impact_speeds = {0.05, 0.1, 0.2, 0.4, 0.626, 0.99};
     std::vector<std::string>  drops              = {"drop_2cm", "drop_5cm", "drop_10cm"};
     std::string plot_script; // python script for the charts; "" skips them
+    std::string command;     // this run's command line, which the report says reproduces it
   };
 
   void
