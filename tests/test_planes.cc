@@ -187,28 +187,42 @@ TEST(Planes, RuntimeReproducesThePrecomputedImpulse)
 // The many-vertex contact solve (irdm_common/complementarity.h) on random problems: the result
 // satisfies the complementarity conditions to round-off, is unique (the same from any first
 // guess), and a warm start from the answer takes one round.
+namespace
+{
+  /// A random linear complementarity problem of n rows: W = A A^T / n + shift I (symmetric
+  /// positive definite, dense, off-diagonals of both signs; row-major) and q, entries of A and
+  /// q uniform in [-1, 1) from a fixed seed.
+  void
+  random_problem(const int n, const double shift, unsigned long long seed, std::vector<double> &W,
+                 std::vector<double> &q)
+  {
+    const auto uniform = [&] {
+      seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+      return static_cast<double>(seed >> 11) / 4503599627370496.0 - 1;
+    };
+    std::vector<double> A(n * n);
+    W.assign(n * n, 0.0);
+    q.resize(n);
+    for (auto &a : A)
+      a = uniform();
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        {
+          for (int k = 0; k < n; ++k)
+            W[i * n + j] += A[i * n + k] * A[j * n + k] / n;
+          W[i * n + j] += i == j ? shift : 0;
+        }
+    for (auto &x : q)
+      x = uniform();
+  }
+} // namespace
+
 TEST(Planes, ComplementaritySolverMeetsTheConditionsExactly)
 {
-  unsigned long long seed    = 12345;
-  const auto         uniform = [&] { // in [-1, 1)
-    seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
-    return static_cast<double>(seed >> 11) / 4503599627370496.0 - 1;
-  };
   for (const int n : {1, 7, 40, 150})
     {
-      // W = A A^T / n + 0.01 I: symmetric positive definite, dense, off-diagonals of both signs.
-      std::vector<double> A(n * n), W(n * n, 0.0), q(n);
-      for (auto &a : A)
-        a = uniform();
-      for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j)
-          {
-            for (int k = 0; k < n; ++k)
-              W[i * n + j] += A[i * n + k] * A[j * n + k] / n;
-            W[i * n + j] += i == j ? 0.01 : 0;
-          }
-      for (auto &x : q)
-        x = uniform();
+      std::vector<double> W, q;
+      random_problem(n, 0.01, 12345 + n, W, q);
       contact::ComplementaritySolver solver(n);
       std::vector<double>            lambda(n), first(n);
       std::vector<char>              active(n, 0);
@@ -346,24 +360,9 @@ TEST(Runtime, PlaneContactTakesAVertexTheDeformationCarriedPastTheMargin)
 // refuses, it still gives forces that never pull.
 TEST(Planes, ProjectedGaussSeidelConvergesToTheExactAnswerAndNeverPulls)
 {
-  unsigned long long seed    = 777;
-  const auto         uniform = [&] { // in [-1, 1)
-    seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
-    return static_cast<double>(seed >> 11) / 4503599627370496.0 - 1;
-  };
   const int           n = 30;
-  std::vector<double> A(n * n), W(n * n, 0.0), q(n), exact(n), pgs(n, 0.0), g(n);
-  for (auto &a : A)
-    a = uniform();
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j)
-      {
-        for (int k = 0; k < n; ++k)
-          W[i * n + j] += A[i * n + k] * A[j * n + k] / n;
-        W[i * n + j] += i == j ? 0.5 : 0;
-      }
-  for (auto &x : q)
-    x = uniform();
+  std::vector<double> W, q, exact(n), pgs(n, 0.0), g(n);
+  random_problem(n, 0.5, 777, W, q);
   contact::ComplementaritySolver solver(n);
   std::vector<char>              active(n, 0);
   ASSERT_GT(solver.solve(n, W.data(), n, q.data(), active.data(), exact.data()), 0);

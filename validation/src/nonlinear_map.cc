@@ -21,21 +21,6 @@ namespace irdm::validation::nonlinear
 {
   namespace
   {
-    /// The grounded body as the plane study takes it (plane_validation.cc).
-    fem::Scene
-    grounded_body(const std::string &scene)
-    {
-      fem::Scene body = fem::read_scene(scene);
-      body.probes.clear();
-      body.prescribed.clear();
-      body.outputs         = fem::Scene::Outputs();
-      body.outputs.hdf5    = body.outputs.csv = false;
-      body.outputs.surface = true;
-      body.gravity_enabled = false;
-      body.kinematics      = fem::Kinematics::nonlinear;
-      return body;
-    }
-
     /// The bar wave speed sqrt(E / rho) (m/s): an impact's speed over it is its dimensionless
     /// size.
     double
@@ -132,7 +117,7 @@ namespace irdm::validation::nonlinear
     po.perturbations          = 0;
     po.sweep_cases.clear();
     po.corotational = true;
-    const fem::Scene body = grounded_body(po.scene);
+    const fem::Scene body = planes::grounded_body(po.scene);
     // The case names are known before any model is made: a wrong converged case is refused
     // before hours of work.
     const std::vector<Case> names = load_sweep(Directions{}, o.press_directions, o.press_depths, o.impact_speeds);

@@ -563,6 +563,20 @@ namespace irdm::validation::planes
     }
   } // namespace
 
+  fem::Scene
+  grounded_body(const std::string &scene)
+  {
+    fem::Scene body = fem::read_scene(scene);
+    body.probes.clear();
+    body.prescribed.clear();
+    body.outputs         = fem::Scene::Outputs();
+    body.outputs.hdf5    = body.outputs.csv = false;
+    body.outputs.surface = true;
+    body.gravity_enabled = false;
+    body.kinematics      = fem::Kinematics::nonlinear;
+    return body;
+  }
+
   PlaneModels
   prepare_models(const fem::Scene &body, const PlaneValidationOptions &o, std::ostream &log)
   {

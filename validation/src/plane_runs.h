@@ -129,6 +129,11 @@ namespace irdm::validation::planes
     double               mean_vertex_area = 0; // m^2, of the free surface vertices
   };
 
+  /// The body every case runs on: the scene's mesh and material, nothing but the walls acting
+  /// on it (probes, prescribed motion and gravity dropped), nonlinear, the surface recorded.
+  fem::Scene
+  grounded_body(const std::string &scene);
+
   /// Makes the models (or reuses those made from this scene with this spec; a file at either
   /// path that is not is refused, never overwritten).
   PlaneModels

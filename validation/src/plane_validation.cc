@@ -18,15 +18,7 @@ namespace irdm::validation
   run_plane_validation(const PlaneValidationOptions &o, std::ostream &log)
   {
     using namespace planes;
-    // The body: the scene's mesh and material, nothing but the walls acting on it.
-    fem::Scene body = fem::read_scene(o.scene);
-    body.probes.clear();
-    body.prescribed.clear();
-    body.outputs         = fem::Scene::Outputs();
-    body.outputs.hdf5    = body.outputs.csv = false;
-    body.outputs.surface = true;
-    body.gravity_enabled = false;
-    body.kinematics      = fem::Kinematics::nonlinear;
+    const fem::Scene body = grounded_body(o.scene);
     const std::string dir = (fs::path(o.report_dir) / "planes").string();
     fs::create_directories(dir);
 
