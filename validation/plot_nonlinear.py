@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """The nonlinear map's charts, from DIR/nonlinear.csv (irdm validate-nonlinear):
 map.png and map_force.png (each method's error against the dimensionless load, one panel per
-family and material, the 5 % and 10 % lines), speed_accuracy.png (error against cost per step,
+family and material, the 5 % and 10 % lines), map_p1.png (the shape error against the P1 truth
+alone, from against_p1.csv), speed_accuracy.png (error against cost per step,
 one panel per scene family: grounded and free)."""
 import csv
 import math
@@ -122,6 +123,9 @@ def main():
     d = sys.argv[1]
     rows = read(f"{d}/nonlinear.csv")
     draw_map(rows, shape, f"{d}/map.png", "shape error")
+    # Every row against the P1 truth, the methods' own mesh: the map without the truth's
+    # discretization error.
+    draw_map(read(f"{d}/against_p1.csv"), shape, f"{d}/map_p1.png", "shape error (P1 truth)")
     draw_map(rows, lambda r: number(r["force_error"]), f"{d}/map_force.png", "force error")
     draw_speed(rows, f"{d}/speed_accuracy.png")
     return 0

@@ -344,6 +344,7 @@ namespace irdm::validation::nonlinear
                      {"commands", runs.str()},
                      {"share_table", share_table(rows)},
                      {"map_chart", fs::exists(fs::path(dir) / "map.png") ? "1" : ""},
+                     {"p1_chart", fs::exists(fs::path(dir) / "map_p1.png") ? "1" : ""},
                      {"speed_chart", fs::exists(fs::path(dir) / "speed_accuracy.png") ? "1" : ""}};
     write_text_file((fs::path(dir) / "nonlinear.md").string(),
                     fill_template(read_template("validation/templates/nonlinear.md"), v));

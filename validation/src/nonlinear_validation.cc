@@ -115,7 +115,7 @@ namespace irdm::validation
       throw InputError("validate-nonlinear: no rows to report (no family ran, and '" + dir +
                        "' holds none from an earlier run)");
     write_csvs(dir, rows);
-    for (const char *chart : {"map.png", "map_force.png", "speed_accuracy.png"})
+    for (const char *chart : {"map.png", "map_force.png", "map_p1.png", "speed_accuracy.png"})
       fs::remove(fs::path(dir) / chart);
     if (!o.plot_script.empty())
       {
