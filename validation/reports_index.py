@@ -86,6 +86,16 @@ def free_frame_headline(folder):
             f"body-frame linear FEM, force {span(force)}, deformation {span(deformation)}")
 
 
+def nonlinear_headline(folder):
+    limits = [r for r in rows(os.path.join(folder, "limits.csv"))
+              if r["truth"] == "fem_neo_hookean_p1" and r["measure"] == "shape"
+              and r["method"] in ("vertex_contact_modal", "route2_modal")]
+    parts = [f"{r['family']} {r['material']} {r['limit_5pct']}"
+             for r in limits if r["family"] in ("press_side", "press_top", "free_impact")]
+    return ("load where linear IRDM passes 5 % in shape (P1 truth): " + "; ".join(parts)
+            if parts else "no limits")
+
+
 def converged_headline(folder):
     data = rows(os.path.join(folder, "converged.csv"))
     method = [float(r["method_force_error"]) for r in data if r["discretization"] == "converged"]
@@ -165,6 +175,10 @@ STUDIES = [
      RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/impulse_response*",
                 "validation/src/free_body_*", "validation/src/metrics.h",
                 "validation/templates/free.md"]),
+    ("Where each method holds, against the size of the load", "nonlinear/nonlinear.md",
+     "nonlinear/map_p1.png", nonlinear_headline,
+     PLANES + ["validation/src/free_body_*", "validation/src/nonlinear_*",
+               "validation/templates/nonlinear.md", "validation/templates/free.md"]),
     ("Method and discretization error on the converged cat", "converged/report.md",
      "converged/converged.png", converged_headline,
      RUNTIME + ["reference_fem", "validation/src/converged_validation.cc",
