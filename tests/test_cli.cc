@@ -83,6 +83,20 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
             2);
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-degree 1"), 2);
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-cases press_top_3mm"), 2);
+  // validate-nonlinear: its families, its lists and its converged cases, refused before any
+  // model is made; nothing to redraw is refused rather than drawn empty.
+  const std::string press_scene = IRDM_MESH_DIR "/../validation/scenes/press.json";
+  EXPECT_EQ(status(cli + " validate-nonlinear --out " + tmp("vn") + " --families bogus"), 2);
+  EXPECT_EQ(status(cli + " validate-nonlinear --out " + tmp("vn") + " --drops none drop_2cm"), 2);
+  EXPECT_EQ(status(cli + " validate-nonlinear --out " + tmp("vn") + " --families planes --scene " +
+                   press_scene + " --converged-cases press_top_3mm --model " + tmp("vn_m.h5") +
+                   " --vertex-model " + tmp("vn_v.h5")),
+            2);
+  EXPECT_FALSE(fs::exists(tmp("vn_m.h5")));
+  EXPECT_FALSE(fs::exists(tmp("vn_v.h5")));
+  fs::remove_all(tmp("vn_empty"));
+  EXPECT_EQ(status(cli + " validate-nonlinear --out " + tmp("vn_empty") + " --families none"), 2);
+  EXPECT_FALSE(fs::exists(tmp("vn_empty") + "/nonlinear/nonlinear.md"));
   EXPECT_FALSE(fs::exists(tmp("vf") + "/free"));
   EXPECT_FALSE(fs::exists(tmp("vfm")));
   EXPECT_FALSE(fs::exists(tmp("o.h5")));
