@@ -4,8 +4,8 @@
 // dome's directions from 0.5 to 20 mm and hit at the side at growing speeds (the plane study's
 // cases and runner), and the free cat hitting the floor at growing speeds and dropped from
 // growing heights, at both materials (the free-body study's cases and runner). Each row is
-// scored against the converged truth (P2 elements) where it ran on that case and the P1 truth
-// elsewhere, and says which. Writes reports/nonlinear/ (nonlinear.csv, against_p1.csv,
+// scored against the P2 truth (P2 elements on the same mesh) where it ran on that case and the
+// P1 truth elsewhere, and says which. Writes reports/nonlinear/ (nonlinear.csv, against_p1.csv,
 // limits.csv, nonlinear.md, map.png, speed_accuracy.png).
 #include <validation/free_body_validation.h>
 #include <validation/plane_validation.h>
