@@ -92,6 +92,10 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
                    press_scene + " --converged-cases press_top_3mm --model " + tmp("vn_m.h5") +
                    " --vertex-model " + tmp("vn_v.h5")),
             2);
+  EXPECT_EQ(status(cli + " validate-nonlinear --out " + tmp("vn") + " --scene " + press_scene +
+                   " --free-scene " + free_scene + " --model " + tmp("vn_m.h5") + " --vertex-model " +
+                   tmp("vn_v.h5") + " --materials 1000 2000 3000 --fem-divisions 1 2"),
+            2);
   EXPECT_FALSE(fs::exists(tmp("vn_m.h5")));
   EXPECT_FALSE(fs::exists(tmp("vn_v.h5")));
   fs::remove_all(tmp("vn_empty"));

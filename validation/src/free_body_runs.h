@@ -183,6 +183,22 @@ namespace irdm::validation::free_body
     FreeStudy();
   };
 
+  /// The study's scene as read (each material's body is made from its text) and as parsed,
+  /// the options checked against it; InputError naming `command` otherwise.
+  struct BaseScene
+  {
+    std::string text;
+    fem::Scene  scene;
+  };
+
+  BaseScene
+  read_base_scene(const FreeBodyValidationOptions &o, const std::string &command);
+
+  /// run_material for every material of o, each with its truth's step division.
+  void
+  run_materials(const FreeBodyValidationOptions &o, const std::string &base_text, FreeStudy &study,
+                std::ostream &log);
+
   /// Runs every chosen case of one material (Young's modulus E, the truth at tau / M) through
   /// the FEM and every method, then the runtime alone for long; adds the results to `study`.
   void

@@ -17,37 +17,56 @@ namespace fs = std::filesystem;
 
 namespace irdm::validation
 {
-  namespace
+  namespace free_body
   {
-    void
-    check_options(const FreeBodyValidationOptions &o, const fem::Scene &base)
+    namespace
     {
-      if (!base.fixed_surfaces.empty())
-        throw InputError("validate-free: the scene '" + o.scene + "' fixes a surface; the "
-                         "free-body validation needs a body fixed to nothing");
-      if (!(o.duration > 0))
-        throw InputError("validate-free: the duration must be positive");
-      if (o.fem_divisions.size() != 1 && o.fem_divisions.size() != o.materials.size())
-        throw InputError("validate-free: --fem-divisions gives " +
-                         std::to_string(o.fem_divisions.size()) + " values for " +
-                         std::to_string(o.materials.size()) +
-                         " materials: give one for every material, or one per material");
-      for (const unsigned M : o.fem_divisions)
-        if (M == 0)
-          throw InputError("validate-free: --fem-divisions must be at least 1");
+      void
+      check_options(const FreeBodyValidationOptions &o, const fem::Scene &base, const std::string &command)
+      {
+        if (!base.fixed_surfaces.empty())
+          throw InputError(command + ": the scene '" + o.scene + "' fixes a surface; the "
+                           "free-body validation needs a body fixed to nothing");
+        if (!(o.duration > 0))
+          throw InputError(command + ": the duration must be positive");
+        if (o.fem_divisions.size() != 1 && o.fem_divisions.size() != o.materials.size())
+          throw InputError(command + ": --fem-divisions gives " +
+                           std::to_string(o.fem_divisions.size()) + " values for " +
+                           std::to_string(o.materials.size()) +
+                           " materials: give one for every material, or one per material");
+        for (const unsigned M : o.fem_divisions)
+          if (M == 0)
+            throw InputError(command + ": --fem-divisions must be at least 1");
+      }
+    } // namespace
+
+    BaseScene
+    read_base_scene(const FreeBodyValidationOptions &o, const std::string &command)
+    {
+      std::ifstream in(o.scene);
+      if (!in)
+        throw InputError(command + ": cannot read the scene '" + o.scene + "'");
+      std::stringstream text;
+      text << in.rdbuf();
+      BaseScene b{text.str(), fem::parse_scene(text.str(), fs::path(o.scene).parent_path().string(), o.scene)};
+      check_options(o, b.scene, command);
+      return b;
     }
-  } // namespace
+
+    void
+    run_materials(const FreeBodyValidationOptions &o, const std::string &base_text, FreeStudy &study,
+                  std::ostream &log)
+    {
+      for (size_t m = 0; m < o.materials.size(); ++m)
+        run_material(o, base_text, o.materials[m],
+                     o.fem_divisions.size() == 1 ? o.fem_divisions[0] : o.fem_divisions[m], study, log);
+    }
+  } // namespace free_body
 
   void
   run_free_body_validation(const FreeBodyValidationOptions &o, std::ostream &log)
   {
-    std::ifstream in(o.scene);
-    if (!in)
-      throw InputError("validate-free: cannot read the scene '" + o.scene + "'");
-    std::stringstream text;
-    text << in.rdbuf();
-    const fem::Scene base = fem::parse_scene(text.str(), fs::path(o.scene).parent_path().string(), o.scene);
-    check_options(o, base);
+    const free_body::BaseScene base = free_body::read_base_scene(o, "validate-free");
     const std::string dir = (fs::path(o.report_dir) / "free").string();
     fs::create_directories(dir);
     fs::create_directories(o.model_dir);
@@ -56,11 +75,8 @@ namespace irdm::validation
     const OutputLock models_lock((fs::path(o.model_dir) / "free_cat").string());
 
     free_body::FreeStudy study;
-    for (size_t m = 0; m < o.materials.size(); ++m)
-      free_body::run_material(o, text.str(), o.materials[m],
-                              o.fem_divisions.size() == 1 ? o.fem_divisions[0] : o.fem_divisions[m],
-                              study, log);
-    const free_body::FreeTables tables = free_body::write_free_csvs(dir, o, study, base.density);
+    free_body::run_materials(o, base.text, study, log);
+    const free_body::FreeTables tables = free_body::write_free_csvs(dir, o, study, base.scene.density);
     // Charts (matplotlib from Debian); the report stands without them, and shows those this
     // run drew (a chart of a case the run left out is not drawn).
     for (const char *chart : free_body::charts)
@@ -71,7 +87,7 @@ namespace irdm::validation
         if (std::system(cmd.c_str()) != 0)
           log << "validate-free: the charts were not drawn (" << cmd << " failed)" << std::endl;
       }
-    free_body::write_free_report(dir, o, study, base, tables);
+    free_body::write_free_report(dir, o, study, base.scene, tables);
     log << "validate-free: wrote " << dir << "/free.csv, series.csv, stability.csv, report.md"
         << std::endl;
   }

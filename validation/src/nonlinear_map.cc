@@ -140,8 +140,8 @@ namespace irdm::validation::nonlinear
     return rows;
   }
 
-  std::vector<MapRow>
-  run_free_family(const NonlinearMapOptions &o, std::ostream &log)
+  FreeBodyValidationOptions
+  free_family_options(const NonlinearMapOptions &o)
   {
     using namespace free_body;
     FreeBodyValidationOptions fo = o.free;
@@ -158,17 +158,19 @@ namespace irdm::validation::nonlinear
           throw InputError("validate-nonlinear: --free-converged-cases names '" + name +
                            "', which is not a case of the free sweeps");
       }
-    std::ifstream in(fo.scene);
-    if (!in)
-      throw InputError("validate-nonlinear: cannot read the scene '" + fo.scene + "'");
-    std::stringstream text;
-    text << in.rdbuf();
-    const fem::Scene base = fem::parse_scene(text.str(), fs::path(fo.scene).parent_path().string(), fo.scene);
+    read_base_scene(fo, "validate-nonlinear"); // the scene and the options' agreement
+    return fo;
+  }
+
+  std::vector<MapRow>
+  run_free_family(const NonlinearMapOptions &o, std::ostream &log)
+  {
+    using namespace free_body;
+    const FreeBodyValidationOptions fo   = free_family_options(o);
+    const BaseScene                 base = read_base_scene(fo, "validate-nonlinear");
     fs::create_directories(fo.model_dir);
     FreeStudy study;
-    for (size_t m = 0; m < fo.materials.size(); ++m)
-      run_material(fo, text.str(), fo.materials[m],
-                   fo.fem_divisions.size() == 1 ? fo.fem_divisions[0] : fo.fem_divisions[m], study, log);
+    run_materials(fo, base.text, study, log);
     // Each case's speed at first contact, its largest strain, and each method's cost.
     std::map<std::string, double> speed;
     for (const Case &k : chosen_cases(fo))
@@ -193,7 +195,7 @@ namespace irdm::validation::nonlinear
       b.c = c, b.material = material_name(E), b.truth = truth;
       b.method = method == "fem_neo_hookean" ? p1_truth : method;
       b.family = c.rfind("impact_", 0) == 0 ? "free_impact" : "free_drop";
-      b.load   = speed.at(c) / wave_speed(E, base.density);
+      b.load   = speed.at(c) / wave_speed(E, base.scene.density);
       b.largest_strain  = strain.count({c, E}) ? strain.at({c, E}) : NAN;
       b.fem_ms_per_step = truth_ms.count({c, E}) ? truth_ms.at({c, E}) : NAN;
       b.us_per_step = method == "fem_neo_hookean" ? 1e3 * b.fem_ms_per_step

@@ -52,6 +52,12 @@ namespace irdm::validation::nonlinear
   std::vector<MapRow>
   run_plane_family(const NonlinearMapOptions &o, std::ostream &log);
 
+  /// The free study's options for the map's free family, checked (the scene read, the
+  /// materials against the step divisions, the converged cases among the sweeps): InputError
+  /// before any work.
+  FreeBodyValidationOptions
+  free_family_options(const NonlinearMapOptions &o);
+
   /// The same for the free family, every material.
   std::vector<MapRow>
   run_free_family(const NonlinearMapOptions &o, std::ostream &log);

@@ -99,6 +99,8 @@ namespace irdm::validation
     std::vector<OutputLock> family_locks;
     for (const std::string &f : o.families)
       family_locks.emplace_back((fs::path(dir) / f).string());
+    if (runs(o, "free"))
+      free_family_options(o); // its options refused now, not after the plane family's hour
     std::vector<MapRow> rows;
     if (runs(o, "planes"))
       rows = run_plane_family(o, log);
