@@ -295,30 +295,55 @@ namespace irdm::validation::nonlinear
     return rows;
   }
 
+  namespace
+  {
+    /// The cases (and materials) the P2 truth ran on.
+    std::set<std::pair<std::string, std::string>>
+    p2_cases(const std::vector<MapRow> &rows)
+    {
+      std::set<std::pair<std::string, std::string>> cases;
+      for (const MapRow &r : rows)
+        if (r.truth == p2_truth)
+          cases.insert({r.c, r.material});
+      return cases;
+    }
+
+    /// nonlinear.csv's rows: each case against its best truth, the P2 truth where it ran.
+    std::vector<MapRow>
+    best_rows(const std::vector<MapRow> &rows)
+    {
+      const auto          p2 = p2_cases(rows);
+      std::vector<MapRow> best;
+      for (const MapRow &r : rows)
+        if ((r.truth == p2_truth) == (p2.count({r.c, r.material}) > 0))
+          best.push_back(r);
+      return best;
+    }
+
+    /// The limits against the P2 truth (where it covers a family), then against the P1 truth.
+    std::vector<Limit>
+    both_limits(const std::vector<MapRow> &rows)
+    {
+      std::vector<Limit> all = limits(rows, p2_truth), l1 = limits(rows, p1_truth);
+      all.insert(all.end(), l1.begin(), l1.end());
+      return all;
+    }
+  } // namespace
+
   void
   write_csvs(const std::string &dir, const std::vector<MapRow> &rows)
   {
-    // Each case against its best truth: the P2 truth where it ran on the case.
-    std::set<std::pair<std::string, std::string>> converged;
-    for (const MapRow &r : rows)
-      if (r.truth == p2_truth)
-        converged.insert({r.c, r.material});
     std::ostringstream best, p1;
     best << csv_header() << '\n';
     p1 << csv_header() << '\n';
-    std::vector<MapRow> best_rows;
+    for (const MapRow &r : best_rows(rows))
+      best << csv_line(r) << '\n';
     for (const MapRow &r : rows)
-      {
-        if (r.truth == p1_truth)
-          p1 << csv_line(r) << '\n';
-        if ((r.truth == p2_truth) == (converged.count({r.c, r.material}) > 0))
-          best << csv_line(r) << '\n', best_rows.push_back(r);
-      }
+      if (r.truth == p1_truth)
+        p1 << csv_line(r) << '\n';
     write_text_file((fs::path(dir) / "nonlinear.csv").string(), best.str());
     write_text_file((fs::path(dir) / "against_p1.csv").string(), p1.str());
-    std::vector<Limit> all = limits(rows, p2_truth), l1 = limits(rows, p1_truth);
-    all.insert(all.end(), l1.begin(), l1.end());
-    write_limits_csv((fs::path(dir) / "limits.csv").string(), all);
+    write_limits_csv((fs::path(dir) / "limits.csv").string(), both_limits(rows));
   }
 
   void
@@ -328,18 +353,12 @@ namespace irdm::validation::nonlinear
     std::ostringstream runs;
     for (const auto &[family, command] : commands)
       runs << "- " << family << ": `" << command << "`\n";
-    std::set<std::pair<std::string, std::string>> converged;
-    for (const MapRow &r : rows)
-      if (r.truth == p2_truth)
-        converged.insert({r.c, r.material});
-    std::vector<Limit> all = limits(rows, p2_truth), l1 = limits(rows, p1_truth);
-    all.insert(all.end(), l1.begin(), l1.end());
     TemplateValues v{{"stamp", report_stamp()},
                      {"plane_scene", o.planes.scene},
                      {"free_scene", o.free.scene},
-                     {"n_rows", std::to_string(rows.size())},
-                     {"n_converged", std::to_string(converged.size())},
-                     {"limits_table", limits_table(all)},
+                     {"n_rows", std::to_string(best_rows(rows).size())},
+                     {"n_converged", std::to_string(p2_cases(rows).size())},
+                     {"limits_table", limits_table(both_limits(rows))},
                      {"truth_table", truth_table(rows)},
                      {"commands", runs.str()},
                      {"share_table", share_table(rows)},
