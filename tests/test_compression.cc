@@ -1,17 +1,25 @@
 // Compression by representative waveforms: every substituted waveform meets its bound
 // (relative L2 error <= sqrt(1 - theta^2)); the compressed runtime equals direct convolution of
 // the tensor the compressed model stands for; HDF5 round trip and bad input.
+#include <irdm/irdm.h>
 #include <irdm/modal_model.h>
 #include <irdm/point_interaction.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
+#include <irdm/state_space_interaction.h>
+#include <irdm/state_space_model.h>
 #include <irdm_common/error.h>
 #include <irdm_common/geometry.h>
 #include <irdm_common/h5.h>
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <random>
 
 #include "irdm_test_util.h"
 
@@ -237,4 +245,229 @@ TEST(Compression, CommandLineChecksItsInput)
   EXPECT_EQ(status(cli + tmp("cli_src.h5")), 2); // no --out
   EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_c.h5") + " --theta 0.9 --quiet"), 0);
   EXPECT_NO_THROW(load_representative_model(tmp("cli_c.h5"), 0.002));
+  // The realization from H alone: a model the runtime's loader takes as kind state_space; an
+  // order the Hankel matrix cannot hold is refused with status 2, and no file is left.
+  EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_era.h5") +
+                   " --method era --order 20 --quiet"),
+            0);
+  EXPECT_EQ(load_state_space_model(tmp("cli_era.h5"), 0.002).order, 20u);
+  EXPECT_EQ(Model::load(tmp("cli_era.h5")).kind(), "state_space");
+  EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_era_big.h5") +
+                   " --method era --order 100000 --quiet"),
+            2);
+  EXPECT_FALSE(std::filesystem::exists(tmp("cli_era_big.h5")));
+  EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_era_bad.h5") + " --method pca"), 2);
 }
+
+// The eigensystem realization from H alone (irdm/state_space_model.h).
+namespace
+{
+  // A frame of n_in / 3 input vertices (the first ones of n_out / 3 output vertices) and the
+  // responses of a known stable system of 2 * freq.size() states (complex pairs at radius
+  // radius[i] and angle freq[i]): H[0] = D random, H[s] = C A^(s-1) B.
+  ImpulseResponseModel
+  known_system(const std::vector<double> &radius, const std::vector<double> &angle,
+               const unsigned in_vertices, const unsigned out_vertices, const unsigned T)
+  {
+    ImpulseResponseModel m;
+    m.time_step = 0.001;
+    m.length    = T;
+    m.n_inputs  = 3 * in_vertices;
+    m.n_outputs = 3 * out_vertices;
+    m.output_coordinates.resize(out_vertices);
+    m.output_input_index.assign(out_vertices, -1);
+    for (unsigned v = 0; v < in_vertices; ++v)
+      m.input_output_index.push_back(v), m.output_input_index[v] = static_cast<int>(v);
+    const unsigned  r = 2 * radius.size();
+    std::mt19937    rng(7);
+    std::normal_distribution<double> normal;
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(r, r), B(r, m.n_inputs), C(m.n_outputs, r),
+                    D(m.n_outputs, m.n_inputs);
+    for (size_t i = 0; i < radius.size(); ++i)
+      {
+        const double a = radius[i] * std::cos(angle[i]), b = radius[i] * std::sin(angle[i]);
+        A.block<2, 2>(2 * i, 2 * i) << a, b, -b, a;
+      }
+    for (auto *X : {&B, &C, &D})
+      for (Eigen::Index i = 0; i < X->size(); ++i)
+        X->data()[i] = normal(rng);
+    m.h_double.resize(static_cast<size_t>(m.n_inputs) * T * m.n_outputs);
+    for (unsigned k = 0; k < m.n_inputs; ++k)
+      {
+        Eigen::VectorXd x = B.col(k);
+        for (unsigned s = 0; s < T; ++s)
+          {
+            const Eigen::VectorXd u = s == 0 ? Eigen::VectorXd(D.col(k)) : Eigen::VectorXd(C * x);
+            if (s > 0)
+              x = A * x;
+            for (unsigned j = 0; j < m.n_outputs; ++j)
+              m.h_double[(static_cast<size_t>(k) * T + s) * m.n_outputs + j] = u[j];
+          }
+      }
+    return m;
+  }
+
+  double
+  largest_response_difference(const ImpulseResponseModel &m, const StateSpaceModel &ss)
+  {
+    double err = 0, peak = 0;
+    for (unsigned k = 0; k < m.n_inputs; ++k)
+      for (unsigned s = 0; s < m.length; ++s)
+        for (unsigned j = 0; j < m.n_outputs; ++j)
+          {
+            peak = std::max(peak, std::abs(m.h(k, s, j)));
+            err  = std::max(err, std::abs(m.h(k, s, j) - ss.response(k, s, j)));
+          }
+    return err / peak;
+  }
+} // namespace
+
+// Data from a system of order 8 are realized exactly at order 8, with the system's own poles,
+// whether or not the responses are first projected onto as many directions as the system
+// reaches (8 input directions; the contact rows and 8 more output directions); onto fewer (4
+// input directions) they are not.
+TEST(Era, RealizesAKnownSystemExactlyFromItsResponses)
+{
+  const std::vector<double> radius = {0.97, 0.9, 0.8, 0.6}, angle = {0.05, 0.3, 1.1, 2.5};
+  const auto m = known_system(radius, angle, 3, 10, 80);
+  for (const unsigned directions : {0u, 8u})
+    {
+      EraOptions o;
+      o.order             = 8;
+      o.input_directions  = directions;
+      o.output_directions = directions ? directions : 1000;
+      const StateSpaceModel ss = identify_era(m, o);
+      EXPECT_EQ(ss.order, 8u);
+      EXPECT_EQ(ss.n_real, 0u);
+      EXPECT_EQ(ss.poles_pulled_in, 0u);
+      // C is stored in float: the responses to its rounding (the poles are double).
+      EXPECT_LT(largest_response_difference(m, ss), 1e-6) << "directions " << directions;
+      std::vector<double> found, expected = radius;
+      for (unsigned p = 0; p < ss.n_pairs(); ++p)
+        found.push_back(std::hypot(ss.complex_poles[2 * p], ss.complex_poles[2 * p + 1]));
+      std::sort(found.begin(), found.end());
+      std::sort(expected.begin(), expected.end());
+      for (size_t i = 0; i < expected.size(); ++i)
+        EXPECT_NEAR(found[i], expected[i], 1e-10);
+      EXPECT_LT(ss.hankel_singular_values[8], 1e-10 * ss.hankel_singular_values[0]);
+    }
+  EraOptions few;
+  few.order            = 8;
+  few.input_directions = 4;
+  EXPECT_GT(largest_response_difference(m, identify_era(m, few)), 1e-3);
+  few.order = 0;
+  EXPECT_THROW(identify_era(m, few), InputError);
+}
+
+// A growing mode in the data (a pole at 1.02) comes out on the stability radius, counted;
+// every other pole stays where it was.
+TEST(Era, EveryPoleOfTheRealizationIsInsideTheUnitCircle)
+{
+  const auto m = known_system({1.02, 0.9}, {0.2, 0.7}, 2, 3, 60);
+  EraOptions o;
+  o.order            = 4;
+  o.stability_radius = 0.999;
+  const StateSpaceModel ss = identify_era(m, o);
+  EXPECT_EQ(ss.poles_pulled_in, 2u); // the pair
+  for (unsigned p = 0; p < ss.n_pairs(); ++p)
+    EXPECT_LE(std::hypot(ss.complex_poles[2 * p], ss.complex_poles[2 * p + 1]), 0.999 + 1e-15);
+  for (const double z : ss.real_poles)
+    EXPECT_LT(std::abs(z), 0.999 + 1e-15);
+}
+
+// On the beam's FEM model (every input kept) the realization converges to the exact model in
+// closed loop as its order grows, a rigid probe's force included (the hardest measure: the
+// probe divides the history's error by the small feed-through); its step and surface update
+// allocate nothing; a file round trip keeps it, and the loader refuses what the runtime could
+// not run.
+TEST(Era, ClosedLoopConvergesToTheExactModelWithTheOrder)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
+  const auto       model = make_model(scene, "era_run.h5");
+  std::vector<double> force, surface;
+  for (const unsigned order : {100u, 300u, 500u})
+    {
+      EraOptions o;
+      o.order = order;
+      const StateSpaceModel ss = identify_era(model, o);
+      PointInteraction       exact(model);
+      StateSpaceInteraction  era(ss);
+      const Difference       diff = run_side_by_side(scene, model, exact, era);
+      ASSERT_TRUE(diff.stepped);
+      EXPECT_EQ(g_allocations, 0) << "heap allocations inside step() / surface_displacement()";
+      force.push_back(diff.force);
+      surface.push_back(diff.surface);
+    }
+  EXPECT_LT(force[1], force[0]);
+  EXPECT_LT(force[2], force[1]);
+  EXPECT_LT(surface[2], surface[0]);
+  EXPECT_GT(force[0], 0.05); // order 100 is a real truncation
+  EXPECT_LT(force[2], 1e-4);
+  EXPECT_LT(surface[2], 1e-4);
+
+  EraOptions o;
+  o.order = 40;
+  const StateSpaceModel ss = identify_era(model, o);
+  save_state_space_model(ss, tmp("era_run.h5"), tmp("era.h5"));
+  const StateSpaceModel back = load_state_space_model(tmp("era.h5"), scene.time_step);
+  EXPECT_EQ(back.real_poles, ss.real_poles);
+  EXPECT_EQ(back.complex_poles, ss.complex_poles);
+  EXPECT_EQ(back.b, ss.b);
+  EXPECT_EQ(back.c, ss.c);
+  EXPECT_FALSE(ss.output_basis.empty()); // the beam's outputs are projected
+  EXPECT_EQ(back.output_basis, ss.output_basis);
+  EXPECT_EQ(back.contact_direction, ss.contact_direction);
+  EXPECT_EQ(back.d, ss.d);
+  EXPECT_EQ(back.triangles, ss.triangles);
+  EXPECT_THROW(load_state_space_model(tmp("era_run.h5")), InputError); // not a realization
+  EXPECT_THROW(load_state_space_model(tmp("era.h5"), 2 * scene.time_step), InputError);
+  // The public API runs the file as kind state_space: a probe's force is the interaction's;
+  // planes step; an applied force is refused with a reason.
+  const irdm::Model api = irdm::Model::load(tmp("era.h5"));
+  ASSERT_EQ(api.kind(), "state_space");
+  irdm::Body            body(api);
+  StateSpaceInteraction direct(back);
+  irdm::Probe           probe;
+  probe.n_patch           = 1;
+  probe.patch_weights[0]  = 1;
+  probe.patch_vertices[0] = back.input_output_index[0];
+  ProbeTarget target;
+  target.n_patch           = 1;
+  target.patch_weights[0]  = 1;
+  target.patch_vertices[0] = probe.patch_vertices[0];
+  irdm::StepInput  in;
+  irdm::StepOutput out;
+  in.probes   = &probe;
+  in.n_probes = 1;
+  double largest = 0;
+  for (int n = 0; n < 20; ++n)
+    {
+      probe.displacement = target.displacement = {0, 0, -1e-4 * n};
+      g_count_allocations = true;
+      ASSERT_TRUE(body.step(in, out)) << body.refusal();
+      g_count_allocations = false;
+      ASSERT_TRUE(direct.step(&target, 1));
+      for (int d = 0; d < 3; ++d)
+        EXPECT_EQ(out.probe_force[0][d], direct.force(0)[d]);
+      largest = std::max(largest, std::abs(out.probe_force[0][2]));
+    }
+  EXPECT_EQ(g_allocations, 0);
+  EXPECT_GT(largest, 0);
+  irdm::Plane far;
+  far.point = {0, 0, -10}; // nothing near it
+  in.n_probes = 0;
+  in.planes   = &far;
+  in.n_planes = 1;
+  EXPECT_TRUE(body.step(in, out)) << body.refusal();
+  irdm::AppliedForce push{probe.patch_vertices[0], {0, 0, -1}};
+  in.forces   = &push;
+  in.n_forces = 1;
+  EXPECT_FALSE(body.step(in, out));
+  EXPECT_NE(std::string(body.refusal()).find("applied forces"), std::string::npos) << body.refusal();
+
+  StateSpaceModel unstable = ss;
+  unstable.complex_poles[0] *= 1e3; // a pole far outside the unit circle
+  save_state_space_model(unstable, tmp("era_run.h5"), tmp("era_unstable.h5"));
+  EXPECT_THROW(load_state_space_model(tmp("era_unstable.h5")), InputError);
+}
+

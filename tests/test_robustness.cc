@@ -17,6 +17,8 @@
 #include <irdm/point_interaction.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
+#include <irdm/state_space_interaction.h>
+#include <irdm/state_space_model.h>
 #include <irdm_common/csv.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
@@ -129,6 +131,18 @@ namespace
     o.blend   = 2;
     o.threads = 1;
     save_representative_model(compress(load_model(model_path), o), model_path, path);
+  }
+
+  // A realization of the seed model identified from its H, its outputs projected (the
+  // contact rows and one direction more), so that the basis is in the file.
+  void
+  write_seed_state_space(const std::string &model_path, const std::string &path)
+  {
+    fs::remove(path);
+    EraOptions o;
+    o.order             = 6;
+    o.output_directions = 1;
+    save_state_space_model(identify_era(load_model(model_path), o), model_path, path);
   }
 
   // A small virtual-DOF model: the 12 icosahedron directions (20 dome triangles), the same
@@ -823,6 +837,21 @@ namespace
     EXPECT_LT(m.delay_span, m.length);
   }
 
+  void
+  expect_consistent(const StateSpaceModel &m)
+  {
+    expect_consistent(static_cast<const ModelFrame &>(m));
+    EXPECT_EQ(m.real_poles.size() + 2 * (m.complex_poles.size() / 2), m.order);
+    EXPECT_EQ(m.b.size(), static_cast<size_t>(m.n_inputs) * m.order);
+    EXPECT_EQ(m.c.size(), static_cast<size_t>(m.output_dimension) * m.order);
+    EXPECT_TRUE(m.output_basis.empty() ||
+                m.output_basis.size() == static_cast<size_t>(m.n_outputs) * m.output_dimension);
+    ASSERT_EQ(m.contact_direction.size(), m.n_inputs);
+    for (const unsigned d : m.contact_direction)
+      EXPECT_LT(d, m.output_dimension);
+    EXPECT_EQ(m.d.size(), static_cast<size_t>(m.n_inputs) * m.n_outputs);
+  }
+
   // Loads with load_fn and, if that succeeds, checks the model and drives Interaction for 3 T
   // steps with a probe pressing triangle 0 (lifted if it cannot touch there), then updates
   // the surface. Only an InputError may escape the loader; anything else fails the test.
@@ -883,6 +912,13 @@ namespace
   {
     return load_and_run<RepresentativeInteraction>(
       path, [](const std::string &f) { return load_representative_model(f); });
+  }
+
+  Outcome
+  load_and_run_state_space(const std::string &path)
+  {
+    return load_and_run<StateSpaceInteraction>(
+      path, [](const std::string &f) { return load_state_space_model(f); });
   }
 
   // A wall along a direction between the dome's, pressing in and out, with both mappings.
@@ -1169,6 +1205,22 @@ TEST(CompressedLoaderFuzz, RandomMutationsForAFixedTime)
   expect_random_mutations_survive("compressed loader", seed, load_and_run_compressed);
 }
 
+TEST(StateSpaceLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
+{
+  const auto model = tmp("seed_model.h5"), seed = tmp("seed_state_space.h5");
+  write_seed_model(model);
+  write_seed_state_space(model, seed);
+  expect_structured_mutations_survive("state-space loader", seed, load_and_run_state_space);
+}
+
+TEST(StateSpaceLoaderFuzz, RandomMutationsForAFixedTime)
+{
+  const auto model = tmp("seed_model.h5"), seed = tmp("seed_state_space.h5");
+  write_seed_model(model);
+  write_seed_state_space(model, seed);
+  expect_random_mutations_survive("state-space loader", seed, load_and_run_state_space);
+}
+
 TEST(VirtualDofLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
 {
   const auto seed = tmp("seed_vdof.h5");
@@ -1201,6 +1253,14 @@ TEST_P(EveryStorage, CompressedLoaderReadsTheSameValuesOrRefusesNamingTheField)
   write_seed_model(model);
   write_seed_compressed(model, seed);
   expect_every_field_survives(GetParam(), seed, load_and_run_compressed);
+}
+
+TEST_P(EveryStorage, StateSpaceLoaderReadsTheSameValuesOrRefusesNamingTheField)
+{
+  const auto model = tmp("seed_model.h5"), seed = tmp("seed_state_space.h5");
+  write_seed_model(model);
+  write_seed_state_space(model, seed);
+  expect_every_field_survives(GetParam(), seed, load_and_run_state_space);
 }
 
 TEST_P(EveryStorage, VirtualDofLoaderReadsTheSameValuesOrRefusesNamingTheField)

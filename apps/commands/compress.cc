@@ -3,6 +3,7 @@
 
 #include <irdm/model.h>
 #include <irdm/representative_model.h>
+#include <irdm/state_space_model.h>
 #include <irdm_common/files.h>
 
 #include <cstdio>
@@ -16,17 +17,41 @@ namespace irdm::cli
     struct CompressArgs
     {
       std::string               in, out;
+      std::string               method = "representatives";
       irdm::CompressionOptions  o;
+      irdm::EraOptions          era;
       bool                      quiet = false;
     };
+
+    int
+    run_era(const CompressArgs &a, const irdm::ImpulseResponseModel &model, irdm::OutputLock lock)
+    {
+      const auto ss = irdm::identify_era(model, a.era);
+      irdm::save_state_space_model(ss, a.in, a.out, std::move(lock));
+      const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
+      const auto  &hsv     = ss.hankel_singular_values;
+      std::printf("identified %s -> %s: order %u (%u real poles, %u pairs; %u pulled onto radius "
+                  "%.6g), directions %u in, contact rows + %u out, Hankel %u x %u blocks\n"
+                  "Hankel singular values: first %.4g, at the order %.4g (%.3g of the first), "
+                  "after it %.4g\n"
+                  "size: %.2f MB, %.3g %% of %.1f MB (float H); time %.2f s\n",
+                  a.in.c_str(), a.out.c_str(), ss.order, ss.n_real, ss.n_pairs(),
+                  ss.poles_pulled_in, ss.stability_radius, ss.input_directions, ss.output_directions, ss.hankel_rows,
+                  ss.hankel_columns, hsv[0], hsv[ss.order - 1], hsv[ss.order - 1] / hsv[0],
+                  hsv.size() > ss.order ? hsv[ss.order] : 0.0, ss.bytes() / 1e6,
+                  100 * ss.bytes() / h_float, h_float / 1e6, ss.identification_seconds);
+      return 0;
+    }
 
     int
     run_compress(CompressArgs a)
     {
       irdm::check_output_file("--out", a.out, {a.in});
       irdm::OutputLock lock(a.out); // before the work: a second run to --out is refused now
-      a.o.log = stderr_log(a.quiet);
+      a.o.log = a.era.log = stderr_log(a.quiet);
       const auto model = irdm::load_model(a.in);
+      if (a.method == "era")
+        return run_era(a, model, std::move(lock));
       const auto c     = irdm::compress(model, a.o);
       irdm::save_representative_model(c, a.in, a.out, std::move(lock));
       const double waveforms = static_cast<double>(model.n_inputs) * model.n_outputs;
@@ -51,14 +76,47 @@ namespace irdm::cli
   add_compress(CLI::App &app)
   {
     auto ca = std::make_shared<CompressArgs>();
-    auto *compress = app.add_subcommand("compress", "compress a model by representative waveforms (seed 000 sec. 3)");
+    auto *compress = app.add_subcommand("compress", "compress a model: representative waveforms (seed 000 sec. 3) or a state-space realization from H alone (ERA)");
     compress->footer("Compresses an impulse-response model (from 'irdm precompute') by representative "
       "waveforms (seed 000, section 3; docs/compression.md): every waveform H_kj is kept as a "
       "representative or replaced by representatives of the same input, delayed (d >= 0 "
       "steps) and scaled, when their correlation reaches theta. The output is a model the "
-      "runtime runs directly, with the source's metadata plus theta and the statistics.");
+      "runtime runs directly, with the source's metadata plus theta and the statistics. "
+      "With --method era: a discrete state-space model of --order states identified from H "
+      "alone by the eigensystem realization algorithm (H[0] kept exactly as the feed-through; "
+      "every pole inside the unit circle), a model of kind 'state_space'.");
     compress->add_option("model", ca->in, "model file from 'irdm precompute'")->required()->check(CLI::ExistingFile);
     compress->add_option("--out", ca->out, "compressed model to write")->required();
+    compress->add_option("--method", ca->method, "representatives (seed 000) or era (a state-space realization)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"representatives", "era"}));
+    compress->add_option("--order", ca->era.order, "era: states kept (the largest Hankel singular values)")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 100000u));
+    compress->add_option("--input-directions", ca->era.input_directions,
+                         "era: the responses are first projected onto this many dominant input "
+                         "directions (0: every input, up to 1000; fewer costs a probe's force "
+                         "accuracy)")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 1000000u));
+    compress->add_option("--output-directions", ca->era.output_directions,
+                         "era: and onto the input vertices' own output DoFs (exactly) and this "
+                         "many dominant directions of the other outputs")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 1000000u));
+    compress->add_option("--hankel-rows", ca->era.hankel_rows,
+                         "era: block rows of the Hankel matrix (0: about 4000 scalar rows)")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 1000000u));
+    compress->add_option("--hankel-columns", ca->era.hankel_columns,
+                         "era: block columns (0: about 4000 scalar columns); rows plus columns "
+                         "samples of H are used, at most T - 1")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 1000000u));
+    compress->add_option("--stability-radius", ca->era.stability_radius,
+                         "era: poles beyond this radius are pulled onto it")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 1 - 1e-9));
     compress->add_option("--theta", ca->o.theta, "correlation threshold in (0, 1]")
       ->capture_default_str()
       ->check(CLI::Range(1e-6, 1.0));

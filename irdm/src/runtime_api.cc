@@ -9,6 +9,8 @@
 #include <irdm/point_interaction.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
+#include <irdm/state_space_interaction.h>
+#include <irdm/state_space_model.h>
 #include <irdm_common/contact.h>
 #include <irdm_common/h5.h>
 
@@ -25,6 +27,7 @@ namespace irdm
     ImpulseResponseModel impulse_response; // kinds modal (frame only) and direct
     ModalModel           modal;
     RepresentativeModel  representative;
+    StateSpaceModel      state_space;
     VirtualDofModel      virtual_dofs;
     // The kind's own surface and inputs.
     const std::vector<std::array<double, 3>>   *rest      = nullptr;
@@ -108,6 +111,12 @@ namespace irdm
         d->kind           = "representative";
         use_frame(*d, d->representative);
       }
+    else if (format == "irdm-state-space-model")
+      {
+        d->state_space = load_state_space_model(path);
+        d->kind        = "state_space";
+        use_frame(*d, d->state_space);
+      }
     else if (format == "irdm-virtual-dof-model")
       {
         d->virtual_dofs = load_virtual_dof_model(path);
@@ -147,6 +156,8 @@ namespace irdm
       return d.impulse_response.time_step;
     if (d.kind == "representative")
       return d.representative.time_step;
+    if (d.kind == "state_space")
+      return d.state_space.time_step;
     return d.virtual_dofs.time_step;
   }
   const std::vector<std::array<double, 3>> &
@@ -226,7 +237,7 @@ namespace irdm
     BodyOptions                        options;
     double                             tau = 0;
     std::variant<std::monostate, ModalInteraction, PointInteraction, RepresentativeInteraction,
-                 PlaneInteraction, FreeBodyInteraction, FreeBodyVirtualDofs>
+                 StateSpaceInteraction, PlaneInteraction, FreeBodyInteraction, FreeBodyVirtualDofs>
       runtime;
 
     // The parts' targets, filled from the public types each step.
@@ -407,6 +418,11 @@ namespace irdm
     {
       return step_grounded(s, r, in, out);
     }
+    bool
+    step_with(State &s, StateSpaceInteraction &r, const StepInput &in, StepOutput &out)
+    {
+      return step_grounded(s, r, in, out);
+    }
 
     bool
     step_with(State &s, RepresentativeInteraction &r, const StepInput &in, StepOutput &out)
@@ -528,6 +544,8 @@ namespace irdm
           s.runtime.emplace<PointInteraction>(d.impulse_response, d.options.taps, contact);
         else if (d.kind == "representative")
           s.runtime.emplace<RepresentativeInteraction>(d.representative);
+        else if (d.kind == "state_space")
+          s.runtime.emplace<StateSpaceInteraction>(d.state_space, contact);
         else
           s.runtime.emplace<PlaneInteraction>(d.virtual_dofs,
                                               o.interpolate_orientations
@@ -700,6 +718,8 @@ namespace irdm
       if (const auto *m = std::get_if<ModalInteraction>(&s.runtime))
         return &m->vertex_contact();
       if (const auto *p = std::get_if<PointInteraction>(&s.runtime))
+        return &p->vertex_contact();
+      if (const auto *p = std::get_if<StateSpaceInteraction>(&s.runtime))
         return &p->vertex_contact();
       if (const auto *b = std::get_if<FreeBodyInteraction>(&s.runtime))
         return &b->deformation().interaction().vertex_contact();

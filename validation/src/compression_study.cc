@@ -1,10 +1,14 @@
 // Issue 4's comparison on one scene: representative waveforms (plain and interpolated) at each
-// theta, the modal realization at several M, and the uncompressed model, each in closed loop.
+// theta, the modal realization at several M, the realization identified from H alone (ERA) at
+// several orders, and the uncompressed model, each in closed loop.
 #include <irdm_common/format.h>
+#include <irdm_common/error.h>
 #include <irdm_common/files.h>
 #include <irdm/modal_model.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
+#include <irdm/state_space_interaction.h>
+#include <irdm/state_space_model.h>
 
 #include <cstdio>
 #include <fstream>
@@ -24,6 +28,42 @@ namespace irdm::validation
       return measured_row(run_irdm(scene, m, irdm, true, bound), fem_run);
     }
   } // namespace
+
+  std::vector<CompressionRow>
+  era_rows(const fem::Scene &scene, const ImpulseResponseModel &model, const Series &fem_run,
+           const std::vector<unsigned> &orders, std::ostream &log, const EraOptions &base)
+  {
+    const double bound   = 10 * peak_force(fem_run);
+    const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
+    std::vector<CompressionRow> rows;
+    for (const unsigned order : orders)
+      {
+        EraOptions o = base;
+        o.order      = order;
+        StateSpaceModel ss;
+        try
+          {
+            ss = identify_era(model, o);
+          }
+        catch (const InputError &e) // an order the Hankel matrix cannot hold: no row
+          {
+            log << "  era r " << order << ": not identified (" << e.what() << ")\n";
+            continue;
+          }
+        CompressionRow r = measure<StateSpaceInteraction>(scene, ss, fem_run, bound);
+        r.method        = "era";
+        r.setting       = "r " + std::to_string(order);
+        r.value         = order;
+        r.bytes         = ss.bytes();
+        r.percent       = 100 * r.bytes / h_float;
+        r.build_seconds = ss.identification_seconds;
+        log << "  era " << r.setting << ": " << fmt(r.percent) << " % size, disp. RMS "
+            << fmt(r.errors.disp_rms) << ", force L2 " << fmt(r.errors.force_rel_l2)
+            << (r.stable ? "" : ", UNSTABLE") << "\n";
+        rows.push_back(r);
+      }
+    return rows;
+  }
 
   CompressionRow
   measured_row(const Series &run, const Series &fem_run)
@@ -100,6 +140,8 @@ namespace irdm::validation
             << (r.stable ? "" : ", UNSTABLE") << "\n";
         rows.push_back(r);
       }
+    for (auto &r : era_rows(scene, model, fem_run, {300, 600, 1000}, log))
+      rows.push_back(r);
     return rows;
   }
 

@@ -3,6 +3,7 @@
 // setting run in closed loop on the scene, errors against the FEM, time per step measured in
 // the same run, memory, stability. Writes compression.csv; returns the report section.
 #include <irdm/model.h>
+#include <irdm/state_space_model.h>
 #include <reference_fem/scene.h>
 
 #include <ostream>
@@ -15,7 +16,7 @@ namespace irdm::validation
 {
   struct CompressionRow
   {
-    std::string method;    // "FEM", "IRDM direct", "representatives", "interpolated", "modal"
+    std::string method;    // "FEM", "IRDM direct", "representatives", "interpolated", "modal", "era"
     std::string setting;   // e.g. "theta 0.90", "M 100, L 2"
     double      value = 0; // theta or M (chart label)
     double      bytes = 0, percent = 0; // memory, and % of the same model's H stored as float
@@ -37,6 +38,12 @@ namespace irdm::validation
   std::vector<CompressionRow>
   compression_study(const fem::Scene &scene, const ImpulseResponseModel &model,
                     const Series &fem_run, std::ostream &log);
+
+  /// The realization identified from H alone (irdm compress --method era) at each order, in
+  /// closed loop on the scene (an order the data cannot support is logged and left out).
+  std::vector<CompressionRow>
+  era_rows(const fem::Scene &scene, const ImpulseResponseModel &model, const Series &fem_run,
+           const std::vector<unsigned> &orders, std::ostream &log, const EraOptions &base = {});
 
   /// compression.csv and the report section (Markdown) for one scene.
   void

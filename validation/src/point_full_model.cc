@@ -89,6 +89,8 @@ namespace irdm::validation::points
         run.rows.push_back(row_of("modal", "M " + std::to_string(M), mm.bytes(), mm.build_seconds,
                                   run_irdm(s, mm, irdm, true, bound)));
       }
+    for (auto &r : era_rows(s, full_model, fem_full, {300, 600, 1000}, log))
+      run.rows.push_back(r);
     return run;
   }
 } // namespace irdm::validation::points

@@ -49,7 +49,8 @@ namespace irdm
     static Model
     load(const std::string &path, const ModelOptions &options = {});
 
-    /// "modal", "direct", "representative" or "virtual_dof".
+    /// "modal", "direct", "representative", "state_space" (irdm compress --method era) or
+    /// "virtual_dof".
     const std::string &
     kind() const;
     bool
@@ -139,8 +140,9 @@ namespace irdm
     std::array<double, 3> force{};
   };
 
-  /// What one step is given. What each body takes: a grounded modal or direct body probes,
-  /// or planes and applied forces (the direct kind: planes only); a representative model
+  /// What one step is given. What each body takes: a grounded modal, direct or state-space
+  /// body probes, or planes and applied forces (the direct and state-space kinds: planes
+  /// only); a representative model
   /// probes; a free modal body planes and applied forces; a virtual-DOF model planes (at
   /// most 4). Anything else is refused (Body::step returns false and says why).
   struct StepInput
