@@ -48,6 +48,10 @@ namespace irdm::cli
   Command
   add_compare_models(CLI::App &app);
   Command
+  add_export(CLI::App &app);
+  Command
+  add_import(CLI::App &app);
+  Command
   add_validate(CLI::App &app);
   Command
   add_validate_planes(CLI::App &app);

@@ -6,6 +6,7 @@
 #include <irdm/point_interaction.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
+#include <irdm/response_exchange.h>
 #include <irdm/state_space_interaction.h>
 #include <irdm/state_space_model.h>
 #include <irdm_common/error.h>
@@ -19,6 +20,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <random>
 
 #include "irdm_test_util.h"
@@ -257,6 +259,13 @@ TEST(Compression, CommandLineChecksItsInput)
             2);
   EXPECT_FALSE(std::filesystem::exists(tmp("cli_era_big.h5")));
   EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_era_bad.h5") + " --method pca"), 2);
+  // Export and import: a round trip; an output over the input refused.
+  const std::string irdm = clean_environment() + IRDM_CLI;
+  EXPECT_EQ(status(irdm + " export " + tmp("cli_src.h5") + " --out " + tmp("cli_x.h5")), 0);
+  EXPECT_EQ(status(irdm + " import " + tmp("cli_x.h5") + " --out " + tmp("cli_x.h5")), 2);
+  EXPECT_EQ(status(irdm + " import " + tmp("cli_x.h5") + " --out " + tmp("cli_imported.h5")), 0);
+  EXPECT_EQ(load_model(tmp("cli_imported.h5")).n_inputs, load_model(tmp("cli_src.h5")).n_inputs);
+  EXPECT_EQ(status(irdm + " import " + tmp("cli_src.h5") + " --out " + tmp("cli_y.h5")), 2);
 }
 
 // The eigensystem realization from H alone (irdm/state_space_model.h).
@@ -471,3 +480,83 @@ TEST(Era, ClosedLoopConvergesToTheExactModelWithTheOrder)
   EXPECT_THROW(load_state_space_model(tmp("era_unstable.h5")), InputError);
 }
 
+
+// The exchange layout (irdm export / import): our model out and back in is the same H, the
+// same frame and the same closed loop, exactly; responses per unit impulse, inputs matched by
+// coordinates and no triangles import as well; bad files are refused naming the field.
+TEST(Exchange, ExportThenImportIsTheSameModelExactly)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
+  const auto       model = make_model(scene, "exchange_src.h5");
+  export_responses(tmp("exchange_src.h5"), tmp("exchange.h5"));
+  const ImportSummary s = import_responses(tmp("exchange.h5"), tmp("imported.h5"));
+  EXPECT_FALSE(s.outputs_matched_by_coordinates);
+  const auto back = load_model(tmp("imported.h5"), scene.time_step);
+  ASSERT_EQ(back.length, model.length);
+  ASSERT_EQ(back.n_inputs, model.n_inputs);
+  ASSERT_EQ(back.n_outputs, model.n_outputs);
+  for (unsigned k = 0; k < model.n_inputs; ++k)
+    for (unsigned t = 0; t < model.length; ++t)
+      for (unsigned j = 0; j < model.n_outputs; ++j)
+        ASSERT_EQ(back.h(k, t, j), model.h(k, t, j));
+  EXPECT_EQ(back.output_coordinates, model.output_coordinates);
+  EXPECT_EQ(back.input_output_index, model.input_output_index);
+  EXPECT_EQ(back.triangles, model.triangles);
+  EXPECT_EQ(back.modes.n_modes, 0u); // H alone: the direct runtime, compress, ERA
+  PointInteraction original(model), imported(back);
+  const Difference diff = run_side_by_side(scene, model, original, imported);
+  EXPECT_EQ(diff.force, 0);
+  EXPECT_EQ(diff.surface, 0);
+  EXPECT_GT(diff.peak_force, 0);
+
+  // Another source's layout: per unit impulse (N s), no output index, no triangles.
+  {
+    h5::Writer w(tmp("other.h5"));
+    w.attribute("/", "format", std::string("irdm-responses"));
+    w.attribute("/", "format_version", 1LL);
+    w.attribute("/", "time_step_s", model.time_step);
+    w.attribute("/", "convention", std::string("unit_impulse"));
+    w.attribute("/", "source", std::string("a test"));
+    std::vector<double> in_xyz, out_xyz, r(static_cast<size_t>(model.n_inputs) * model.length * model.n_outputs);
+    for (const unsigned v : model.input_output_index)
+      in_xyz.insert(in_xyz.end(), model.output_coordinates[v].begin(), model.output_coordinates[v].end());
+    for (const auto &p : model.output_coordinates)
+      out_xyz.insert(out_xyz.end(), p.begin(), p.end());
+    for (unsigned k = 0; k < model.n_inputs; ++k)
+      for (unsigned t = 0; t < model.length; ++t)
+        for (unsigned j = 0; j < model.n_outputs; ++j)
+          r[(static_cast<size_t>(k) * model.length + t) * model.n_outputs + j] = model.h(k, t, j) / model.time_step;
+    w.create_group("/inputs");
+    w.write("/inputs/coordinates", {model.n_inputs / 3, 3}, in_xyz.data());
+    w.create_group("/outputs");
+    w.write("/outputs/coordinates", {model.n_outputs / 3, 3}, out_xyz.data());
+    w.write("/responses", {model.n_inputs, model.length, model.n_outputs}, r.data());
+    w.commit();
+  }
+  const ImportSummary o = import_responses(tmp("other.h5"), tmp("other_model.h5"));
+  EXPECT_TRUE(o.outputs_matched_by_coordinates);
+  EXPECT_EQ(o.n_triangles, 0u);
+  const auto other = load_model(tmp("other_model.h5"));
+  EXPECT_EQ(other.input_output_index, model.input_output_index);
+  double err = 0, peak = 0;
+  for (unsigned k = 0; k < model.n_inputs; ++k)
+    for (unsigned t = 0; t < model.length; ++t)
+      for (unsigned j = 0; j < model.n_outputs; ++j)
+        {
+          err  = std::max(err, std::abs(other.h(k, t, j) - model.h(k, t, j)));
+          peak = std::max(peak, std::abs(model.h(k, t, j)));
+        }
+  EXPECT_LE(err, 4 * std::numeric_limits<double>::epsilon() * peak); // / tau, then * tau
+  EXPECT_EQ(irdm::Model::load(tmp("other_model.h5")).kind(), "direct");
+
+  EXPECT_THROW(import_responses(tmp("exchange_src.h5"), tmp("x.h5")), InputError); // a model
+  try
+    {
+      import_responses(tmp("imported.h5"), tmp("x.h5"));
+      ADD_FAILURE() << "a model file imported as responses";
+    }
+  catch (const InputError &e)
+    {
+      EXPECT_NE(std::string(e.what()).find("format"), std::string::npos) << e.what();
+    }
+}
