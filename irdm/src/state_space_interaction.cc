@@ -48,15 +48,24 @@ namespace irdm
     return detail::can_touch(model_, probe);
   }
 
+  namespace
+  {
+    // One output direction of a state: row dir of c (float) times x, summed in double.
+    double
+    direction_of(const StateSpaceModel &m, const size_t dir, const std::vector<double> &x)
+    {
+      const float *c   = &m.c[dir * m.order];
+      double       sum = 0;
+      for (unsigned i = 0; i < m.order; ++i)
+        sum += static_cast<double>(c[i]) * x[i];
+      return sum;
+    }
+  } // namespace
+
   double
   StateSpaceInteraction::history(const unsigned k) const
   {
-    const unsigned r = model_.order;
-    const float *c   = &model_.c[static_cast<size_t>(model_.contact_direction[k]) * r];
-    double       sum = 0;
-    for (unsigned i = 0; i < r; ++i)
-      sum += static_cast<double>(c[i]) * x_[i];
-    return sum;
+    return direction_of(model_, model_.contact_direction[k], x_);
   }
 
   void
@@ -139,7 +148,7 @@ namespace irdm
   void
   StateSpaceInteraction::surface_displacement(double *u) const
   {
-    const unsigned nout = model_.n_outputs, r = model_.order;
+    const unsigned nout = model_.n_outputs;
     Eigen::Map<Eigen::VectorXd> out(u, nout);
     if (n_ == 0)
       {
@@ -150,13 +159,7 @@ namespace irdm
     const unsigned ro = model_.output_dimension;
     double        *y  = model_.output_basis.empty() ? u : y_.data();
     for (unsigned dir = 0; dir < ro; ++dir)
-      {
-        const float *c   = &model_.c[static_cast<size_t>(dir) * r];
-        double       sum = 0;
-        for (unsigned i = 0; i < r; ++i)
-          sum += static_cast<double>(c[i]) * x_last_[i];
-        y[dir] = sum;
-      }
+      y[dir] = direction_of(model_, dir, x_last_);
     if (!model_.output_basis.empty())
       for (unsigned j = 0; j < nout; ++j)
         {

@@ -27,6 +27,14 @@ namespace irdm::validation
       Interaction irdm(m);
       return measured_row(run_irdm(scene, m, irdm, true, bound), fem_run);
     }
+
+    void
+    log_row(std::ostream &log, const CompressionRow &r)
+    {
+      log << "  " << r.method << " " << r.setting << ": " << fmt(r.percent) << " % size, disp. RMS "
+          << fmt(r.errors.disp_rms) << ", force L2 " << fmt(r.errors.force_rel_l2)
+          << (r.stable ? "" : ", UNSTABLE") << "\n";
+    }
   } // namespace
 
   std::vector<CompressionRow>
@@ -57,9 +65,7 @@ namespace irdm::validation
         r.bytes         = ss.bytes();
         r.percent       = 100 * r.bytes / h_float;
         r.build_seconds = ss.identification_seconds;
-        log << "  era " << r.setting << ": " << fmt(r.percent) << " % size, disp. RMS "
-            << fmt(r.errors.disp_rms) << ", force L2 " << fmt(r.errors.force_rel_l2)
-            << (r.stable ? "" : ", UNSTABLE") << "\n";
+        log_row(log, r);
         rows.push_back(r);
       }
     return rows;
@@ -118,9 +124,7 @@ namespace irdm::validation
           r.percent       = 100 * r.bytes / h_float;
           r.rep_percent   = 100.0 * c.n_representative() / (double(model.n_inputs) * model.n_outputs);
           r.build_seconds = c.compression_seconds;
-          log << "  " << r.method << " " << r.setting << ": " << fmt(r.percent) << " % size, disp. RMS "
-              << fmt(r.errors.disp_rms) << ", force L2 " << fmt(r.errors.force_rel_l2)
-              << (r.stable ? "" : ", UNSTABLE") << "\n";
+          log_row(log, r);
           rows.push_back(r);
         }
     for (const unsigned M : {25u, 50u, 100u, 200u, 400u, 800u})
@@ -135,9 +139,7 @@ namespace irdm::validation
         r.bytes         = mm.bytes();
         r.percent       = 100 * r.bytes / h_float;
         r.build_seconds = mm.build_seconds;
-        log << "  modal " << r.setting << ": " << fmt(r.percent) << " % size, disp. RMS "
-            << fmt(r.errors.disp_rms) << ", force L2 " << fmt(r.errors.force_rel_l2)
-            << (r.stable ? "" : ", UNSTABLE") << "\n";
+        log_row(log, r);
         rows.push_back(r);
       }
     for (auto &r : era_rows(scene, model, fem_run, {300, 600, 1000}, log))
