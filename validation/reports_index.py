@@ -160,6 +160,8 @@ STUDIES = [
      point_headline, POINT),
     ("Point probes: IRDM against the FEM (full study)", "validation.md", "press/force.png",
      point_headline, POINT),
+    ("Point probes with every compressor, ERA included (press, squeeze, tap, trace)",
+     "era/validation.md", "era/press/speed_accuracy.png", point_headline, POINT),
     ("Plane contact against the nonlinear FEM (main job)", "quick/planes/planes.md",
      "quick/planes/planes.png", planes_headline,
      PLANES),
