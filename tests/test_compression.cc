@@ -259,6 +259,12 @@ TEST(Compression, CommandLineChecksItsInput)
             2);
   EXPECT_FALSE(std::filesystem::exists(tmp("cli_era_big.h5")));
   EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_era_bad.h5") + " --method pca"), 2);
+  // --tolerance sizes ERA on a scene: without one, or for representatives, refused.
+  EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_tol.h5") +
+                   " --method era --tolerance 0.02"),
+            2);
+  EXPECT_EQ(status(cli + tmp("cli_src.h5") + " --out " + tmp("cli_tol.h5") + " --tolerance 0.02"),
+            2);
   // Export and import: a round trip; an output over the input refused.
   const std::string irdm = clean_environment() + IRDM_CLI;
   EXPECT_EQ(status(irdm + " export " + tmp("cli_src.h5") + " --out " + tmp("cli_x.h5")), 0);

@@ -4,7 +4,11 @@
 #include <irdm/model.h>
 #include <irdm/representative_model.h>
 #include <irdm/state_space_model.h>
+#include <irdm_common/error.h>
 #include <irdm_common/files.h>
+#include <validation/model_sizing.h>
+
+#include <iostream>
 
 #include <cstdio>
 #include <memory>
@@ -20,13 +24,33 @@ namespace irdm::cli
       std::string               method = "representatives";
       irdm::CompressionOptions  o;
       irdm::EraOptions          era;
+      double                    tolerance = 0; // > 0: the smallest ERA order within it on scene
+      std::string               scene;
       bool                      quiet = false;
     };
+
+    // The smallest order on the grid whose closed loop on the scene meets --tolerance.
+    irdm::StateSpaceModel
+    sized_era(const CompressArgs &a, const irdm::ImpulseResponseModel &model)
+    {
+      std::ostream  silent(nullptr); // no buffer: writes are dropped
+      std::ostream &log = a.quiet ? silent : std::cerr;
+      const auto sized = irdm::validation::era_within_tolerance(a.scene, model, a.tolerance, a.era, log);
+      for (const auto &t : sized.tried)
+        std::printf("r %u: force %.4g, displacement %.4g against the exact model%s\n", t.order,
+                    t.force_error, t.displacement_error, t.stable ? "" : " (unstable)");
+      if (sized.model.order == 0)
+        throw irdm::InputError("compress: no order up to " + std::to_string(a.era.order) +
+                               " keeps the closed loop on '" + a.scene + "' within " +
+                               std::to_string(a.tolerance) + " of the exact model; raise --order");
+      std::printf("smallest order within %.4g: %u\n", a.tolerance, sized.model.order);
+      return sized.model;
+    }
 
     int
     run_era(const CompressArgs &a, const irdm::ImpulseResponseModel &model, irdm::OutputLock lock)
     {
-      const auto ss = irdm::identify_era(model, a.era);
+      const auto ss = a.tolerance > 0 ? sized_era(a, model) : irdm::identify_era(model, a.era);
       irdm::save_state_space_model(ss, a.in, a.out, std::move(lock));
       const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
       const auto  &hsv     = ss.hankel_singular_values;
@@ -47,6 +71,8 @@ namespace irdm::cli
     run_compress(CompressArgs a)
     {
       irdm::check_output_file("--out", a.out, {a.in});
+      if (a.tolerance > 0 && (a.method != "era" || a.scene.empty()))
+        throw irdm::InputError("compress: --tolerance sizes --method era on a --scene");
       irdm::OutputLock lock(a.out); // before the work: a second run to --out is refused now
       a.o.log = a.era.log = stderr_log(a.quiet);
       const auto model = irdm::load_model(a.in);
@@ -117,6 +143,13 @@ namespace irdm::cli
                          "era: poles beyond this radius are pulled onto it")
       ->capture_default_str()
       ->check(CLI::Range(1e-6, 1 - 1e-9));
+    compress->add_option("--tolerance", ca->tolerance,
+                         "era: take the smallest order (25, 50, ... up to --order) whose closed loop "
+                         "on --scene keeps the probe force (relative L2) and the surface "
+                         "displacement (relative RMS) within this fraction of the exact model's")
+      ->check(CLI::Range(1e-12, 0.999));
+    compress->add_option("--scene", ca->scene, "era with --tolerance: the scene the model is for (its probes run in closed loop)")
+      ->check(CLI::ExistingFile);
     compress->add_option("--theta", ca->o.theta, "correlation threshold in (0, 1]")
       ->capture_default_str()
       ->check(CLI::Range(1e-6, 1.0));

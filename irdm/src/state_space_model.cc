@@ -9,6 +9,7 @@
 #include <cmath>
 #include <complex>
 #include <initializer_list>
+#include <memory>
 #include <random>
 
 #include "frame.h"
@@ -187,8 +188,20 @@ namespace irdm
            4.0 * (output_basis.size() + c.size() + contact_direction.size());
   }
 
-  StateSpaceModel
-  identify_era(const ImpulseResponseModel &m, const EraOptions &o)
+  struct EraHankel
+  {
+    EraOptions        options; // order: the largest a realization may take
+    unsigned          ri = 0, ro = 0, n_contact = 0, p = 0, q = 0;
+    std::vector<char> contact_row; // [output DoF]: an input vertex's own
+    Mat               Uo, Ui;      // the output and input directions
+    Vec               sigma;       // Hankel singular values, every one computed
+    Mat               U_top, V_top; // U's first ro rows, V's first ri rows (the first blocks)
+    Mat               M;            // U^T H1 V
+    double            seconds = 0;
+  };
+
+  std::shared_ptr<const EraHankel>
+  prepare_era(const ImpulseResponseModel &m, const EraOptions &o)
   {
     const auto t0  = std::chrono::steady_clock::now();
     const auto log = [&](const std::string &s) {
@@ -247,24 +260,27 @@ namespace irdm
           if (ro < nout)
             gram_out.selfadjointView<Eigen::Lower>().rankUpdate(h);
         }
-    Mat Uo = Mat::Identity(nout, nout);
+    auto e = std::make_shared<EraHankel>();
+    e->options = o, e->ri = ri, e->ro = ro, e->n_contact = n_contact, e->p = p, e->q = q;
+    e->contact_row = contact_row;
+    e->Uo          = Mat::Identity(nout, nout);
     if (ro < nout)
       {
         Mat rest = leading_vectors(gram_out, ro - n_contact);
         for (unsigned j = 0; j < nout; ++j)
           if (contact_row[j])
             rest.row(j).setZero();
-        Uo.setZero(nout, ro);
+        e->Uo.setZero(nout, ro);
         for (unsigned j = 0, c = 0; j < nout; ++j)
           if (contact_row[j])
-            Uo(j, c++) = 1;
-        Uo.rightCols(ro - n_contact) = rest.householderQr().householderQ() *
-                                       Mat::Identity(nout, ro - n_contact);
+            e->Uo(j, c++) = 1;
+        e->Uo.rightCols(ro - n_contact) = rest.householderQr().householderQ() *
+                                          Mat::Identity(nout, ro - n_contact);
       }
-    const Mat Ui = ri < nin ? leading_vectors(gram_in, ri) : Mat::Identity(nin, nin);
+    e->Ui = ri < nin ? leading_vectors(gram_in, ri) : Mat::Identity(nin, nin);
     std::vector<Mat> samples(p + q + 1);
     for (unsigned s = 1; s <= p + q; ++s)
-      samples[s] = Uo.transpose() * sample(m, s) * Ui; // ro x ri
+      samples[s] = e->Uo.transpose() * sample(m, s) * e->Ui; // ro x ri
 
     // Hankel matrices of the projected samples: H0 (i, j) = Y[1 + i + j], H1 shifted by one.
     Mat H0(p * ro, q * ri), H1(p * ro, q * ri);
@@ -278,32 +294,47 @@ namespace irdm
     log("era: SVD of the " + std::to_string(H0.rows()) + " x " + std::to_string(H0.cols()) +
         " Hankel matrix");
     const Svd svd = leading_svd(H0, o.order);
-    const unsigned r = o.order;
-    if (!(svd.sigma[r - 1] > 1e-14 * svd.sigma[0]))
+    e->sigma      = svd.sigma;
+    e->U_top      = svd.U.topRows(ro);
+    e->V_top      = svd.V.topRows(ri);
+    e->M          = svd.U.transpose() * H1 * svd.V;
+    e->seconds    = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return e;
+  }
+
+  StateSpaceModel
+  realize_era(const ImpulseResponseModel &m, const EraHankel &e, const unsigned r)
+  {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (r == 0 || r > e.options.order)
+      throw InputError("era: order " + std::to_string(r) + " is not within 1 .. " +
+                       std::to_string(e.options.order) + ", the order the Hankel matrix was "
+                       "prepared for");
+    if (!(e.sigma[r - 1] > 1e-14 * e.sigma[0]))
       throw InputError("era: the Hankel matrix has rank below order " + std::to_string(r) +
                        " (its singular value " + std::to_string(r) + " is zero to round-off); "
                        "lower --order");
-    const Vec sq = svd.sigma.head(r).cwiseSqrt(), isq = sq.cwiseInverse();
-    const Mat Ur = svd.U.leftCols(r), Vr = svd.V.leftCols(r);
-    const Mat A  = isq.asDiagonal() * (Ur.transpose() * H1 * Vr) * isq.asDiagonal();
-    const Mat Bp = (sq.asDiagonal() * Vr.transpose()).leftCols(ri) * Ui.transpose(); // r x nin
-    const Mat Cp = (Ur * sq.asDiagonal()).topRows(ro); // ro x r: the outputs are Uo Cp x
+    const unsigned nin = m.n_inputs, nout = m.n_outputs, ro = e.ro, ri = e.ri;
+    const Vec sq = e.sigma.head(r).cwiseSqrt(), isq = sq.cwiseInverse();
+    const Mat A  = isq.asDiagonal() * e.M.topLeftCorner(r, r) * isq.asDiagonal();
+    const Mat Bp = sq.asDiagonal() * e.V_top.leftCols(r).transpose() * e.Ui.transpose(); // r x nin
+    const Mat Cp = e.U_top.leftCols(r) * sq.asDiagonal(); // ro x r: the outputs are Uo Cp x
 
     StateSpaceModel out;
     static_cast<ModelFrame &>(out) = m;
     out.input_directions  = ri;
-    out.output_directions = ro - n_contact;
-    out.hankel_rows       = p;
-    out.hankel_columns    = q;
-    out.stability_radius  = o.stability_radius;
-    out.hankel_singular_values.assign(svd.sigma.data(), svd.sigma.data() + svd.sigma.size());
-    set_block_diagonal(out, A, Bp, Cp, o.stability_radius);
+    out.output_directions = ro - e.n_contact;
+    out.hankel_rows       = e.p;
+    out.hankel_columns    = e.q;
+    out.stability_radius  = e.options.stability_radius;
+    out.hankel_singular_values.assign(e.sigma.data(), e.sigma.data() + e.sigma.size());
+    set_block_diagonal(out, A, Bp, Cp, e.options.stability_radius);
     out.output_dimension = ro;
     if (ro < nout)
       {
         out.output_basis.resize(static_cast<size_t>(nout) * ro);
         Eigen::Map<Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-          out.output_basis.data(), nout, ro) = Uo.cast<float>();
+          out.output_basis.data(), nout, ro) = e.Uo.cast<float>();
       }
     out.contact_direction.resize(nin);
     for (unsigned k = 0; k < nin; ++k)
@@ -313,15 +344,21 @@ namespace irdm
         // first in output order.
         out.contact_direction[k] =
           ro == nout ? j
-                     : static_cast<unsigned>(std::count(contact_row.begin(), contact_row.begin() + j, 1));
+                     : static_cast<unsigned>(std::count(e.contact_row.begin(), e.contact_row.begin() + j, 1));
       }
     out.d.resize(static_cast<size_t>(nin) * nout);
     for (unsigned k = 0; k < nin; ++k)
       for (unsigned j = 0; j < nout; ++j)
         out.d[static_cast<size_t>(k) * nout + j] = m.h(k, 0, j);
     out.identification_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      e.seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;
+  }
+
+  StateSpaceModel
+  identify_era(const ImpulseResponseModel &m, const EraOptions &o)
+  {
+    return realize_era(m, *prepare_era(m, o), o.order);
   }
 
   void

@@ -14,6 +14,7 @@
 #include <irdm_common/files.h>
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -81,6 +82,16 @@ namespace irdm
   /// block-diagonal form).
   StateSpaceModel
   identify_era(const ImpulseResponseModel &model, const EraOptions &options);
+
+  /// What every order of one identification shares: the projections and the Hankel matrix's
+  /// leading singular triplets, computed once up to options.order (the largest order a
+  /// realization of it may take), so that a search over the order pays for one SVD.
+  struct EraHankel;
+  std::shared_ptr<const EraHankel>
+  prepare_era(const ImpulseResponseModel &model, const EraOptions &options);
+  /// The realization of order r <= the prepared order (identify_era = prepare, then realize).
+  StateSpaceModel
+  realize_era(const ImpulseResponseModel &model, const EraHankel &hankel, unsigned order);
 
   /// Writes `irdm-state-space-model` version 1 (docs/compression.md): the source's root
   /// attributes and groups copied through the checked reads, then the realization.

@@ -1,0 +1,70 @@
+// A model no larger than the scene needs (validation/model_sizing.h): the smallest ERA order
+// of the grid whose closed loop on the scene is within the tolerance of the exact model's.
+#include <irdm/point_interaction.h>
+#include <irdm/state_space_interaction.h>
+#include <irdm/state_space_model.h>
+#include <irdm_common/error.h>
+#include <validation/model_sizing.h>
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "irdm_test_util.h"
+#include "scene_runs.h"
+
+using namespace irdm;
+using namespace irdm_test;
+
+namespace
+{
+  const char *probe_json = R"(, "probes": [{"name": "finger", "surface": "sides",
+      "direction": [0, 0, -1], "unilateral": false, "until_s": 0.15,
+      "path": {"times_s": [0, 0.2], "points_m": [[0.21, 0.001, 0.01], [0.235, -0.002, 0.01]]},
+      "depth": {"times_s": [0, 0.05, 0.1, 0.12], "values_m": [0, 0.002, 0.002, 0.001]}}])";
+
+  // The closed loop's errors of a realization against the exact model, computed here apart
+  // from the sizing's own runner.
+  validation::Errors
+  errors_of(const fem::Scene &scene, const ImpulseResponseModel &model, const StateSpaceModel &ss)
+  {
+    PointInteraction      exact(model);
+    StateSpaceInteraction era(ss);
+    return validation::compare(validation::run_irdm(scene, ss, era, true),
+                               validation::run_irdm(scene, model, exact, true));
+  }
+} // namespace
+
+// The beam under a rigid probe: the order found meets the tolerance when run again apart, the
+// grid's order below it (identified afresh, not from the shared SVD) does not, and a model
+// shorter than the scene is refused (its direct convolution would not be exact there).
+TEST(ModelSizing, TheSmallestOrderWithinTheToleranceAndNoSmaller)
+{
+  const std::string json  = beam_scene(probe_json);
+  const std::string path  = tmp("sizing_scene.json");
+  std::ofstream(path) << json;
+  const fem::Scene scene = fem::parse_scene(json, ".");
+  const auto       model = make_model(scene, "sizing.h5");
+  ASSERT_GE(model.length, scene.n_steps());
+  const double     tolerance = 1e-3;
+  EraOptions       o;
+  o.order = 600;
+  std::ostringstream log;
+  const auto sized = validation::era_within_tolerance(path, model, tolerance, o, log);
+  ASSERT_GT(sized.model.order, 0u) << log.str();
+  ASSERT_GE(sized.tried.size(), 2u);
+  EXPECT_EQ(sized.tried.back().order, sized.model.order);
+  const auto again = errors_of(scene, model, sized.model);
+  EXPECT_LE(again.force_rel_l2, tolerance);
+  EXPECT_LE(again.disp_rms, tolerance);
+  o.order = sized.tried[sized.tried.size() - 2].order;
+  const auto below = errors_of(scene, model, identify_era(model, o));
+  EXPECT_GT(std::max(below.force_rel_l2, below.disp_rms), tolerance) << "order " << o.order;
+
+  fem::PrecomputeOptions shorter;
+  shorter.length = scene.n_steps() / 2;
+  const auto short_model = make_model(scene, "sizing_short.h5", shorter);
+  EXPECT_THROW(validation::era_within_tolerance(path, short_model, tolerance, o, log), InputError);
+  EXPECT_THROW(validation::era_within_tolerance(path, model, 1.5, o, log), InputError);
+}
