@@ -35,6 +35,13 @@ namespace irdm_test
            extra + "}";
   }
 
+  /// A probe for beam_scene: it presses the top face near the tip 2 mm down along a short
+  /// path, holds, eases off and lets go (surface "sides").
+  inline constexpr const char *beam_probe = R"(, "probes": [{"name": "finger", "surface": "sides",
+      "direction": [0, 0, -1], "unilateral": false, "until_s": 0.15,
+      "path": {"times_s": [0, 0.2], "points_m": [[0.21, 0.001, 0.01], [0.235, -0.002, 0.01]]},
+      "depth": {"times_s": [0, 0.05, 0.1, 0.12], "values_m": [0, 0.002, 0.002, 0.001]}}])";
+
   /// "env -i PATH=... HOME=... " for running the CLI without this test process's MPI
   /// variables (a nested mpirun would take them for its own), keeping the sanitizers' options.
   inline std::string

@@ -30,11 +30,6 @@ using namespace irdm_test;
 
 namespace
 {
-  const char *probe_json = R"(, "probes": [{"name": "finger", "surface": "sides",
-      "direction": [0, 0, -1], "unilateral": false, "until_s": 0.15,
-      "path": {"times_s": [0, 0.2], "points_m": [[0.21, 0.001, 0.01], [0.235, -0.002, 0.01]]},
-      "depth": {"times_s": [0, 0.05, 0.1, 0.12], "values_m": [0, 0.002, 0.002, 0.001]}}])";
-
   // The tensor a compressed model stands for, as an ordinary model (T + delay span samples).
   ImpulseResponseModel
   decompress(const RepresentativeModel &c)
@@ -150,7 +145,7 @@ TEST(Compression, EverySubstitutedWaveformMeetsItsThreshold)
 
 TEST(Compression, RuntimeEqualsDirectConvolutionOfTheCompressedTensor)
 {
-  const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
+  const fem::Scene scene = fem::parse_scene(beam_scene(beam_probe), ".");
   const auto       model = make_model(scene, "compress_run.h5");
   for (const unsigned blend : {1u, 3u})
     {
@@ -207,7 +202,7 @@ TEST(Compression, FileRoundTripAndBadInput)
 // the surface is exact with every mode and its error falls as surface modes are added.
 TEST(Compression, ModalModelConvergesToTheExactModelWithItsModes)
 {
-  const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
+  const fem::Scene scene = fem::parse_scene(beam_scene(beam_probe), ".");
   const auto       model = make_model(scene, "modal_compression.h5");
   ASSERT_GT(model.modes.n_modes, 20u);
   std::vector<double> errors;
@@ -397,7 +392,7 @@ TEST(Era, EveryPoleOfTheRealizationIsInsideTheUnitCircle)
 // not run.
 TEST(Era, ClosedLoopConvergesToTheExactModelWithTheOrder)
 {
-  const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
+  const fem::Scene scene = fem::parse_scene(beam_scene(beam_probe), ".");
   const auto       model = make_model(scene, "era_run.h5");
   std::vector<double> force, surface;
   for (const unsigned order : {100u, 300u, 500u})
@@ -492,7 +487,7 @@ TEST(Era, ClosedLoopConvergesToTheExactModelWithTheOrder)
 // coordinates and no triangles import as well; bad files are refused naming the field.
 TEST(Exchange, ExportThenImportIsTheSameModelExactly)
 {
-  const fem::Scene scene = fem::parse_scene(beam_scene(probe_json), ".");
+  const fem::Scene scene = fem::parse_scene(beam_scene(beam_probe), ".");
   const auto       model = make_model(scene, "exchange_src.h5");
   export_responses(tmp("exchange_src.h5"), tmp("exchange.h5"));
   const ImportSummary s = import_responses(tmp("exchange.h5"), tmp("imported.h5"));

@@ -19,11 +19,6 @@ using namespace irdm_test;
 
 namespace
 {
-  const char *probe_json = R"(, "probes": [{"name": "finger", "surface": "sides",
-      "direction": [0, 0, -1], "unilateral": false, "until_s": 0.15,
-      "path": {"times_s": [0, 0.2], "points_m": [[0.21, 0.001, 0.01], [0.235, -0.002, 0.01]]},
-      "depth": {"times_s": [0, 0.05, 0.1, 0.12], "values_m": [0, 0.002, 0.002, 0.001]}}])";
-
   // The closed loop's errors of a realization against the exact model, computed here apart
   // from the sizing's own runner.
   validation::Errors
@@ -41,7 +36,7 @@ namespace
 // shorter than the scene is refused (its direct convolution would not be exact there).
 TEST(ModelSizing, TheSmallestOrderWithinTheToleranceAndNoSmaller)
 {
-  const std::string json  = beam_scene(probe_json);
+  const std::string json  = beam_scene(beam_probe);
   const std::string path  = tmp("sizing_scene.json");
   std::ofstream(path) << json;
   const fem::Scene scene = fem::parse_scene(json, ".");
