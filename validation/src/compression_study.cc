@@ -12,6 +12,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <sstream>
 
 #include "compression_study.h"
@@ -44,16 +45,31 @@ namespace irdm::validation
     const double bound   = 10 * peak_force(fem_run);
     const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
     std::vector<CompressionRow> rows;
+    // One Hankel SVD for every order: prepared for the largest order the data hold.
+    std::shared_ptr<const EraHankel> hankel;
+    unsigned                         prepared = 0;
+    for (auto largest = orders.rbegin(); largest != orders.rend() && !hankel; ++largest)
+      try
+        {
+          EraOptions o = base;
+          o.order      = *largest;
+          hankel       = prepare_era(model, o);
+          prepared     = *largest;
+        }
+      catch (const InputError &e) // an order the Hankel matrix cannot hold: no row
+        {
+          log << "  era r " << *largest << ": not identified (" << e.what() << ")\n";
+        }
     for (const unsigned order : orders)
       {
-        EraOptions o = base;
-        o.order      = order;
+        if (order > prepared)
+          continue;
         StateSpaceModel ss;
         try
           {
-            ss = identify_era(model, o);
+            ss = realize_era(model, *hankel, order);
           }
-        catch (const InputError &e) // an order the Hankel matrix cannot hold: no row
+        catch (const InputError &e) // the data's rank below the order: no row
           {
             log << "  era r " << order << ": not identified (" << e.what() << ")\n";
             continue;
