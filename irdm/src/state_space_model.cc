@@ -231,8 +231,9 @@ namespace irdm
     if (o.hankel_rows + o.hankel_columns > m.length - 1)
       throw InputError("era: --hankel-rows plus --hankel-columns must be below the response "
                        "length " + std::to_string(m.length));
+    // Within the length, shrinking only what was not given (the larger of the two if neither).
     while (p + q > m.length - 1)
-      (p > q ? p : q) -= 1;
+      (o.hankel_rows ? q : o.hankel_columns ? p : p > q ? p : q) -= 1;
     const unsigned bound = std::min(p * ro, q * ri);
     if (o.order == 0 || o.order > bound)
       throw InputError("era: order " + std::to_string(o.order) + " exceeds the Hankel matrix's rank bound " +
