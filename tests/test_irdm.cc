@@ -5,12 +5,14 @@
 #include <irdm/modal_model.h>
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
+#include <irdm/reduced_nonlinear.h>
 #include <irdm/vertex_contact.h>
 #include <irdm_common/error.h>
 #include <irdm_common/geometry.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
+#include <reference_fem/reduced_model.h>
 
 #include <gtest/gtest.h>
 
@@ -1016,4 +1018,41 @@ TEST(RuntimeApi, RefusesWhatABodyDoesNotTakeAndSaysWhy)
   std::ofstream(tmp("api_text.h5")) << "not hdf5\n";
   EXPECT_THROW(irdm::Model::load(tmp("api_text.h5")), irdm::InputError);
   EXPECT_THROW(irdm::Model::load(tmp("api_missing.h5")), irdm::InputError);
+}
+
+// The reduced nonlinear model's step (Newton, cubature, planes, vertex forces, and a step cut
+// into parts) and its surface allocate nothing.
+TEST(ReducedRuntime, StepAndSurfaceAllocateNothing)
+{
+  const fem::Scene s = fem::parse_scene(irdm_test::beam_scene(R"(, "kinematics": "nonlinear")"), ".");
+  fem::ReducedModelOptions o;
+  o.output           = tmp("reduced_alloc.h5");
+  o.modes            = 6;
+  o.derivative_modes = 3;
+  o.residual_modes   = false;
+  o.basis_size       = 10;
+  std::filesystem::remove(o.output);
+  fem::precompute_reduced_model(s, o);
+  const irdm::ReducedNonlinearModel m = irdm::load_reduced_nonlinear_model(o.output, s.time_step);
+  irdm::ReducedNonlinearBody        body(m);
+  std::vector<double>               u(3 * m.surface_vertex.size());
+  irdm::ReducedPlane                plane;
+  plane.normal = {0, 0, -1};
+  const irdm::ReducedVertexForce push{static_cast<unsigned>(m.surface_vertex.size() - 1), {0, 0, -1e-3}};
+  int most = 0;
+  for (int k = 0; k < 40; ++k)
+    {
+      // The plane jumps 5 mm into the beam's top at step 20 (the step that needs parts) and
+      // goes on down 0.5 mm a step.
+      plane.point         = {0, 0, 0.01 - (k < 20 ? -1e-3 : 5e-3 + 5e-4 * (k - 20))};
+      g_allocations       = 0;
+      g_count_allocations = true;
+      body.step(&plane, 1, &push, 1);
+      body.surface_displacement(u.data());
+      g_count_allocations = false;
+      EXPECT_EQ(g_allocations, 0) << "step " << k;
+      most = std::max(most, body.plane_vertices(0));
+    }
+  EXPECT_GT(most, 0) << "the plane reached the beam";
+  EXPECT_GT(body.cut_steps(), 0u) << "the jump was solved in parts";
 }

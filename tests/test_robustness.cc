@@ -15,6 +15,7 @@
 #include <irdm/model.h>
 #include <irdm/plane_interaction.h>
 #include <irdm/point_interaction.h>
+#include <irdm/reduced_nonlinear.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
 #include <irdm/response_exchange.h>
@@ -148,6 +149,65 @@ namespace
 
   // A small exchange file (what irdm import reads): 3 inputs among 4 outputs, T = 6, per
   // unit impulse, with the output index and the triangles.
+  // A reduced nonlinear model of one tetrahedron (its base vertex fixed), r = 2, every
+  // element; and with a cubature of that element.
+  void
+  write_seed_reduced(const std::string &path, const bool cubature)
+  {
+    fs::remove(path);
+    h5::Writer w(path);
+    w.attribute("/", "format", std::string("irdm-reduced-model"));
+    w.attribute("/", "format_version", 1LL);
+    w.attribute("/", "law", std::string("neo_hookean"));
+    w.attribute("/", "mesh_hash", std::string("0123456789abcdef"));
+    for (const auto &[name, value] :
+         std::vector<std::pair<const char *, double>>{{"time_step_s", 0.002}, {"alpha_m", 0.1},
+                                                      {"alpha_f", 0.2}, {"gamma", 0.6}, {"beta", 0.3},
+                                                      {"rayleigh_alpha_1_s", 0.5}, {"rayleigh_beta_s", 1e-3},
+                                                      {"lame_mu_Pa", 700}, {"lame_lambda_Pa", 2800},
+                                                      {"default_penalty_Pa_m", 1e6}})
+      w.attribute("/", name, value);
+    const std::vector<double> xyz = {0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1};
+    // Rows of fixed vertex 0 zero; the two fields move the apex and stretch the base.
+    std::vector<double> basis(12 * 2, 0.0);
+    basis[9 * 2 + 0] = basis[11 * 2 + 0] = 1; // apex x and z, field 0
+    basis[3 * 2 + 1] = basis[7 * 2 + 1] = 1;  // vertex 1 x, vertex 2 y, field 1
+    w.create_group("/basis");
+    w.write("/basis/shapes", {12, 2}, basis.data());
+    w.attribute("/basis", "lowest_modes", 1LL);
+    w.attribute("/basis", "residual_modes", 1LL);
+    w.attribute("/basis", "modal_derivatives", 0LL);
+    w.create_group("/mesh");
+    const std::vector<long long> tet = {0, 1, 2, 3};
+    // grad N_i of the unit-corner tetrahedron scaled by 0.1: N_0 = 1 - x - y - z (over 0.1).
+    const std::vector<double> grads = {-10, -10, -10, 10, 0, 0, 0, 10, 0, 0, 0, 10};
+    const double              volume = 0.1 * 0.1 * 0.1 / 6;
+    w.write("/mesh/tetrahedra", {1, 4}, tet.data());
+    w.write("/mesh/gradients", {1, 4, 3}, grads.data());
+    w.write("/mesh/volumes", {1}, &volume);
+    w.create_group("/surface");
+    const std::vector<long long> vertices = {0, 1, 2, 3}, tags = {10, 11, 12, 13},
+                                 tri = {0, 2, 1, 0, 1, 3, 1, 2, 3, 0, 3, 2},
+                                 free = {0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1};
+    const std::vector<double>    area = {0.004, 0.004, 0.004, 0.004};
+    w.write("/surface/vertices", {4}, vertices.data());
+    w.write("/surface/node_tags", {4}, tags.data());
+    w.write("/surface/coordinates", {4, 3}, xyz.data());
+    w.write("/surface/triangles", {4, 3}, tri.data());
+    w.write("/surface/lumped_area_m2", {4}, area.data());
+    w.write("/surface/free", {4, 3}, free.data());
+    if (cubature)
+      {
+        w.create_group("/cubature");
+        const long long element = 0;
+        const double    weight  = 1.0;
+        w.write("/cubature/elements", {1}, &element);
+        w.write("/cubature/weights", {1}, &weight);
+        w.attribute("/cubature", "training_error", 0.0);
+      }
+    w.commit();
+  }
+
   void
   write_seed_exchange(const std::string &path)
   {
@@ -976,6 +1036,49 @@ namespace
     return o;
   }
 
+  // A plane pressing the apex in and out, with a vertex force: every step finite or counted.
+  Outcome
+  load_and_run_reduced(const std::string &path)
+  {
+    Outcome out;
+    try
+      {
+        const ReducedNonlinearModel m = load_reduced_nonlinear_model(path);
+        EXPECT_EQ(m.basis.size(), 3ull * m.n_vertices * m.size);
+        for (const auto &t : m.tetrahedra)
+          for (const auto v : t)
+            EXPECT_LT(v, m.n_vertices);
+        for (const auto e : m.cubature_elements)
+          EXPECT_LT(e, m.elements.size());
+        for (const auto &t : m.triangles)
+          for (const auto v : t)
+            EXPECT_LT(v, m.surface_vertex.size());
+        ReducedNonlinearBody body(m);
+        std::ostringstream   print;
+        print.precision(17);
+        print << m.time_step << '|' << m.size << '|';
+        ReducedPlane             plane;
+        plane.normal = {0, 0, -1};
+        const ReducedVertexForce push{3, {0.01, 0, 0}};
+        std::vector<double>      u(3 * m.surface_vertex.size());
+        for (int s = 0; s < 12; ++s)
+          {
+            plane.point = {0, 0, 0.1 - 0.002 * std::sin(0.3 * s)};
+            print << body.step(&plane, 1, &push, 1) << ' ' << body.plane_force(0)[2] << ' ';
+          }
+        body.surface_displacement(u.data());
+        for (const double x : u)
+          print << x << ' ';
+        out.loaded      = true;
+        out.fingerprint = print.str();
+      }
+    catch (const InputError &e)
+      {
+        out.error = e.what();
+      }
+    return out;
+  }
+
   // A wall along a direction between the dome's, pressing in and out, with both mappings.
   Outcome
   load_and_run_virtual_dofs(const std::string &path)
@@ -1305,6 +1408,23 @@ TEST(VirtualDofLoaderFuzz, RandomMutationsForAFixedTime)
   expect_random_mutations_survive("virtual-DOF loader", seed, load_and_run_virtual_dofs);
 }
 
+TEST(ReducedLoaderFuzz, EveryStructuredMutationLoadsOrIsRefusedClearly)
+{
+  for (const bool cubature : {false, true})
+    {
+      const auto seed = tmp(cubature ? "seed_reduced_cubature.h5" : "seed_reduced.h5");
+      write_seed_reduced(seed, cubature);
+      expect_structured_mutations_survive("reduced loader", seed, load_and_run_reduced, 150);
+    }
+}
+
+TEST(ReducedLoaderFuzz, RandomMutationsForAFixedTime)
+{
+  const auto seed = tmp("seed_reduced_cubature.h5");
+  write_seed_reduced(seed, true);
+  expect_random_mutations_survive("reduced loader", seed, load_and_run_reduced);
+}
+
 // Every field of every file kind stored in every HDF5 type class and dataspace, one kind of
 // storage per test (a failing kind is named by its test).
 class EveryStorage : public ::testing::TestWithParam<Storage>
@@ -1331,6 +1451,13 @@ TEST_P(EveryStorage, StateSpaceLoaderReadsTheSameValuesOrRefusesNamingTheField)
   write_seed_model(model);
   write_seed_state_space(model, seed);
   expect_every_field_survives(GetParam(), seed, load_and_run_state_space);
+}
+
+TEST_P(EveryStorage, ReducedLoaderReadsTheSameValuesOrRefusesNamingTheField)
+{
+  const auto seed = tmp("seed_reduced_cubature.h5");
+  write_seed_reduced(seed, true);
+  expect_every_field_survives(GetParam(), seed, load_and_run_reduced);
 }
 
 TEST_P(EveryStorage, ExchangeImportReadsTheSameValuesOrRefusesNamingTheField)

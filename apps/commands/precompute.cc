@@ -3,10 +3,14 @@
 
 #include <irdm_common/files.h>
 #include <irdm_common/format.h>
+#include <irdm/cubature.h>
+#include <irdm/reduced_nonlinear.h>
 #include <reference_fem/impulse_response.h>
+#include <reference_fem/reduced_model.h>
 #include <reference_fem/scene.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -20,11 +24,74 @@ namespace irdm::cli
       unsigned    length = 0, chunk = 0, modes = 0, inertial_modes = 0;
       bool        restart = false, quiet = false, allow_large = false, every_mode_every_step = false,
                   modal_only = false;
+      // --reduced: a reduced nonlinear model (reference_fem/reduced_model.h, irdm/cubature.h).
+      bool     reduced = false, no_residual_modes = false;
+      unsigned derivative_modes = 8, derivative_residual = 0, basis = 40, training_presses = 12;
+      double   cubature_tolerance = 0.01, training_depth = 0.02;
     };
+
+    // The reduced model: the every-element file from the FEM, then (unless the tolerance is 0)
+    // its cubature trained on the every-element model's presses, written to --out.
+    int
+    run_precompute_reduced(const PrecomputeArgs &a)
+    {
+      irdm::check_output_file("--out", a.out, {a.scene});
+      const auto scene = irdm::fem::read_scene(a.scene);
+      const auto log   = stderr_log(a.quiet);
+      irdm::fem::ReducedModelOptions o;
+      o.modes            = a.modes > 0 ? a.modes : 20;
+      o.derivative_modes = a.derivative_modes;
+      o.derivative_residual_modes = a.derivative_residual;
+      o.residual_modes   = !a.no_residual_modes;
+      o.basis_size       = a.basis;
+      o.log              = log;
+      const bool cubature = a.cubature_tolerance > 0;
+      // The every-element model goes to a scratch file next to --out when a cubature follows.
+      o.output = cubature ? a.out + ".every_element.h5" : a.out;
+      struct Scratch
+      {
+        std::string path;
+        ~Scratch()
+        {
+          if (!path.empty())
+            std::filesystem::remove(path);
+        }
+      } scratch{cubature ? o.output : std::string()};
+      const auto r = irdm::fem::precompute_reduced_model(scene, o);
+      std::printf("reduced basis: %u fields = %u lowest modes (%.3g to %.3g Hz) + %u residual "
+                  "modes + %u directions of %u modal derivatives (mass-PCA share kept %.4f); %u "
+                  "elements, %u surface vertices; %.2f s\n",
+                  r.basis_size, r.n_modes, r.lowest_frequency_hz, r.highest_frequency_hz,
+                  r.n_residual, r.basis_size - r.n_modes - r.n_residual, r.n_derivatives,
+                  r.kept_share, r.n_elements, r.n_surface, r.seconds_total);
+      if (!cubature)
+        {
+          std::printf("model %s: every element (no cubature)\n", a.out.c_str());
+          return 0;
+        }
+      const irdm::ReducedNonlinearModel every = irdm::load_reduced_nonlinear_model(o.output);
+      irdm::TrainingOptions t;
+      t.presses   = a.training_presses;
+      t.max_depth = a.training_depth;
+      t.log       = log;
+      const irdm::TrainingSet training = irdm::training_states(every, t);
+      irdm::CubatureOptions   c;
+      c.tolerance            = a.cubature_tolerance;
+      c.log                  = log;
+      const irdm::Cubature rule = irdm::train_cubature(every, training.states, c);
+      irdm::write_cubature_model(o.output, a.out, rule, training);
+      std::printf("model %s: cubature of %zu of %u elements, training residual %.3g over %u "
+                  "states of %u presses (up to %.3g m; %lu steps failed), %.2f s\n",
+                  a.out.c_str(), rule.elements.size(), r.n_elements, rule.training_error,
+                  rule.n_states, t.presses, t.max_depth, training.failed_steps, rule.seconds);
+      return 0;
+    }
 
     int
     run_precompute(const PrecomputeArgs &a)
     {
+      if (a.reduced)
+        return run_precompute_reduced(a);
       irdm::check_output_file("--out", a.out, {a.scene});
       const auto scene = irdm::fem::read_scene(a.scene);
       irdm::fem::PrecomputeOptions o;
@@ -131,6 +198,38 @@ namespace irdm::cli
                          "write the modal realization (/modes) without H (format version 3): "
                          "for models whose H would not fit (inputs x T x outputs); only the "
                          "modal runtime reads it (irdm play, validate-converged)");
+    auto *reduced = precompute->add_flag(
+      "--reduced", pre->reduced,
+      "a reduced nonlinear model instead (docs/reduced-model.md): the neo-Hookean law on a basis "
+      "of the lowest --modes (default 20) eigenmodes and the residual modes at the scene's model "
+      "inputs, then the leading mass-PCA directions of the modal derivatives of the lowest "
+      "--derivative-modes, --basis fields in all; internal force by a cubature trained on "
+      "presses from random directions (P1, grounded bodies)");
+    precompute->add_option("--derivative-modes", pre->derivative_modes,
+                           "--reduced: modal derivatives of the lowest this many modes (d (d + 1) / 2)")
+      ->check(CLI::Range(0u, 100u))->capture_default_str()->needs(reduced);
+    precompute->add_option("--derivative-residual-modes", pre->derivative_residual,
+                           "--reduced: modal derivatives of the first this many residual modes too "
+                           "(with each other and with the derivative modes)")
+      ->check(CLI::Range(0u, 10000u))->capture_default_str()->needs(reduced);
+    precompute->add_option("--basis", pre->basis, "--reduced: basis size r")
+      ->check(CLI::Range(1u, 2000u))->capture_default_str()->needs(reduced);
+    precompute->add_flag("--no-residual-modes", pre->no_residual_modes,
+                         "--reduced: no residual modes at the inputs")->needs(reduced);
+    precompute->add_option("--cubature-tolerance", pre->cubature_tolerance,
+                           "--reduced: relative residual of the training forces the cubature "
+                           "reaches (0: every element, no cubature)")
+      ->check(CLI::Range(0.0, 1.0))->capture_default_str()->needs(reduced);
+    precompute->add_option("--training-presses", pre->training_presses,
+                           "--reduced: presses (random directions, fixed seed) whose states train the cubature")
+      ->check(CLI::Range(1u, 10000u))->capture_default_str()->needs(reduced);
+    precompute->add_option("--training-depth", pre->training_depth,
+                           "--reduced: the presses' largest depth (m; each is drawn between 0.2 and 1 times it)")
+      ->check(CLI::PositiveNumber)->capture_default_str()->needs(reduced);
+    for (const char *other : {"--length", "--storage", "--chunk", "--free-route", "--fit-weights",
+                              "--inertial-modes", "--restart", "--allow-large",
+                              "--every-mode-every-step", "--modal-only"})
+      reduced->excludes(other);
     precompute->add_flag("--quiet", pre->quiet, "no progress on stderr");
     return {precompute, [pre] { return run_precompute(*pre); }, true};
   }

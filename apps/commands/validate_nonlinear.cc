@@ -65,6 +65,10 @@ namespace irdm::cli
                      "many-vertex contact model (every free surface vertex; reused if made from this scene)")
         ->capture_default_str();
       app.add_flag("!--no-direct", p.direct, "skip vertex_contact_direct (its H needs GBs of memory)");
+      app.add_option("--reduced-model", p.reduced_models,
+                     "reduced nonlinear models of the scene's body (irdm precompute --reduced), "
+                     "each a method reduced_<file stem> on every grounded case")
+        ->check(CLI::ExistingFile);
       list_or_none(app, "--press-directions", o.press_directions, "the presses' directions")
         ->check(CLI::IsMember({"top", "side", "between", "oblique", "none"}));
       list_or_none(app, "--press-depths", o.press_depths, "m; each press direction at each depth")

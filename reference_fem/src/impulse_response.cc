@@ -10,6 +10,7 @@
 
 #include "blas.h"
 #include "integrator.h"
+#include "model_regions.h"
 #include "mpi_rank.h"
 #include "frame_couplings.h"
 #include "provenance.h"
@@ -145,53 +146,6 @@ namespace irdm::fem
       lm.block.push_back(T);
       lm.work = work / (static_cast<double>(T) * nm);
       return lm;
-    }
-
-    // The free surface vertices in a region, in boundary order.
-    std::vector<unsigned>
-    select_vertices(const std::optional<VertexRegion> &region, const SurfaceMesh &b,
-                    const std::vector<int> &vertex_dof_to_free, const std::string &what)
-    {
-      std::vector<char> in_surface(b.mesh_vertex.size(), 0);
-      if (!region || region->surfaces.empty())
-        std::fill(in_surface.begin(), in_surface.end(), 1);
-      else
-        for (const auto &name : region->surfaces)
-          {
-            bool found = false;
-            for (unsigned t = 0; t < b.triangles.size(); ++t)
-              if (b.triangle_surface[t] == name)
-                {
-                  found = true;
-                  for (const unsigned v : b.triangles[t])
-                    in_surface[v] = 1;
-                }
-            if (!found)
-              throw InputError("model " + what + ": the mesh has no surface '" + name + "'");
-          }
-      std::vector<unsigned> out;
-      for (unsigned i = 0; i < b.mesh_vertex.size(); ++i)
-        {
-          if (!in_surface[i] || vertex_dof_to_free[3 * b.mesh_vertex[i]] < 0)
-            continue;
-          if (region && !region->balls.empty())
-            {
-              bool inside = false;
-              for (const auto &[center, radius] : region->balls)
-                {
-                  double d2 = 0;
-                  for (int d = 0; d < 3; ++d)
-                    d2 += std::pow(b.coordinates[i][d] - center[d], 2);
-                  inside = inside || d2 <= radius * radius;
-                }
-              if (!inside)
-                continue;
-            }
-          out.push_back(i);
-        }
-      if (out.empty())
-        throw InputError("model " + what + ": the region holds no free surface vertex");
-      return out;
     }
 
     // One step of one mode (unit mass, stiffness w2, damping alpha + beta w2) of the FEM's
@@ -423,6 +377,53 @@ namespace irdm::fem
       double                      write_seconds = 0;
     };
   } // namespace
+
+  std::vector<unsigned>
+  select_vertices(const std::optional<VertexRegion> &region, const SurfaceMesh &b,
+                  const std::vector<int> &vertex_dof_to_free, const std::string &what)
+  {
+    std::vector<char> in_surface(b.mesh_vertex.size(), 0);
+    if (!region || region->surfaces.empty())
+      std::fill(in_surface.begin(), in_surface.end(), 1);
+    else
+      for (const auto &name : region->surfaces)
+        {
+          bool found = false;
+          for (unsigned t = 0; t < b.triangles.size(); ++t)
+            if (b.triangle_surface[t] == name)
+              {
+                found = true;
+                for (const unsigned v : b.triangles[t])
+                  in_surface[v] = 1;
+              }
+          if (!found)
+            throw InputError("model " + what + ": the mesh has no surface '" + name + "'");
+        }
+    std::vector<unsigned> out;
+    for (unsigned i = 0; i < b.mesh_vertex.size(); ++i)
+      {
+        if (!in_surface[i] || vertex_dof_to_free[3 * b.mesh_vertex[i]] < 0)
+          continue;
+        if (region && !region->balls.empty())
+          {
+            bool inside = false;
+            for (const auto &[center, radius] : region->balls)
+              {
+                double d2 = 0;
+                for (int d = 0; d < 3; ++d)
+                  d2 += std::pow(b.coordinates[i][d] - center[d], 2);
+                inside = inside || d2 <= radius * radius;
+              }
+            if (!inside)
+              continue;
+          }
+        out.push_back(i);
+      }
+    if (out.empty())
+      throw InputError("model " + what + ": the region holds no free surface vertex");
+    return out;
+  }
+
 
   ImpulseResponsePrecompute::ImpulseResponsePrecompute(const Scene &scene, const PrecomputeOptions &options)
     : scene(scene)

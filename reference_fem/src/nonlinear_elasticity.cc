@@ -159,8 +159,9 @@ namespace irdm::fem
     const double h = edge_sum / std::max(1u, n_edges);
     if (scene.body_frame_law)
       setup_body_frame();
+    default_penalty = 100 * E / h;
     for (const auto &p : scene.planes)
-      penalty.push_back(p.penalty > 0 ? p.penalty : 100 * E / h);
+      penalty.push_back(p.penalty > 0 ? p.penalty : default_penalty);
 
     FEValues<3> fv(linear.mapping, linear.fe, stiffness_quadrature,
                    update_gradients | update_JxW_values);

@@ -127,6 +127,7 @@ namespace irdm::fem
     // P2: Gauss points (lumping P2 faces gives zero vertex weights).
     const Quadrature<2> contact_quadrature;
     std::vector<double>    penalty;            // Pa/m, per plane (the scene's or the default)
+    double                 default_penalty = 0; // Pa/m, 100 E over the mean boundary edge
     // Boundary faces (cell, face), and the boundary's mesh vertices that are not fixed in all
     // three directions, for contact.
     std::vector<std::pair<DoFHandler<3>::active_cell_iterator, unsigned>> boundary_faces;

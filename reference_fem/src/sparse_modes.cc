@@ -436,6 +436,13 @@ namespace irdm::fem
     m_orthonormal(const FreeSystem &sys, const Eigen::MatrixXd &phi, const Eigen::MatrixXd &m_phi,
                   const RigidProjector &P, Eigen::MatrixXd V, const MassBasis &prior)
     {
+      if (V.cols() == 0) // no columns asked for (lowest modes alone)
+        {
+          MassBasis none;
+          none.V  = Eigen::MatrixXd(V.rows(), 0);
+          none.MV = Eigen::MatrixXd(V.rows(), 0);
+          return none;
+        }
       constexpr Eigen::Index column_block = FreeSystem::column_block;
       // Projections through the stored M phi and M prior: one product with M per pass.
       const auto project_off = [&](Eigen::MatrixXd &W) {
@@ -620,8 +627,9 @@ namespace irdm::fem
     // block's worth of copies.
     const size_t lanczos_block = 16;
     const size_t n_aug = step_shift > 0 ? 2 * nc : nc; // residual vectors
-    // The basis limit: 4 vectors per mode sufficed on the fine cats.
-    const size_t lanczos_basis = std::min<size_t>(nn, 6 * n_eigen + 4 * lanczos_block);
+    // The basis limit: 4 vectors per mode sufficed on the fine cats; a few modes need more
+    // per mode (the coarse 2 kPa cat's lowest 20 did not converge in 184), hence at least 400.
+    const size_t lanczos_basis = std::min<size_t>(nn, std::max<size_t>(6 * n_eigen + 4 * lanczos_block, 400));
     // The Lanczos basis (and M times it) is freed before the residual vectors are made; those
     // peak at about 3 n_aug vectors (the static ones and their M products, with the one-step
     // ones' basis being made).

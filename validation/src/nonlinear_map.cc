@@ -78,6 +78,11 @@ namespace irdm::validation::nonlinear
           base.method = planes::method_names[k];
           add_plane_rows(rows, base, pr.method[k], pr.method[k].force_us + pr.method[k].surface_us, p2);
         }
+      for (const auto &[name, m] : pr.reduced)
+        {
+          base.method = name;
+          add_plane_rows(rows, base, m, m.force_us + m.surface_us, p2);
+        }
       base.method = "fem_linear_vertex_contact";
       add_plane_rows(rows, base, pr.linear_fem, 1e6 * pr.linear_fem_seconds / N, p2);
       base.method = "fem_small_strain";

@@ -391,6 +391,57 @@ namespace irdm::validation::planes
       run_vertex_contact(run, m, truth, row, k, fem_order);
     }
 
+    /// A reduced nonlinear model with the truth's penalty walls (the same rigid planes, the
+    /// same node-based penalty): its surface put in the truth's order by node tag.
+    void
+    run_reduced(MethodResult &m, std::array<unsigned long, 2> &cut_failed, const Truth &truth,
+                const Row &row, const ReducedNonlinearModel &model, const double penalty)
+    {
+      const Case         &c       = truth.c;
+      const size_t        n_walls = c.d.size();
+      const auto         &surface = truth.run->surface;
+      std::map<long long, unsigned> at;
+      for (unsigned i = 0; i < surface.node_tags.size(); ++i)
+        at[surface.node_tags[i]] = i;
+      std::vector<unsigned> order;
+      for (const long long tag : model.node_tags)
+        {
+          const auto it = at.find(tag);
+          if (it == at.end())
+            throw InputError("reduced model '" + model.path + "': its surface is not the scene's "
+                             "(a vertex the truth's surface does not have)");
+          order.push_back(it->second);
+        }
+      ReducedNonlinearBody body(model);
+      std::array<ReducedPlane, ReducedNonlinearBody::max_planes> walls;
+      std::vector<double> u(3 * model.node_tags.size()), u_truth_order(3 * surface.node_tags.size());
+      score(
+        m, truth, row,
+        [&](const double t, double &F) {
+          for (size_t a = 0; a < n_walls; ++a)
+            {
+              const double w = truth.wall_at(a, t);
+              const Vec3   d = direction(c, a, t);
+              walls[a].normal  = {-d[0], -d[1], -d[2]};
+              walls[a].point   = {w * d[0], w * d[1], w * d[2]};
+              walls[a].penalty = penalty;
+            }
+          body.step(walls.data(), static_cast<int>(n_walls));
+          F = 0;
+          for (size_t a = 0; a < n_walls; ++a)
+            F += dot(body.plane_force(static_cast<int>(a)), walls[a].normal);
+          return true; // a step not converged is still taken (counted)
+        },
+        [&]() -> const std::vector<double> & {
+          body.surface_displacement(u.data());
+          for (size_t j = 0; j < order.size(); ++j)
+            for (int d = 0; d < 3; ++d)
+              u_truth_order[3 * order[j] + d] = u[3 * j + d];
+          return u_truth_order;
+        });
+      cut_failed = {body.cut_steps(), body.failed_steps()};
+    }
+
     /// A recorded FEM run of the case's walls (scene ls) scored as a method: its wall force
     /// along -d at each step (d as the wall turns) and its surface.
     void
@@ -583,6 +634,11 @@ namespace irdm::validation::planes
     PlaneModels m;
     prepare_virtual_dofs(body, o, m, log);
     prepare_vertex_model(body, o, m, log);
+    for (const auto &file : o.reduced_models)
+      {
+        m.reduced.push_back(load_reduced_nonlinear_model(file, body.time_step));
+        m.reduced_names.push_back("reduced_" + fs::path(file).stem().string());
+      }
     m.contact.margin         = o.margin;
     m.contact.max_candidates = o.max_candidates;
     // The FEM penalty's per-vertex equivalent needs the mean lumped area of the free vertices.
@@ -636,6 +692,16 @@ namespace irdm::validation::planes
     if (c.d.size() == 1 && c.turn_times.empty())
       run_virtual_dofs(row.same_contact, truth, row, OrientationMapping::interpolated_same_contact, 0);
     run_linear_references(row, truth, o.corotational, log);
+    for (size_t k = 0; k < models.reduced.size(); ++k)
+      {
+        row.reduced.emplace_back(models.reduced_names[k], MethodResult());
+        row.reduced_cut_failed.emplace_back();
+        run_reduced(row.reduced.back().second, row.reduced_cut_failed.back(), truth, row,
+                    models.reduced[k], penalty);
+        log << " " << models.reduced_names[k] << " " << 100 * row.reduced.back().second.force_error
+            << " % force, " << 100 * row.reduced.back().second.displacement_error << " % shape;"
+            << std::flush;
+      }
     if (o.perturbations > 0)
       {
         run_perturbed(row, truth, o, fem_order);

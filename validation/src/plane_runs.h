@@ -5,6 +5,7 @@
 #include <irdm/modal_model.h>
 #include <irdm/model.h>
 #include <irdm/plane_interaction.h>
+#include <irdm/reduced_nonlinear.h>
 #include <irdm/vertex_contact.h>
 #include <reference_fem/scene.h>
 #include <validation/plane_validation.h>
@@ -97,6 +98,10 @@ namespace irdm::validation::planes
     // miss), and the small-strain law against it (the rotation's share).
     MethodResult corotational, rotation;
     double       corotational_ms = 0;
+    // PlaneValidationOptions::reduced_models, each by its method name (reduced_<stem>), and
+    // each one's Newton steps cut back or failed over the case.
+    std::vector<std::pair<std::string, MethodResult>> reduced;
+    std::vector<std::array<unsigned long, 2>>        reduced_cut_failed;
     // The converged truth (PlaneValidationOptions::converged_degree) where it ran: its degree,
     // free DoFs and cost per step, and the P1 truth against it (the truth's own discretization
     // error; -1 where it did not run).
@@ -127,6 +132,9 @@ namespace irdm::validation::planes
     ModalModel           modal;
     VertexContactOptions contact;
     double               mean_vertex_area = 0; // m^2, of the free surface vertices
+    // PlaneValidationOptions::reduced_models, loaded, and their method names.
+    std::vector<ReducedNonlinearModel> reduced;
+    std::vector<std::string>           reduced_names;
   };
 
   /// The body every case runs on: the scene's mesh and material, nothing but the walls acting

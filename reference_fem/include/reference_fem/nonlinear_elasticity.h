@@ -11,7 +11,9 @@
 // Hooke law at small strain (checked by a test).
 #include <reference_fem/elastodynamics.h>
 
+#include <array>
 #include <memory>
+#include <vector>
 
 namespace irdm::fem
 {
@@ -71,6 +73,34 @@ namespace irdm::fem
     /// pseudo-random direction d (central differences, step h relative to |u|).
     double
     tangent_check(double amplitude, double h) const;
+
+    /// The body's P1 cells in the reference configuration, for a reduced model
+    /// (reduced_model.h): each cell's four mesh vertices, its shape functions' gradients (1/m)
+    /// and its volume (m^3). InputError for elements of higher degree.
+    struct ReferenceTetrahedra
+    {
+      std::vector<std::array<unsigned, 4>> vertices;
+      std::vector<std::array<Vec3, 4>>     gradients;
+      std::vector<double>                  volume;
+    };
+    ReferenceTetrahedra
+    reference_tetrahedra() const;
+
+    /// Modal derivatives (Idelsohn and Cardona 1985; Barbic and James 2005) of the fields phi
+    /// (displacements at every mesh vertex, [3 v + d], zero at fixed DoFs): for every pair
+    /// i <= j (in the order (0,0), (0,1), (1,1), (0,2), ...),
+    ///   K_0 psi_ij = -(dK/du [phi_j]) phi_i,
+    /// the second derivative of the internal force taken by central differences of the
+    /// tangent at +-eps phi_j (eps phi_j's largest component 1e-5 of the body's size). P1 only.
+    std::vector<std::vector<double>>
+    modal_derivatives(const std::vector<std::vector<double>> &phi) const;
+    /// M x (consistent mass) of a field at every mesh vertex, same layout.
+    std::vector<double>
+    mass_product(const std::vector<double> &x) const;
+    /// The planes' penalty when the scene gives none (Pa/m): 100 E over the mean boundary
+    /// edge.
+    double
+    default_penalty() const;
 
   private:
     class Impl;

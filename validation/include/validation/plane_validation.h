@@ -51,6 +51,9 @@ namespace irdm::validation
     // it beside the P1 truth (converged.csv).
     unsigned                 converged_degree = 2;
     std::vector<std::string> converged_cases  = {"press_top_5mm", "press_side_10mm"};
+    // Reduced nonlinear models (irdm precompute --reduced) of this scene's body, each run on
+    // every case beside the other methods as the method reduced_<its file's stem>.
+    std::vector<std::string> reduced_models;
     std::string plot_script;        // python script for the charts; "" skips charts
     // Fewer depths and speeds (every kind of case and the sweep's cases kept): the main job's
     // default, within its 10-minute budget.

@@ -1,0 +1,483 @@
+// The reduced nonlinear model's loader and its step (irdm/reduced_nonlinear.h).
+#include <irdm/reduced_nonlinear.h>
+#include <irdm_common/error.h>
+#include <irdm_common/h5.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace irdm
+{
+  namespace
+  {
+    template <class T>
+    bool
+    all_finite(const std::vector<T> &x)
+    {
+      return std::all_of(x.begin(), x.end(), [](const T v) { return std::isfinite(static_cast<double>(v)); });
+    }
+  } // namespace
+
+  ReducedNonlinearModel
+  load_reduced_nonlinear_model(const std::string &path, const double expected_time_step)
+  {
+    const h5::Reader r(path);
+    const auto       fail = [&](const std::string &what) {
+      throw InputError("reduced nonlinear model '" + path + "': " + what);
+    };
+    if (!r.has_attribute("/", "format") || r.string_attribute("/", "format") != "irdm-reduced-model")
+      fail("not a reduced nonlinear model (attribute 'format' is missing or different)");
+    if (r.count_attribute("/", "format_version", 0, 1000) != 1)
+      fail("format_version is not 1 (this program reads version 1)");
+    if (r.string_attribute("/", "law") != "neo_hookean")
+      fail("law '" + r.string_attribute("/", "law") + "' is not one this runtime knows (neo_hookean)");
+    // The rows of a dataset of the given trailing shape; `same_as` names the dataset whose row
+    // count it must share (both named if they differ).
+    const auto rows = [&](const std::string &name, const std::vector<hsize_t> &trailing,
+                          const std::string &same_as = "", const hsize_t expected = 0) {
+      const auto shape = r.shape(name);
+      if (shape.size() != trailing.size() + 1 || shape[0] == 0 || shape[0] > 100000000 ||
+          !std::equal(trailing.begin(), trailing.end(), shape.begin() + 1))
+        fail(name + " does not have the shape this format gives it (docs/model-format.md)");
+      if (!same_as.empty() && shape[0] != expected)
+        fail(name + " has " + std::to_string(shape[0]) + " rows and " + same_as + " " +
+             std::to_string(expected) + ": they must be the same");
+      return shape[0];
+    };
+    ReducedNonlinearModel m;
+    m.path            = path;
+    m.time_step       = r.double_attribute("/", "time_step_s");
+    m.alpha_m         = r.double_attribute("/", "alpha_m");
+    m.alpha_f         = r.double_attribute("/", "alpha_f");
+    m.gamma           = r.double_attribute("/", "gamma");
+    m.beta            = r.double_attribute("/", "beta");
+    m.rayleigh_alpha  = r.double_attribute("/", "rayleigh_alpha_1_s");
+    m.rayleigh_beta   = r.double_attribute("/", "rayleigh_beta_s");
+    m.mu              = r.double_attribute("/", "lame_mu_Pa");
+    m.lambda          = r.double_attribute("/", "lame_lambda_Pa");
+    m.default_penalty = r.double_attribute("/", "default_penalty_Pa_m");
+    m.mesh_hash       = r.string_attribute("/", "mesh_hash");
+    const std::vector<std::pair<const char *, double>> positive = {
+      {"time_step_s", m.time_step}, {"lame_mu_Pa", m.mu}, {"default_penalty_Pa_m", m.default_penalty},
+      {"beta", m.beta}};
+    for (const auto &[name, x] : positive)
+      if (!(std::isfinite(x) && x > 0))
+        fail(std::string(name) + " must be finite and positive");
+    const std::vector<std::pair<const char *, double>> non_negative = {
+      {"alpha_f", m.alpha_f}, {"gamma", m.gamma}, {"rayleigh_alpha_1_s", m.rayleigh_alpha},
+      {"rayleigh_beta_s", m.rayleigh_beta}, {"lame_lambda_Pa", m.lambda}};
+    for (const auto &[name, x] : non_negative)
+      if (!(std::isfinite(x) && x >= 0))
+        fail(std::string(name) + " must be finite and not negative");
+    if (!(std::isfinite(m.alpha_m) && m.alpha_m < 1))
+      fail("alpha_m must be finite and below 1");
+    if (!(m.alpha_f < 1))
+      fail("alpha_f must be below 1");
+    if (expected_time_step > 0 && std::abs(m.time_step - expected_time_step) > 1e-12 * expected_time_step)
+      fail("its time step differs from the scene's");
+
+    const auto shape = r.shape("/basis/shapes");
+    if (shape.size() != 2 || shape[0] % 3 != 0 || shape[0] == 0 || shape[1] == 0 || shape[1] > 10000 ||
+        shape[0] > 300000000ull / shape[1])
+      fail("/basis/shapes must be (3 x vertices) x r with 1 <= r <= 10000");
+    m.n_vertices = static_cast<unsigned>(shape[0] / 3);
+    m.size       = static_cast<unsigned>(shape[1]);
+    m.basis      = r.read_double("/basis/shapes", shape);
+    if (!all_finite(m.basis))
+      fail("/basis/shapes is not finite");
+    m.lowest_modes      = static_cast<unsigned>(r.count_attribute("/basis", "lowest_modes", 0, m.size));
+    m.residual_modes    = static_cast<unsigned>(r.count_attribute("/basis", "residual_modes", 0, 100000000));
+    m.modal_derivatives = static_cast<unsigned>(r.count_attribute("/basis", "modal_derivatives", 0, 100000000));
+
+    const size_t E     = rows("/mesh/tetrahedra", {4});
+    rows("/mesh/gradients", {4, 3}, "/mesh/tetrahedra", E);
+    rows("/mesh/volumes", {}, "/mesh/tetrahedra", E);
+    const auto   tets  = r.read_int("/mesh/tetrahedra", {E, 4});
+    const auto   grads = r.read_double("/mesh/gradients", {E, 4, 3});
+    const auto   vols  = r.read_double("/mesh/volumes", {E});
+    if (!all_finite(grads))
+      fail("/mesh/gradients is not finite");
+    m.tetrahedra.resize(E);
+    m.elements.resize(E);
+    for (size_t e = 0; e < E; ++e)
+      {
+        if (!(std::isfinite(vols[e]) && vols[e] > 0))
+          fail("/mesh/volumes: element " + std::to_string(e) + " has no finite positive volume");
+        m.elements[e].volume = vols[e];
+        for (int i = 0; i < 4; ++i)
+          {
+            const long long v = tets[4 * e + i];
+            if (v < 0 || v >= static_cast<long long>(m.n_vertices))
+              fail("/mesh/tetrahedra: element " + std::to_string(e) + " names a vertex the basis does not have");
+            m.tetrahedra[e][i] = static_cast<unsigned>(v);
+            for (int d = 0; d < 3; ++d)
+              m.elements[e].grad(d, i) = grads[12 * e + 3 * i + d];
+          }
+      }
+
+    if (r.exists("/cubature"))
+      {
+        const hsize_t n = rows("/cubature/elements", {});
+        if (n > E)
+          fail("/cubature/elements lists more elements than the mesh has");
+        rows("/cubature/weights", {}, "/cubature/elements", n);
+        const auto ids       = r.read_int("/cubature/elements", {n});
+        m.cubature_weights   = r.read_double("/cubature/weights", {n});
+        m.cubature_training_error = r.double_attribute("/cubature", "training_error");
+        for (size_t k = 0; k < n; ++k)
+          {
+            if (ids[k] < 0 || ids[k] >= static_cast<long long>(E))
+              fail("/cubature/elements: an element that is not one of the mesh's");
+            if (!(std::isfinite(m.cubature_weights[k]) && m.cubature_weights[k] >= 0))
+              fail("/cubature/weights: a weight is negative or not finite");
+            m.cubature_elements.push_back(static_cast<unsigned>(ids[k]));
+          }
+        m.every_element = false;
+      }
+    else
+      {
+        for (unsigned e = 0; e < E; ++e)
+          m.cubature_elements.push_back(e);
+        m.cubature_weights.assign(E, 1.0);
+      }
+
+    const size_t S = rows("/surface/vertices", {});
+    if (S > m.n_vertices)
+      fail("/surface/vertices lists more vertices than the basis has");
+    rows("/surface/node_tags", {}, "/surface/vertices", S);
+    rows("/surface/coordinates", {3}, "/surface/vertices", S);
+    rows("/surface/lumped_area_m2", {}, "/surface/vertices", S);
+    rows("/surface/free", {3}, "/surface/vertices", S);
+    const auto   ids  = r.read_int("/surface/vertices", {S});
+    m.node_tags       = r.read_int("/surface/node_tags", {S});
+    const auto xyz    = r.read_double("/surface/coordinates", {S, 3});
+    m.lumped_area     = r.read_double("/surface/lumped_area_m2", {S});
+    const auto free   = r.read_int("/surface/free", {S, 3});
+    const hsize_t n_triangles = rows("/surface/triangles", {3});
+    const auto    tris        = r.read_int("/surface/triangles", {n_triangles, 3});
+    if (!all_finite(xyz) || !all_finite(m.lumped_area))
+      fail(!all_finite(xyz) ? "/surface/coordinates is not finite" : "/surface/lumped_area_m2 is not finite");
+    for (size_t s = 0; s < S; ++s)
+      {
+        if (ids[s] < 0 || ids[s] >= static_cast<long long>(m.n_vertices))
+          fail("/surface/vertices: a vertex the basis does not have");
+        if (m.lumped_area[s] < 0)
+          fail("/surface/lumped_area_m2: a negative area");
+        m.surface_vertex.push_back(static_cast<unsigned>(ids[s]));
+        m.coordinates.push_back({xyz[3 * s], xyz[3 * s + 1], xyz[3 * s + 2]});
+        m.free_dof.push_back({free[3 * s] != 0, free[3 * s + 1] != 0, free[3 * s + 2] != 0});
+      }
+    for (size_t t = 0; t < n_triangles; ++t)
+      {
+        std::array<unsigned, 3> tri{};
+        for (int i = 0; i < 3; ++i)
+          {
+            if (tris[3 * t + i] < 0 || tris[3 * t + i] >= static_cast<long long>(S))
+              fail("/surface/triangles: a vertex the surface does not have");
+            tri[i] = static_cast<unsigned>(tris[3 * t + i]);
+          }
+        m.triangles.push_back(tri);
+      }
+    return m;
+  }
+
+  ReducedNonlinearBody::ReducedNonlinearBody(const ReducedNonlinearModel &model)
+    : m_(model)
+    , r_(model.size)
+    , h_(model.time_step)
+  {
+    const auto row = [&](const unsigned v, const int d) {
+      return Eigen::Map<const Eigen::RowVectorXd>(&m_.basis[(3 * static_cast<size_t>(v) + d) * r_], r_);
+    };
+    for (size_t k = 0; k < m_.cubature_elements.size(); ++k)
+      {
+        const unsigned e = m_.cubature_elements[k];
+        Matrix         U(12, r_);
+        for (int i = 0; i < 4; ++i)
+          for (int d = 0; d < 3; ++d)
+            U.row(3 * i + d) = row(m_.tetrahedra[e][i], d);
+        element_basis_.push_back(U);
+        element_.push_back(m_.elements[e]);
+        weight_.push_back(m_.cubature_weights[k]);
+      }
+    for (unsigned s = 0; s < m_.surface_vertex.size(); ++s)
+      {
+        const auto &free = m_.free_dof[s];
+        if (!(free[0] || free[1] || free[2]))
+          continue; // a fixed vertex: the plane's push on it goes into the support
+        Eigen::Matrix<double, 3, Eigen::Dynamic> U(3, r_);
+        for (int d = 0; d < 3; ++d)
+          U.row(d) = free[d] ? Eigen::RowVectorXd(row(m_.surface_vertex[s], d)) : Eigen::RowVectorXd::Zero(r_);
+        surface_basis_.push_back(U);
+        surface_rest_.emplace_back(m_.coordinates[s][0], m_.coordinates[s][1], m_.coordinates[s][2]);
+        surface_area_.push_back(m_.lumped_area[s]);
+        surface_index_.push_back(s);
+      }
+    for (Vector *x : {&q_, &v_, &a_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
+                      &r_trial_, &dq_, &g_c_trial_, &best_, &g_int_, &Un_, &g_f_, &g_f_new_, &g_f_end_, &q0_, &v0_, &a0_, &g_c0_, &g_f0_})
+      x->setZero(r_);
+    KU_.setZero(12, r_);
+    tangent_.setZero(r_, r_);
+    solver_ = Eigen::LDLT<Matrix>(r_);
+  }
+
+  bool
+  ReducedNonlinearBody::residual(const Vector &x, const ReducedPlane *planes, const int n,
+                                 Vector &res, Matrix *T, Vector &g_c,
+                                 std::array<std::array<double, 3>, max_planes> &force,
+                                 std::array<int, max_planes> &vertices)
+  {
+    const double h = h_, am = m_.alpha_m, af = m_.alpha_f, b = m_.beta, g = m_.gamma;
+    // Newmark's acceleration and velocity at q_1 = x, and the alpha levels.
+    a1_   = (x - q_ - h * v_) / (b * h * h) - (1 / (2 * b) - 1) * a_;
+    v1_   = v_ + h * ((1 - g) * a_ + g * a1_);
+    q_af_ = (1 - af) * x + af * q_;
+    v_af_ = (1 - af) * v1_ + af * v_;
+    const double c_m = (1 - am) / (b * h * h), c_c = (1 - af) * g / (b * h);
+    res = (1 - am) * a1_ + am * a_ + m_.rayleigh_alpha * v_af_;
+    scale_ = res.norm();
+    g_int_.setZero();
+    if (T)
+      {
+        T->setZero();
+        T->diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
+      }
+    bool                       ok = true;
+    elastic::Vector12          u_e, v_e, f_e, d_e;
+    elastic::Matrix12          K_e, D_e;
+    for (size_t k = 0; k < element_.size(); ++k)
+      {
+        const Matrix &U = element_basis_[k];
+        u_e.noalias()   = U * q_af_;
+        if (!elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, T ? &K_e : nullptr))
+          {
+            ok = false;
+            continue;
+          }
+        if (m_.rayleigh_beta != 0)
+          {
+            v_e.noalias() = U * v_af_;
+            elastic::objective_damping_force(element_[k], u_e, v_e, m_.mu, m_.lambda, d_e, T ? &D_e : nullptr);
+            f_e += m_.rayleigh_beta * d_e;
+            if (T)
+              K_e = (1 - af) * K_e + m_.rayleigh_beta * c_c * D_e;
+          }
+        else if (T)
+          K_e *= 1 - af;
+        g_int_.noalias() += weight_[k] * (U.transpose() * f_e);
+        if (T)
+          {
+            KU_.noalias() = K_e * U;
+            T->noalias() += weight_[k] * (U.transpose() * KU_);
+          }
+      }
+    // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
+    // area, force k A g n where it has passed the plane by g).
+    g_c.setZero();
+    for (int p = 0; p < n; ++p)
+      {
+        force[p]    = {0, 0, 0};
+        vertices[p] = 0;
+        const Eigen::Vector3d normal(planes[p].normal[0], planes[p].normal[1], planes[p].normal[2]);
+        const Eigen::Vector3d point(planes[p].point[0], planes[p].point[1], planes[p].point[2]);
+        const double          k = planes[p].penalty > 0 ? planes[p].penalty : m_.default_penalty;
+        const double          rest_gap_bound = normal.dot(point);
+        for (size_t s = 0; s < surface_basis_.size(); ++s)
+          {
+            const auto           &U = surface_basis_[s];
+            const Eigen::Vector3d xs = surface_rest_[s] + U * x;
+            const double          depth = rest_gap_bound - normal.dot(xs);
+            if (depth <= 0)
+              continue;
+            const double          ka = k * surface_area_[s];
+            const Eigen::Vector3d f  = ka * depth * normal;
+            const auto           &free = m_.free_dof[surface_index_[s]];
+            for (int d = 0; d < 3; ++d)
+              if (free[d])
+                force[p][d] += f(d);
+            ++vertices[p];
+            g_c.noalias() += U.transpose() * f;
+            if (T)
+              {
+                Un_.noalias() = U.transpose() * normal;
+                T->noalias() += ((1 - af) * ka) * (Un_ * Un_.transpose());
+              }
+          }
+      }
+    res += g_int_;
+    res -= (1 - af) * (g_c + g_f_new_) + af * (g_c_ + g_f_);
+    scale_ = std::max({scale_, g_int_.norm(), g_c.norm(), g_f_new_.norm()});
+    return ok;
+  }
+
+  bool
+  ReducedNonlinearBody::step(const ReducedPlane *planes, const int n,
+                             const ReducedVertexForce *forces, const int n_forces)
+  {
+    if (n < 0 || n > max_planes || (n > 0 && !planes) || n_forces < 0 || (n_forces > 0 && !forces))
+      return false;
+    g_f_end_.setZero();
+    for (int i = 0; i < n_forces; ++i)
+      {
+        const unsigned s = forces[i].vertex;
+        if (s >= m_.surface_vertex.size())
+          return false;
+        for (int d = 0; d < 3; ++d)
+          if (m_.free_dof[s][d])
+            g_f_end_ += forces[i].force[d] *
+                        Eigen::Map<const Vector>(&m_.basis[(3 * size_t(m_.surface_vertex[s]) + d) * r_], r_);
+      }
+    // The state at the step's start, to go back to if Newton fails at tau.
+    q0_ = q_, v0_ = v_, a0_ = a_, g_c0_ = g_c_, g_f0_ = g_f_;
+    bool converged = false;
+    for (unsigned parts = 1; parts <= max_parts && !converged; parts *= 2)
+      {
+        if (parts > 1)
+          {
+            q_ = q0_, v_ = v0_, a_ = a0_, g_c_ = g_c0_, g_f_ = g_f0_;
+            ++cut_steps_;
+          }
+        converged = true;
+        for (unsigned j = 1; j <= parts; ++j)
+          {
+            // The planes and forces where they are at this part's end: linear between the
+            // latest step's and this one's (a plane new this step stands where it is given).
+            const double s = double(j) / parts;
+            for (int p = 0; p < n; ++p)
+              {
+                part_planes_[p] = planes[p];
+                if (parts > 1 && p < last_n_)
+                  for (int d = 0; d < 3; ++d)
+                    {
+                      part_planes_[p].point[d]  = last_planes_[p].point[d] + s * (planes[p].point[d] - last_planes_[p].point[d]);
+                      part_planes_[p].normal[d] = last_planes_[p].normal[d] + s * (planes[p].normal[d] - last_planes_[p].normal[d]);
+                    }
+                const double norm = std::sqrt(part_planes_[p].normal[0] * part_planes_[p].normal[0] +
+                                              part_planes_[p].normal[1] * part_planes_[p].normal[1] +
+                                              part_planes_[p].normal[2] * part_planes_[p].normal[2]);
+                for (int d = 0; d < 3; ++d)
+                  part_planes_[p].normal[d] /= norm;
+              }
+            g_f_new_ = g_f0_ + s * (g_f_end_ - g_f0_);
+            h_       = m_.time_step / parts;
+            // At the last division every part is taken, converged or not (its best iterate).
+            if (!solve(part_planes_.data(), n) && (converged = false, parts < max_parts))
+              break;
+          }
+      }
+    h_ = m_.time_step;
+    if (!converged)
+      ++failed_steps_;
+    for (int p = 0; p < n; ++p)
+      last_planes_[p] = planes[p];
+    last_n_ = n;
+    return converged;
+  }
+
+  bool
+  ReducedNonlinearBody::solve(const ReducedPlane *planes, const int n)
+  {
+    // Constant-velocity predictor, as the FEM's.
+    x_ = q_ + h_ * v_;
+    if (!residual(x_, planes, n, residual_, &tangent_, g_c_trial_, trial_force_, trial_vertices_))
+      {
+        ++inverted_;
+        x_ = q_;
+        residual(x_, planes, n, residual_, &tangent_, g_c_trial_, trial_force_, trial_vertices_);
+      }
+    // Converged when the residual is round-off of the forces in it, or the update is.
+    double   r_norm    = residual_.norm();
+    double   best_norm = r_norm;
+    best_              = x_;
+    bool     converged = false;
+    unsigned it        = 0;
+    constexpr unsigned max_iterations = 30;
+    for (; it < max_iterations; ++it)
+      {
+        if (r_norm <= 1e-8 * std::max(scale_, 1e-300))
+          {
+            converged = true;
+            break;
+          }
+        solver_.compute(tangent_);
+        dq_ = solver_.solve(residual_);
+        dq_ = -dq_;
+        // A backtracking line search on the residual norm. Where it finds no decrease (a
+        // vertex about to touch a plane: the tangent at x lacks its penalty, and the full
+        // step overshoots into the plane), the full step is taken all the same: the tangent
+        // there holds the contact, and Newton comes back from the other side.
+        double alpha    = 1;
+        bool   accepted = false;
+        for (int cut = 0; cut < 6; ++cut, alpha /= 2)
+          {
+            trial_ = x_ + alpha * dq_;
+            const bool ok = residual(trial_, planes, n, r_trial_, nullptr, g_c_trial_, trial_force_, trial_vertices_);
+            if (!ok)
+              ++inverted_;
+            if (ok && r_trial_.norm() < (1 - 1e-4 * alpha) * r_norm)
+              {
+                accepted = true;
+                break;
+              }
+          }
+        if (!accepted)
+          alpha = 1;
+        x_ += alpha * dq_;
+        if (accepted && alpha * dq_.norm() <= 1e-13 * std::max(x_.norm(), 1e-300))
+          {
+            converged = true;
+            ++it;
+            break;
+          }
+        residual(x_, planes, n, residual_, &tangent_, g_c_trial_, trial_force_, trial_vertices_);
+        r_norm = residual_.norm();
+        if (r_norm < best_norm)
+          best_norm = r_norm, best_ = x_;
+      }
+    if (!converged)
+      x_ = best_;
+    last_iterations_ = it;
+    // The state at the part's end (residual() leaves a1_, v1_ and the planes' force at x_).
+    residual(x_, planes, n, residual_, nullptr, g_c_trial_, plane_force_, plane_vertices_);
+    q_   = x_;
+    v_   = v1_;
+    a_   = a1_;
+    g_c_ = g_c_trial_;
+    g_f_ = g_f_new_;
+    return converged;
+  }
+
+  void
+  ReducedNonlinearBody::surface_displacement(double *u) const
+  {
+    const size_t S = m_.surface_vertex.size();
+    std::fill(u, u + 3 * S, 0.0);
+    for (size_t k = 0; k < surface_basis_.size(); ++k)
+      {
+        const Eigen::Vector3d us = surface_basis_[k] * q_;
+        for (int d = 0; d < 3; ++d)
+          u[3 * surface_index_[k] + d] = us(d);
+      }
+  }
+
+  double
+  ReducedNonlinearBody::strain_energy(const Vector &q) const
+  {
+    double            W = 0;
+    elastic::Vector12 u_e, f_e;
+    for (size_t k = 0; k < element_.size(); ++k)
+      {
+        double w_e = 0;
+        u_e.noalias() = element_basis_[k] * q;
+        if (elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, nullptr, &w_e))
+          W += weight_[k] * w_e;
+      }
+    return W;
+  }
+
+  double
+  ReducedNonlinearBody::energy() const
+  {
+    return 0.5 * v_.squaredNorm() + strain_energy(q_);
+  }
+} // namespace irdm

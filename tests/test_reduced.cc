@@ -1,0 +1,360 @@
+// The reduced nonlinear model (issue 50): with the full basis and every element it is the
+// neo-Hookean FEM's own run (same law, integrator and penalty planes), to Newton's tolerance;
+// with a small basis, modal derivatives carry what the linear modes miss of a large bend.
+#include <irdm/cubature.h>
+#include <irdm/reduced_nonlinear.h>
+#include <reference_fem/elastodynamics.h>
+#include <reference_fem/nonlinear_elasticity.h>
+#include <reference_fem/reduced_model.h>
+#include <reference_fem/scene.h>
+
+#include <gtest/gtest.h>
+
+#include <validation/fem_verification.h>
+
+#include "irdm_test_util.h"
+#include "metrics.h"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+
+using namespace irdm;
+using irdm::validation::BeamModel;
+using irdm::validation::beam_scene_json;
+
+namespace
+{
+  // The clamped beam_2 (0.25 m, 2 cm square) pressed at its free end's top edge by a plane
+  // tilted 45 degrees, `depth` (m) into it over `ramp` (s), then held.
+  fem::Scene
+  pressed_beam(const double depth, const double ramp, const double duration)
+  {
+    const double s = 1 / std::sqrt(2.0);
+    const auto   at = [&](const double d) {
+      return "[" + std::to_string(0.25 - d * s) + ", 0, " + std::to_string(0.01 - d * s) + "]";
+    };
+    return fem::parse_scene(
+      beam_scene_json(IRDM_MESH_DIR "/beam_2.msh", 1, BeamModel(),
+                      R"(, "kinematics": "nonlinear",
+         "damping": {"ratios": [0.02, 0.02], "frequencies_Hz": [1, 50]},
+         "integrator": {"type": "generalized_alpha", "rho_inf": 0.8},
+         "time": {"step_s": 0.002, "duration_s": )" + std::to_string(duration) + R"(},
+         "planes": [{"name": "press", "normal": [-1, 0, -1],
+                     "position": {"times_s": [0, )" + std::to_string(ramp) + R"(], "points_m": [)" + at(-1e-4) + ", " + at(depth) + R"(]}}],
+         "model": {"inputs": {"within": {"center_m": [0.25, 0.005, 0.01], "radius_m": 0.015}}},
+         "outputs": {"surface": true})"),
+      ".");
+  }
+
+  // The reduced model's run of the scene's plane: per step, the plane's force on the body and
+  // the surface displacement (the FEM's surface order).
+  struct ReducedRun
+  {
+    std::vector<std::array<double, 3>> force;
+    std::vector<std::vector<double>>   surface;
+    unsigned long                      failed = 0;
+  };
+
+  ReducedRun
+  run_reduced(const ReducedNonlinearModel &m, const fem::Scene &s)
+  {
+    ReducedNonlinearBody body(m);
+    ReducedRun           out;
+    const auto          &plane = s.planes.at(0);
+    for (unsigned k = 1; k <= s.n_steps(); ++k)
+      {
+        const double    t = k * s.time_step;
+        ReducedPlane    p;
+        const fem::Vec3 x = plane.position.at(t), n = plane.normal_at(t);
+        p.point           = {x[0], x[1], x[2]};
+        p.normal          = {n[0], n[1], n[2]};
+        body.step(&p, 1);
+        out.force.push_back(body.plane_force(0));
+        out.surface.emplace_back(3 * m.surface_vertex.size());
+        body.surface_displacement(out.surface.back().data());
+      }
+    out.failed = body.failed_steps();
+    return out;
+  }
+
+  // max_k |a_k - b_k| over max_k |b_k|, over every step and component.
+  double
+  relative_max(const std::vector<std::vector<double>> &a, const std::vector<std::vector<double>> &b)
+  {
+    double diff = 0, scale = 0;
+    for (size_t k = 0; k < a.size(); ++k)
+      for (size_t i = 0; i < a[k].size(); ++i)
+        {
+          diff  = std::max(diff, std::abs(a[k][i] - b[k][i]));
+          scale = std::max(scale, std::abs(b[k][i]));
+        }
+    return diff / scale;
+  }
+
+  std::vector<std::vector<double>>
+  fem_forces(const fem::RunResult &r)
+  {
+    std::vector<std::vector<double>> F;
+    for (size_t k = 1; k < r.time.size(); ++k)
+      F.push_back({r.plane_force.at("press")[k][0], r.plane_force.at("press")[k][1],
+                   r.plane_force.at("press")[k][2]});
+    return F;
+  }
+
+  std::vector<std::vector<double>>
+  forces(const ReducedRun &r)
+  {
+    std::vector<std::vector<double>> F;
+    for (const auto &f : r.force)
+      F.push_back({f[0], f[1], f[2]});
+    return F;
+  }
+
+  std::vector<std::vector<double>>
+  fem_surface(const fem::RunResult &r)
+  {
+    return {r.surface_displacement.begin() + 1, r.surface_displacement.end()};
+  }
+
+  // A stiffer beam (f1 about 3.5 Hz) bent by a tip load ramped over 0.3 s to a linear
+  // deflection of a third of its length (P1 beam_2 locks: it bends less), and held.
+  struct Bend
+  {
+    BeamModel  beam;
+    double     F = 0; // N, downward at the end of the ramp
+    fem::Scene scene;
+    Bend()
+    {
+      beam.youngs_modulus = 2e7;
+      F                   = 0.33 * beam.length / beam.tip_deflection(1.0);
+      scene               = fem::parse_scene(
+        beam_scene_json(IRDM_MESH_DIR "/beam_2.msh", 1, beam,
+                        R"(, "kinematics": "nonlinear",
+           "damping": {"ratios": [0.05, 0.05], "frequencies_Hz": [1, 50]},
+           "integrator": {"type": "generalized_alpha", "rho_inf": 0.8},
+           "time": {"step_s": 0.002, "duration_s": 0.4},
+           "loads": [{"type": "surface_force", "surface": "tip", "total_force_N": [0, 0, )" +
+                          std::to_string(-F) + R"(], "history": {"times_s": [0, 0.3], "factors": [0, 1]}}],
+           "outputs": {"surface": true})"),
+        ".");
+      // The FEM's load on the surface vertices: a uniform traction on P1 triangles gives each
+      // vertex a third of its triangles' areas.
+      const fem::SurfaceMesh b = fem::ElasticDynamics(scene).boundary();
+      tip_share.assign(b.coordinates.size(), 0.0);
+      double total = 0;
+      for (size_t t = 0; t < b.triangles.size(); ++t)
+        if (b.triangle_surface[t] == "tip")
+          {
+            const auto           &p = b.coordinates;
+            const auto           &v = b.triangles[t];
+            const Eigen::Vector3d e1(p[v[1]][0] - p[v[0]][0], p[v[1]][1] - p[v[0]][1], p[v[1]][2] - p[v[0]][2]);
+            const Eigen::Vector3d e2(p[v[2]][0] - p[v[0]][0], p[v[2]][1] - p[v[0]][1], p[v[2]][2] - p[v[0]][2]);
+            const double          area = 0.5 * e1.cross(e2).norm();
+            total += area;
+            for (const unsigned i : v)
+              tip_share[i] += area / 3;
+          }
+      for (double &a : tip_share)
+        a /= total;
+    }
+    std::vector<double> tip_share; // per surface vertex: its share of the tip load
+
+    /// The reduced model's surface at every step 1..N.
+    std::vector<std::vector<double>>
+    run(const ReducedNonlinearModel &m, unsigned long *failed = nullptr) const
+    {
+      ReducedNonlinearBody            body(m);
+      std::vector<ReducedVertexForce> load;
+      std::vector<std::vector<double>> out;
+      for (unsigned k = 1; k <= scene.n_steps(); ++k)
+        {
+          const double factor = std::min(1.0, k * scene.time_step / 0.3);
+          load.clear();
+          for (unsigned i = 0; i < tip_share.size(); ++i)
+            if (tip_share[i] > 0)
+              load.push_back({i, {0, 0, -F * factor * tip_share[i]}});
+          body.step(nullptr, 0, load.data(), static_cast<int>(load.size()));
+          out.emplace_back(3 * m.surface_vertex.size());
+          body.surface_displacement(out.back().data());
+        }
+      if (failed)
+        *failed = body.failed_steps();
+      return out;
+    }
+
+    std::string
+    model(const unsigned modes, const unsigned derivative_modes) const
+    {
+      fem::ReducedModelOptions o;
+      o.output = irdm_test::tmp("reduced_bend_" + std::to_string(modes) + "_" + std::to_string(derivative_modes) + ".h5");
+      o.modes            = modes;
+      o.derivative_modes = derivative_modes;
+      o.residual_modes   = false;
+      o.basis_size       = 12;
+      fem::precompute_reduced_model(scene, o);
+      return o.output;
+    }
+  };
+
+  // Relative L2 over every step and component; `reference` may start at step 0 (FEM runs).
+  double
+  surface_error(const std::vector<std::vector<double>> &test,
+                const std::vector<std::vector<double>> &reference)
+  {
+    const size_t           offset = reference.size() - test.size();
+    validation::RelativeL2 e;
+    for (size_t k = 0; k < test.size(); ++k)
+      e.add(test[k], reference[k + offset]);
+    return e.value();
+  }
+} // namespace
+
+// Every element and a basis of every mode of (K_0, M): the reduced model spans the FEM's whole
+// space, so its run is the FEM's (the same neo-Hookean law, objective damping, generalized-alpha
+// and node-based penalty), to the two Newton solves' tolerance. The large press bends the
+// beam's end about 10 mm, well into geometric nonlinearity.
+TEST(ReducedModel, WithTheFullBasisItIsTheNonlinearFemRun)
+{
+  const fem::Scene s   = pressed_beam(0.01, 0.02, 0.024);
+  const auto       fem = fem::NonlinearElasticity(s).run();
+  fem::ReducedModelOptions o;
+  o.output           = irdm_test::tmp("reduced_full.h5");
+  o.modes            = 6;
+  o.derivative_modes = 2;
+  o.residual_modes   = false;
+  o.basis_size       = 9;
+  fem::precompute_reduced_model(s, o);
+  ReducedNonlinearModel m = load_reduced_nonlinear_model(o.output, s.time_step);
+  ASSERT_EQ(m.elements.size(), m.cubature_elements.size()) << "no cubature: every element";
+
+  // Every mode, from the dense K and M on the free DoFs.
+  const fem::ElasticDynamics linear(s);
+  const fem::DenseSystem     ds = linear.dense_free_system();
+  const auto                 n  = static_cast<Eigen::Index>(ds.n_free);
+  const Eigen::MatrixXd K = Eigen::Map<const Eigen::MatrixXd>(ds.stiffness.data(), n, n);
+  const Eigen::MatrixXd M = Eigen::Map<const Eigen::MatrixXd>(ds.mass.data(), n, n);
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> eig(K, M);
+  ASSERT_EQ(eig.info(), Eigen::Success);
+  m.size = ds.n_free;
+  m.basis.assign(3ull * m.n_vertices * m.size, 0.0);
+  for (size_t row = 0; row < ds.vertex_dof_to_free.size(); ++row)
+    if (ds.vertex_dof_to_free[row] >= 0)
+      for (unsigned k = 0; k < m.size; ++k)
+        m.basis[row * m.size + k] = eig.eigenvectors()(ds.vertex_dof_to_free[row], k);
+
+  const ReducedRun reduced = run_reduced(m, s);
+  EXPECT_EQ(reduced.failed, 0u);
+  const double force_error   = relative_max(forces(reduced), fem_forces(fem));
+  const double surface_error = relative_max(reduced.surface, fem_surface(fem));
+  EXPECT_LT(force_error, 1e-6);
+  EXPECT_LT(surface_error, 1e-6);
+  double bend = 0;
+  for (const auto &u : fem_surface(fem))
+    for (const double x : u)
+      bend = std::max(bend, std::abs(x));
+  EXPECT_GT(bend, 5e-3) << "the press must reach large displacement";
+  std::cout << "full basis: force " << force_error << ", surface " << surface_error
+            << ", largest displacement " << bend << " m\n";
+}
+
+
+// A large bend is not a sum of linear modes: the beam's end also moves back along its axis
+// (by the square of the bend), and its section turns. At the same basis size, modal
+// derivatives (how the lowest modes change with their own amplitude) carry that; without them
+// the reduced neo-Hookean body stiffens (it cannot shorten), as Barbic and James describe.
+TEST(ReducedModel, ModalDerivativesCarryWhatTheLinearModesMissOfALargeBend)
+{
+  const Bend bend;
+  const auto fem = fem::NonlinearElasticity(bend.scene).run();
+  unsigned long failed = 0;
+  const double  modes_only =
+    surface_error(bend.run(load_reduced_nonlinear_model(bend.model(12, 0)), &failed), fem.surface_displacement);
+  EXPECT_EQ(failed, 0u);
+  const double with_derivatives =
+    surface_error(bend.run(load_reduced_nonlinear_model(bend.model(6, 3)), &failed), fem.surface_displacement);
+  EXPECT_EQ(failed, 0u);
+  double axial = 0, sag = 0; // the tip's, at the end
+  for (size_t i = 0; i < bend.tip_share.size(); ++i)
+    if (bend.tip_share[i] > 0)
+      {
+        axial = std::min(axial, fem.surface_displacement.back()[3 * i]);
+        sag   = std::min(sag, fem.surface_displacement.back()[3 * i + 2]);
+      }
+  std::cout << "tip: sag " << sag << " m, axial " << axial << " m; surface error: 12 modes "
+            << modes_only << ", 6 modes and the derivatives of 3 " << with_derivatives << "\n";
+  EXPECT_LT(sag, -0.015) << "a large bend";
+  EXPECT_LT(axial, -0.05 * std::abs(sag)) << "its end moves back along the axis";
+  EXPECT_LT(with_derivatives, 0.01);
+  EXPECT_GT(modes_only, 20 * with_derivatives);
+}
+
+// The cubature, trained on presses by planes from random directions (not the bend), keeps the
+// bend of the model with every element on a fraction of the elements; a tighter tolerance
+// takes more elements and comes closer.
+TEST(ReducedModel, CubatureTrainedElsewhereKeepsTheBend)
+{
+  const Bend                  bend;
+  const std::string           file  = bend.model(6, 3);
+  const ReducedNonlinearModel every = load_reduced_nonlinear_model(file);
+  const auto                  reference = bend.run(every);
+  TrainingOptions             t;
+  t.presses   = 8;
+  t.max_depth = 0.01;
+  const TrainingSet training = training_states(every, t);
+  EXPECT_EQ(training.failed_steps, 0u);
+  std::vector<double> errors;
+  std::vector<size_t> sizes;
+  for (const double tolerance : {0.05, 0.01, 0.002})
+    {
+      CubatureOptions o;
+      o.tolerance      = tolerance;
+      const Cubature c = train_cubature(every, training.states, o);
+      const std::string out = irdm_test::tmp("reduced_bend_cubature.h5");
+      std::filesystem::remove(out);
+      write_cubature_model(file, out, c, training);
+      const ReducedNonlinearModel reduced = load_reduced_nonlinear_model(out);
+      unsigned long failed = 0;
+      const double error = surface_error(bend.run(reduced, &failed), reference);
+      std::cout << "tolerance " << tolerance << ": " << c.elements.size() << " of "
+                << every.elements.size() << " elements, training " << c.training_error
+                << ", bend error " << error << ", failed " << failed << "\n";
+      EXPECT_LE(c.training_error, tolerance);
+      EXPECT_EQ(failed, 0u);
+      EXPECT_EQ(reduced.cubature_elements.size(), c.elements.size()) << "the file holds it";
+      EXPECT_FALSE(reduced.every_element);
+      errors.push_back(error);
+      sizes.push_back(c.elements.size());
+    }
+  EXPECT_LT(errors[1], 0.01);
+  EXPECT_LT(sizes[1], every.elements.size() / 3);
+  EXPECT_LT(errors[2], errors[0] / 10);
+  EXPECT_LT(sizes[0], sizes[1]);
+  EXPECT_LT(sizes[1], sizes[2]);
+}
+
+// Lawson and Hanson's non-negative least squares finds a known answer with zeros in it, and
+// never a negative weight where the unconstrained answer has one.
+TEST(ReducedModel, NonNegativeLeastSquaresFindsTheKnownAnswer)
+{
+  std::srand(3);
+  const Eigen::MatrixXd A = Eigen::MatrixXd::Random(40, 12);
+  Eigen::VectorXd       x(12);
+  x << 1, 0, 2, 0, 0, 0.5, 3, 0, 0.1, 0, 4, 0;
+  const Eigen::VectorXd found = non_negative_least_squares(A, A * x);
+  EXPECT_LT((found - x).norm(), 1e-10 * x.norm());
+  // b off the cone: the unconstrained fit has negative entries, the answer none, and the
+  // residual is orthogonal to the columns it uses and points away from the others.
+  const Eigen::VectorXd b      = A * x - 3 * A.col(1);
+  const Eigen::VectorXd plain  = A.colPivHouseholderQr().solve(b);
+  const Eigen::VectorXd y      = non_negative_least_squares(A, b);
+  const Eigen::VectorXd w      = A.transpose() * (b - A * y);
+  EXPECT_LT(plain.minCoeff(), 0);
+  EXPECT_GE(y.minCoeff(), 0);
+  for (Eigen::Index i = 0; i < y.size(); ++i)
+    if (y(i) > 0)
+      EXPECT_NEAR(w(i), 0, 1e-9 * b.norm() * A.norm());
+    else
+      EXPECT_LE(w(i), 1e-9 * b.norm() * A.norm());
+}
+
