@@ -358,3 +358,4 @@ TEST(ReducedModel, NonNegativeLeastSquaresFindsTheKnownAnswer)
       EXPECT_LE(w(i), 1e-9 * b.norm() * A.norm());
 }
 
+

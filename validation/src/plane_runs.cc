@@ -305,6 +305,19 @@ namespace irdm::validation::planes
       m.surface_us         = 1e6 * t_surface / N;
     }
 
+    /// Wall a at time t as a plane: its normal toward the body (-d) and a point of it (w d).
+    struct WallPlane
+    {
+      Vec3 normal, point;
+    };
+    WallPlane
+    wall_plane(const Truth &truth, const size_t a, const double t)
+    {
+      const double w = truth.wall_at(a, t);
+      const Vec3   d = direction(truth.c, a, t);
+      return {{-d[0], -d[1], -d[2]}, {w * d[0], w * d[1], w * d[2]}};
+    }
+
     /// Virtual DOFs with the given orientation mapping and wall stiffness k (0: rigid).
     void
     run_virtual_dofs(MethodResult &m, const Truth &truth, const Row &row,
@@ -354,10 +367,9 @@ namespace irdm::validation::planes
         [&](const double t, double &F) {
           for (size_t a = 0; a < n_walls; ++a)
             {
-              const double w = truth.wall_at(a, t);
-              const Vec3   d = direction(c, a, t);
-              targets[a].normal    = {-d[0], -d[1], -d[2]};
-              targets[a].point     = {w * d[0], w * d[1], w * d[2]};
+              const WallPlane wall = wall_plane(truth, a, t);
+              targets[a].normal    = wall.normal;
+              targets[a].point     = wall.point;
               targets[a].stiffness = k;
             }
           const bool ok = runtime.step(targets.data(), static_cast<int>(n_walls));
@@ -420,11 +432,10 @@ namespace irdm::validation::planes
         [&](const double t, double &F) {
           for (size_t a = 0; a < n_walls; ++a)
             {
-              const double w = truth.wall_at(a, t);
-              const Vec3   d = direction(c, a, t);
-              walls[a].normal  = {-d[0], -d[1], -d[2]};
-              walls[a].point   = {w * d[0], w * d[1], w * d[2]};
-              walls[a].penalty = penalty;
+              const WallPlane wall = wall_plane(truth, a, t);
+              walls[a].normal      = wall.normal;
+              walls[a].point       = wall.point;
+              walls[a].penalty     = penalty;
             }
           body.step(walls.data(), static_cast<int>(n_walls));
           F = 0;
