@@ -185,6 +185,7 @@ namespace irdm
     : m_(model)
     , r_(model.size)
     , h_(model.time_step)
+    , solver_(model.size) // sized once here: an LDLT assigned later reads its unset status
   {
     const auto row = [&](const unsigned v, const int d) {
       return Eigen::Map<const Eigen::RowVectorXd>(&m_.basis[(3 * static_cast<size_t>(v) + d) * r_], r_);
@@ -218,7 +219,6 @@ namespace irdm
       x->setZero(r_);
     KU_.setZero(12, r_);
     tangent_.setZero(r_, r_);
-    solver_ = Eigen::LDLT<Matrix>(r_);
   }
 
   bool

@@ -710,8 +710,9 @@ namespace irdm::validation::planes
         run_reduced(row.reduced.back().second, row.reduced_cut_failed.back(), truth, row,
                     models.reduced[k], penalty);
         log << " " << models.reduced_names[k] << " " << 100 * row.reduced.back().second.force_error
-            << " % force, " << 100 * row.reduced.back().second.displacement_error << " % shape;"
-            << std::flush;
+            << " % force, " << 100 * row.reduced.back().second.displacement_error << " % shape ("
+            << row.reduced_cut_failed.back()[0] << " steps cut, " << row.reduced_cut_failed.back()[1]
+            << " not converged);" << std::flush;
       }
     if (o.perturbations > 0)
       {
