@@ -16,168 +16,211 @@ namespace irdm
     {
       return std::all_of(x.begin(), x.end(), [](const T v) { return std::isfinite(static_cast<double>(v)); });
     }
+    // A file nobody vouches for, read by checked reads: every refusal names the file and the
+    // field.
+    struct Checked
+    {
+      const h5::Reader  &r;
+      const std::string &path;
+
+      [[noreturn]] void
+      fail(const std::string &what) const
+      {
+        throw InputError("reduced nonlinear model '" + path + "': " + what);
+      }
+      // The rows of a dataset of the given trailing shape; `same_as` names the dataset whose
+      // row count it must share (both named if they differ).
+      hsize_t
+      rows(const std::string &name, const std::vector<hsize_t> &trailing,
+           const std::string &same_as = "", const hsize_t expected = 0) const
+      {
+        const auto shape = r.shape(name);
+        if (shape.size() != trailing.size() + 1 || shape[0] == 0 || shape[0] > 100000000 ||
+            !std::equal(trailing.begin(), trailing.end(), shape.begin() + 1))
+          fail(name + " does not have the shape this format gives it (docs/model-format.md)");
+        if (!same_as.empty() && shape[0] != expected)
+          fail(name + " has " + std::to_string(shape[0]) + " rows and " + same_as + " " +
+               std::to_string(expected) + ": they must be the same");
+        return shape[0];
+      }
+    };
+
+    // The integrator, damping, material and penalty (root attributes).
+    void
+    read_coefficients(const Checked &c, ReducedNonlinearModel &m)
+    {
+      const h5::Reader &r    = c.r;
+      m.time_step       = r.double_attribute("/", "time_step_s");
+      m.alpha_m         = r.double_attribute("/", "alpha_m");
+      m.alpha_f         = r.double_attribute("/", "alpha_f");
+      m.gamma           = r.double_attribute("/", "gamma");
+      m.beta            = r.double_attribute("/", "beta");
+      m.rayleigh_alpha  = r.double_attribute("/", "rayleigh_alpha_1_s");
+      m.rayleigh_beta   = r.double_attribute("/", "rayleigh_beta_s");
+      m.mu              = r.double_attribute("/", "lame_mu_Pa");
+      m.lambda          = r.double_attribute("/", "lame_lambda_Pa");
+      m.default_penalty = r.double_attribute("/", "default_penalty_Pa_m");
+      m.mesh_hash       = r.string_attribute("/", "mesh_hash");
+      const std::vector<std::pair<const char *, double>> positive = {
+        {"time_step_s", m.time_step}, {"lame_mu_Pa", m.mu}, {"default_penalty_Pa_m", m.default_penalty},
+        {"beta", m.beta}};
+      for (const auto &[name, x] : positive)
+        if (!(std::isfinite(x) && x > 0))
+          c.fail(std::string(name) + " must be finite and positive");
+      const std::vector<std::pair<const char *, double>> non_negative = {
+        {"alpha_f", m.alpha_f}, {"gamma", m.gamma}, {"rayleigh_alpha_1_s", m.rayleigh_alpha},
+        {"rayleigh_beta_s", m.rayleigh_beta}, {"lame_lambda_Pa", m.lambda}};
+      for (const auto &[name, x] : non_negative)
+        if (!(std::isfinite(x) && x >= 0))
+          c.fail(std::string(name) + " must be finite and not negative");
+      if (!(std::isfinite(m.alpha_m) && m.alpha_m < 1))
+        c.fail("alpha_m must be finite and below 1");
+      if (!(m.alpha_f < 1))
+        c.fail("alpha_f must be below 1");
+    }
+
+    // The basis and the P1 cells.
+    void
+    read_basis_and_mesh(const Checked &c, ReducedNonlinearModel &m)
+    {
+      const h5::Reader &r    = c.r;
+      const auto shape = r.shape("/basis/shapes");
+      if (shape.size() != 2 || shape[0] % 3 != 0 || shape[0] == 0 || shape[1] == 0 || shape[1] > 10000 ||
+          shape[0] > 300000000ull / shape[1])
+        c.fail("/basis/shapes must be (3 x vertices) x r with 1 <= r <= 10000");
+      m.n_vertices = static_cast<unsigned>(shape[0] / 3);
+      m.size       = static_cast<unsigned>(shape[1]);
+      m.basis      = r.read_double("/basis/shapes", shape);
+      if (!all_finite(m.basis))
+        c.fail("/basis/shapes is not finite");
+      m.lowest_modes      = static_cast<unsigned>(r.count_attribute("/basis", "lowest_modes", 0, m.size));
+      m.residual_modes    = static_cast<unsigned>(r.count_attribute("/basis", "residual_modes", 0, 100000000));
+      m.modal_derivatives = static_cast<unsigned>(r.count_attribute("/basis", "modal_derivatives", 0, 100000000));
+
+      const size_t E     = c.rows("/mesh/tetrahedra", {4});
+      c.rows("/mesh/gradients", {4, 3}, "/mesh/tetrahedra", E);
+      c.rows("/mesh/volumes", {}, "/mesh/tetrahedra", E);
+      const auto   tets  = r.read_int("/mesh/tetrahedra", {E, 4});
+      const auto   grads = r.read_double("/mesh/gradients", {E, 4, 3});
+      const auto   vols  = r.read_double("/mesh/volumes", {E});
+      if (!all_finite(grads))
+        c.fail("/mesh/gradients is not finite");
+      m.tetrahedra.resize(E);
+      m.elements.resize(E);
+      for (size_t e = 0; e < E; ++e)
+        {
+          if (!(std::isfinite(vols[e]) && vols[e] > 0))
+            c.fail("/mesh/volumes: element " + std::to_string(e) + " has no finite positive volume");
+          m.elements[e].volume = vols[e];
+          for (int i = 0; i < 4; ++i)
+            {
+              const long long v = tets[4 * e + i];
+              if (v < 0 || v >= static_cast<long long>(m.n_vertices))
+                c.fail("/mesh/tetrahedra: element " + std::to_string(e) + " names a vertex the basis does not have");
+              m.tetrahedra[e][i] = static_cast<unsigned>(v);
+              for (int d = 0; d < 3; ++d)
+                m.elements[e].grad(d, i) = grads[12 * e + 3 * i + d];
+            }
+        }
+    }
+
+    // The cubature, or every element with weight 1.
+    void
+    read_cubature(const Checked &c, ReducedNonlinearModel &m)
+    {
+      const h5::Reader &r    = c.r;
+      const size_t      E    = m.elements.size();
+      if (r.exists("/cubature"))
+        {
+          const hsize_t n = c.rows("/cubature/elements", {});
+          if (n > E)
+            c.fail("/cubature/elements lists more elements than the mesh has");
+          c.rows("/cubature/weights", {}, "/cubature/elements", n);
+          const auto ids       = r.read_int("/cubature/elements", {n});
+          m.cubature_weights   = r.read_double("/cubature/weights", {n});
+          m.cubature_training_error = r.double_attribute("/cubature", "training_error");
+          for (size_t k = 0; k < n; ++k)
+            {
+              if (ids[k] < 0 || ids[k] >= static_cast<long long>(E))
+                c.fail("/cubature/elements: an element that is not one of the mesh's");
+              if (!(std::isfinite(m.cubature_weights[k]) && m.cubature_weights[k] >= 0))
+                c.fail("/cubature/weights: a weight is negative or not finite");
+              m.cubature_elements.push_back(static_cast<unsigned>(ids[k]));
+            }
+          m.every_element = false;
+        }
+      else
+        {
+          for (unsigned e = 0; e < E; ++e)
+            m.cubature_elements.push_back(e);
+          m.cubature_weights.assign(E, 1.0);
+        }
+    }
+
+    // The surface: vertices, tags, positions, triangles, lumped areas and free DoFs.
+    void
+    read_surface(const Checked &c, ReducedNonlinearModel &m)
+    {
+      const h5::Reader &r    = c.r;
+      const size_t S = c.rows("/surface/vertices", {});
+      if (S > m.n_vertices)
+        c.fail("/surface/vertices lists more vertices than the basis has");
+      c.rows("/surface/node_tags", {}, "/surface/vertices", S);
+      c.rows("/surface/coordinates", {3}, "/surface/vertices", S);
+      c.rows("/surface/lumped_area_m2", {}, "/surface/vertices", S);
+      c.rows("/surface/free", {3}, "/surface/vertices", S);
+      const auto   ids  = r.read_int("/surface/vertices", {S});
+      m.node_tags       = r.read_int("/surface/node_tags", {S});
+      const auto xyz    = r.read_double("/surface/coordinates", {S, 3});
+      m.lumped_area     = r.read_double("/surface/lumped_area_m2", {S});
+      const auto free   = r.read_int("/surface/free", {S, 3});
+      const hsize_t n_triangles = c.rows("/surface/triangles", {3});
+      const auto    tris        = r.read_int("/surface/triangles", {n_triangles, 3});
+      if (!all_finite(xyz) || !all_finite(m.lumped_area))
+        c.fail(!all_finite(xyz) ? "/surface/coordinates is not finite" : "/surface/lumped_area_m2 is not finite");
+      for (size_t s = 0; s < S; ++s)
+        {
+          if (ids[s] < 0 || ids[s] >= static_cast<long long>(m.n_vertices))
+            c.fail("/surface/vertices: a vertex the basis does not have");
+          if (m.lumped_area[s] < 0)
+            c.fail("/surface/lumped_area_m2: a negative area");
+          m.surface_vertex.push_back(static_cast<unsigned>(ids[s]));
+          m.coordinates.push_back({xyz[3 * s], xyz[3 * s + 1], xyz[3 * s + 2]});
+          m.free_dof.push_back({free[3 * s] != 0, free[3 * s + 1] != 0, free[3 * s + 2] != 0});
+        }
+      for (size_t t = 0; t < n_triangles; ++t)
+        {
+          std::array<unsigned, 3> tri{};
+          for (int i = 0; i < 3; ++i)
+            {
+              if (tris[3 * t + i] < 0 || tris[3 * t + i] >= static_cast<long long>(S))
+                c.fail("/surface/triangles: a vertex the surface does not have");
+              tri[i] = static_cast<unsigned>(tris[3 * t + i]);
+            }
+          m.triangles.push_back(tri);
+        }
+    }
   } // namespace
 
   ReducedNonlinearModel
   load_reduced_nonlinear_model(const std::string &path, const double expected_time_step)
   {
     const h5::Reader r(path);
-    const auto       fail = [&](const std::string &what) {
-      throw InputError("reduced nonlinear model '" + path + "': " + what);
-    };
+    const Checked    c{r, path};
     if (!r.has_attribute("/", "format") || r.string_attribute("/", "format") != "irdm-reduced-model")
-      fail("not a reduced nonlinear model (attribute 'format' is missing or different)");
+      c.fail("not a reduced nonlinear model (attribute 'format' is missing or different)");
     if (r.count_attribute("/", "format_version", 0, 1000) != 1)
-      fail("format_version is not 1 (this program reads version 1)");
+      c.fail("format_version is not 1 (this program reads version 1)");
     if (r.string_attribute("/", "law") != "neo_hookean")
-      fail("law '" + r.string_attribute("/", "law") + "' is not one this runtime knows (neo_hookean)");
-    // The rows of a dataset of the given trailing shape; `same_as` names the dataset whose row
-    // count it must share (both named if they differ).
-    const auto rows = [&](const std::string &name, const std::vector<hsize_t> &trailing,
-                          const std::string &same_as = "", const hsize_t expected = 0) {
-      const auto shape = r.shape(name);
-      if (shape.size() != trailing.size() + 1 || shape[0] == 0 || shape[0] > 100000000 ||
-          !std::equal(trailing.begin(), trailing.end(), shape.begin() + 1))
-        fail(name + " does not have the shape this format gives it (docs/model-format.md)");
-      if (!same_as.empty() && shape[0] != expected)
-        fail(name + " has " + std::to_string(shape[0]) + " rows and " + same_as + " " +
-             std::to_string(expected) + ": they must be the same");
-      return shape[0];
-    };
+      c.fail("law '" + r.string_attribute("/", "law") + "' is not one this runtime knows (neo_hookean)");
     ReducedNonlinearModel m;
-    m.path            = path;
-    m.time_step       = r.double_attribute("/", "time_step_s");
-    m.alpha_m         = r.double_attribute("/", "alpha_m");
-    m.alpha_f         = r.double_attribute("/", "alpha_f");
-    m.gamma           = r.double_attribute("/", "gamma");
-    m.beta            = r.double_attribute("/", "beta");
-    m.rayleigh_alpha  = r.double_attribute("/", "rayleigh_alpha_1_s");
-    m.rayleigh_beta   = r.double_attribute("/", "rayleigh_beta_s");
-    m.mu              = r.double_attribute("/", "lame_mu_Pa");
-    m.lambda          = r.double_attribute("/", "lame_lambda_Pa");
-    m.default_penalty = r.double_attribute("/", "default_penalty_Pa_m");
-    m.mesh_hash       = r.string_attribute("/", "mesh_hash");
-    const std::vector<std::pair<const char *, double>> positive = {
-      {"time_step_s", m.time_step}, {"lame_mu_Pa", m.mu}, {"default_penalty_Pa_m", m.default_penalty},
-      {"beta", m.beta}};
-    for (const auto &[name, x] : positive)
-      if (!(std::isfinite(x) && x > 0))
-        fail(std::string(name) + " must be finite and positive");
-    const std::vector<std::pair<const char *, double>> non_negative = {
-      {"alpha_f", m.alpha_f}, {"gamma", m.gamma}, {"rayleigh_alpha_1_s", m.rayleigh_alpha},
-      {"rayleigh_beta_s", m.rayleigh_beta}, {"lame_lambda_Pa", m.lambda}};
-    for (const auto &[name, x] : non_negative)
-      if (!(std::isfinite(x) && x >= 0))
-        fail(std::string(name) + " must be finite and not negative");
-    if (!(std::isfinite(m.alpha_m) && m.alpha_m < 1))
-      fail("alpha_m must be finite and below 1");
-    if (!(m.alpha_f < 1))
-      fail("alpha_f must be below 1");
+    m.path = path;
+    read_coefficients(c, m);
     if (expected_time_step > 0 && std::abs(m.time_step - expected_time_step) > 1e-12 * expected_time_step)
-      fail("its time step differs from the scene's");
-
-    const auto shape = r.shape("/basis/shapes");
-    if (shape.size() != 2 || shape[0] % 3 != 0 || shape[0] == 0 || shape[1] == 0 || shape[1] > 10000 ||
-        shape[0] > 300000000ull / shape[1])
-      fail("/basis/shapes must be (3 x vertices) x r with 1 <= r <= 10000");
-    m.n_vertices = static_cast<unsigned>(shape[0] / 3);
-    m.size       = static_cast<unsigned>(shape[1]);
-    m.basis      = r.read_double("/basis/shapes", shape);
-    if (!all_finite(m.basis))
-      fail("/basis/shapes is not finite");
-    m.lowest_modes      = static_cast<unsigned>(r.count_attribute("/basis", "lowest_modes", 0, m.size));
-    m.residual_modes    = static_cast<unsigned>(r.count_attribute("/basis", "residual_modes", 0, 100000000));
-    m.modal_derivatives = static_cast<unsigned>(r.count_attribute("/basis", "modal_derivatives", 0, 100000000));
-
-    const size_t E     = rows("/mesh/tetrahedra", {4});
-    rows("/mesh/gradients", {4, 3}, "/mesh/tetrahedra", E);
-    rows("/mesh/volumes", {}, "/mesh/tetrahedra", E);
-    const auto   tets  = r.read_int("/mesh/tetrahedra", {E, 4});
-    const auto   grads = r.read_double("/mesh/gradients", {E, 4, 3});
-    const auto   vols  = r.read_double("/mesh/volumes", {E});
-    if (!all_finite(grads))
-      fail("/mesh/gradients is not finite");
-    m.tetrahedra.resize(E);
-    m.elements.resize(E);
-    for (size_t e = 0; e < E; ++e)
-      {
-        if (!(std::isfinite(vols[e]) && vols[e] > 0))
-          fail("/mesh/volumes: element " + std::to_string(e) + " has no finite positive volume");
-        m.elements[e].volume = vols[e];
-        for (int i = 0; i < 4; ++i)
-          {
-            const long long v = tets[4 * e + i];
-            if (v < 0 || v >= static_cast<long long>(m.n_vertices))
-              fail("/mesh/tetrahedra: element " + std::to_string(e) + " names a vertex the basis does not have");
-            m.tetrahedra[e][i] = static_cast<unsigned>(v);
-            for (int d = 0; d < 3; ++d)
-              m.elements[e].grad(d, i) = grads[12 * e + 3 * i + d];
-          }
-      }
-
-    if (r.exists("/cubature"))
-      {
-        const hsize_t n = rows("/cubature/elements", {});
-        if (n > E)
-          fail("/cubature/elements lists more elements than the mesh has");
-        rows("/cubature/weights", {}, "/cubature/elements", n);
-        const auto ids       = r.read_int("/cubature/elements", {n});
-        m.cubature_weights   = r.read_double("/cubature/weights", {n});
-        m.cubature_training_error = r.double_attribute("/cubature", "training_error");
-        for (size_t k = 0; k < n; ++k)
-          {
-            if (ids[k] < 0 || ids[k] >= static_cast<long long>(E))
-              fail("/cubature/elements: an element that is not one of the mesh's");
-            if (!(std::isfinite(m.cubature_weights[k]) && m.cubature_weights[k] >= 0))
-              fail("/cubature/weights: a weight is negative or not finite");
-            m.cubature_elements.push_back(static_cast<unsigned>(ids[k]));
-          }
-        m.every_element = false;
-      }
-    else
-      {
-        for (unsigned e = 0; e < E; ++e)
-          m.cubature_elements.push_back(e);
-        m.cubature_weights.assign(E, 1.0);
-      }
-
-    const size_t S = rows("/surface/vertices", {});
-    if (S > m.n_vertices)
-      fail("/surface/vertices lists more vertices than the basis has");
-    rows("/surface/node_tags", {}, "/surface/vertices", S);
-    rows("/surface/coordinates", {3}, "/surface/vertices", S);
-    rows("/surface/lumped_area_m2", {}, "/surface/vertices", S);
-    rows("/surface/free", {3}, "/surface/vertices", S);
-    const auto   ids  = r.read_int("/surface/vertices", {S});
-    m.node_tags       = r.read_int("/surface/node_tags", {S});
-    const auto xyz    = r.read_double("/surface/coordinates", {S, 3});
-    m.lumped_area     = r.read_double("/surface/lumped_area_m2", {S});
-    const auto free   = r.read_int("/surface/free", {S, 3});
-    const hsize_t n_triangles = rows("/surface/triangles", {3});
-    const auto    tris        = r.read_int("/surface/triangles", {n_triangles, 3});
-    if (!all_finite(xyz) || !all_finite(m.lumped_area))
-      fail(!all_finite(xyz) ? "/surface/coordinates is not finite" : "/surface/lumped_area_m2 is not finite");
-    for (size_t s = 0; s < S; ++s)
-      {
-        if (ids[s] < 0 || ids[s] >= static_cast<long long>(m.n_vertices))
-          fail("/surface/vertices: a vertex the basis does not have");
-        if (m.lumped_area[s] < 0)
-          fail("/surface/lumped_area_m2: a negative area");
-        m.surface_vertex.push_back(static_cast<unsigned>(ids[s]));
-        m.coordinates.push_back({xyz[3 * s], xyz[3 * s + 1], xyz[3 * s + 2]});
-        m.free_dof.push_back({free[3 * s] != 0, free[3 * s + 1] != 0, free[3 * s + 2] != 0});
-      }
-    for (size_t t = 0; t < n_triangles; ++t)
-      {
-        std::array<unsigned, 3> tri{};
-        for (int i = 0; i < 3; ++i)
-          {
-            if (tris[3 * t + i] < 0 || tris[3 * t + i] >= static_cast<long long>(S))
-              fail("/surface/triangles: a vertex the surface does not have");
-            tri[i] = static_cast<unsigned>(tris[3 * t + i]);
-          }
-        m.triangles.push_back(tri);
-      }
+      c.fail("its time step differs from the scene's");
+    read_basis_and_mesh(c, m);
+    read_cubature(c, m);
+    read_surface(c, m);
     return m;
   }
 

@@ -59,6 +59,114 @@ namespace irdm::fem
         throw InputError("reduced model: the basis is not of full rank");
       U = U * eig.operatorInverseSqrt();
     }
+    // The derivatives' leading `wanted` directions by mass-weighted PCA, each derivative of
+    // unit M-norm and M-orthogonal to Phi (the modes kept whole) first; their PCA values and
+    // the share kept go into rep.
+    Fields
+    derivative_directions(const NonlinearElasticity &nl, const Fields &Phi,
+                          const std::vector<std::vector<double>> &derivatives, const unsigned wanted,
+                          ReducedModelReport &rep)
+    {
+      const Eigen::Index n = Phi.rows();
+      Fields             pool(n, static_cast<Eigen::Index>(derivatives.size()));
+      for (size_t k = 0; k < derivatives.size(); ++k)
+        pool.col(static_cast<Eigen::Index>(k)) = Eigen::Map<const Eigen::VectorXd>(derivatives[k].data(), n);
+      for (int pass = 0; pass < 2; ++pass) // twice: Gram-Schmidt against a block loses digits once
+        pool -= Phi * (Phi.transpose() * mass_times(nl, pool));
+      Fields out(n, wanted);
+      if (wanted == 0)
+        return out;
+      if (pool.cols() == 0)
+        throw InputError("a reduced model of more fields than the modes needs modal derivatives");
+      const Fields    MP = mass_times(nl, pool);
+      Eigen::VectorXd norm(pool.cols());
+      for (Eigen::Index k = 0; k < pool.cols(); ++k)
+        norm(k) = std::sqrt(std::max(0.0, pool.col(k).dot(MP.col(k))));
+      const double largest = norm.maxCoeff();
+      for (Eigen::Index k = 0; k < pool.cols(); ++k)
+        norm(k) = norm(k) > 1e-12 * largest ? 1 / norm(k) : 0; // a field the modes hold: dropped
+      const Eigen::MatrixXd G = norm.asDiagonal() * (pool.transpose() * MP) * norm.asDiagonal();
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (G + G.transpose()));
+      const Eigen::Index n_pool = G.rows();
+      double             total  = 0, kept = 0;
+      for (Eigen::Index k = n_pool - 1; k >= 0; --k)
+        {
+          const double value = std::max(0.0, eig.eigenvalues()(k));
+          rep.pool_values.push_back(value);
+          total += value;
+          if (n_pool - 1 - k < wanted)
+            kept += value;
+        }
+      if (wanted > n_pool || !(rep.pool_values[wanted - 1] > 1e-10 * rep.pool_values[0]))
+        throw InputError("reduced model: the derivatives hold fewer than " + std::to_string(wanted) +
+                         " independent fields beyond the modes; ask for a smaller --basis");
+      rep.kept_share = total > 0 ? kept / total : 1;
+      for (unsigned k = 0; k < wanted; ++k)
+        {
+          const Eigen::Index col = n_pool - 1 - k;
+          out.col(k) = pool * (norm.asDiagonal() * eig.eigenvectors().col(col)) /
+                       std::sqrt(eig.eigenvalues()(col));
+        }
+      return out;
+    }
+
+    void
+    write_mesh(h5::Writer &f, const NonlinearElasticity::ReferenceTetrahedra &tets)
+    {
+      f.create_group("/mesh");
+      std::vector<long long> cells;
+      std::vector<double>    grads;
+      for (size_t e = 0; e < tets.volume.size(); ++e)
+        for (int i = 0; i < 4; ++i)
+          {
+            cells.push_back(tets.vertices[e][i]);
+            for (int d = 0; d < 3; ++d)
+              grads.push_back(tets.gradients[e][i][d]);
+          }
+      f.write("/mesh/tetrahedra", {tets.volume.size(), 4}, cells.data());
+      f.write("/mesh/gradients", {tets.volume.size(), 4, 3}, grads.data());
+      f.write("/mesh/volumes", {tets.volume.size()}, tets.volume.data());
+    }
+
+    // The surface with each vertex's lumped area (a third of its triangles': the P1 FEM's
+    // node-based penalty weight) and its free DoFs.
+    void
+    write_surface(h5::Writer &f, const SurfaceMesh &boundary, const std::vector<int> &vertex_dof_to_free)
+    {
+      f.create_group("/surface");
+      const size_t S = boundary.mesh_vertex.size();
+      std::vector<long long> vertex(S), free_dofs(3 * S);
+      std::vector<double>    xyz, area(S, 0.0);
+      for (size_t s = 0; s < S; ++s)
+        {
+          vertex[s] = boundary.mesh_vertex[s];
+          for (int d = 0; d < 3; ++d)
+            {
+              xyz.push_back(boundary.coordinates[s][d]);
+              free_dofs[3 * s + d] = vertex_dof_to_free[3 * boundary.mesh_vertex[s] + d] >= 0;
+            }
+        }
+      std::vector<long long> tris;
+      for (const auto &t : boundary.triangles)
+        {
+          const auto &a = boundary.coordinates[t[0]], &b = boundary.coordinates[t[1]],
+                     &c = boundary.coordinates[t[2]];
+          const Eigen::Vector3d ab(b[0] - a[0], b[1] - a[1], b[2] - a[2]),
+            ac(c[0] - a[0], c[1] - a[1], c[2] - a[2]);
+          const double third = ab.cross(ac).norm() / 6; // area / 3
+          for (const unsigned v : t)
+            {
+              area[v] += third;
+              tris.push_back(v);
+            }
+        }
+      f.write("/surface/vertices", {S}, vertex.data());
+      f.write("/surface/node_tags", {S}, boundary.node_tags.data());
+      f.write("/surface/coordinates", {S, 3}, xyz.data());
+      f.write("/surface/triangles", {boundary.triangles.size(), 3}, tris.data());
+      f.write("/surface/lumped_area_m2", {S}, area.data());
+      f.write("/surface/free", {S, 3}, free_dofs.data());
+    }
   } // namespace
 
   ReducedModelReport
@@ -141,49 +249,10 @@ namespace irdm::fem
       throw InputError("reduced model: the lowest and residual modes alone are " +
                        std::to_string(whole) + " fields; ask for a --basis of at least that, or "
                        "a smaller input region");
-    const Fields Phi = shapes;
-    Fields       pool(3 * n_vertices, rep.n_derivatives);
-    for (unsigned k = 0; k < rep.n_derivatives; ++k)
-      pool.col(k) = Eigen::Map<const Eigen::VectorXd>(derivatives[k].data(), 3 * n_vertices);
-    for (int pass = 0; pass < 2; ++pass) // twice: Gram-Schmidt against a block loses digits once
-      pool -= Phi * (Phi.transpose() * mass_times(nl, pool));
     Fields basis(3 * n_vertices, o.basis_size);
-    basis.leftCols(whole) = Phi;
-    const unsigned wanted = o.basis_size - whole;
-    if (wanted > 0)
-      {
-        if (pool.cols() == 0)
-          throw InputError("a reduced model of more fields than the modes needs modal derivatives");
-        const Fields MP = mass_times(nl, pool);
-        Eigen::VectorXd norm(pool.cols());
-        for (Eigen::Index k = 0; k < pool.cols(); ++k)
-          norm(k) = std::sqrt(std::max(0.0, pool.col(k).dot(MP.col(k))));
-        const double largest = norm.maxCoeff();
-        for (Eigen::Index k = 0; k < pool.cols(); ++k)
-          norm(k) = norm(k) > 1e-12 * largest ? 1 / norm(k) : 0; // a field the modes hold: dropped
-        const Eigen::MatrixXd G = norm.asDiagonal() * (pool.transpose() * MP) * norm.asDiagonal();
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (G + G.transpose()));
-        const Eigen::Index n_pool = G.rows();
-        double             total  = 0, kept = 0;
-        for (Eigen::Index k = n_pool - 1; k >= 0; --k)
-          {
-            const double value = std::max(0.0, eig.eigenvalues()(k));
-            rep.pool_values.push_back(value);
-            total += value;
-            if (n_pool - 1 - k < wanted)
-              kept += value;
-          }
-        if (wanted > n_pool || !(rep.pool_values[wanted - 1] > 1e-10 * rep.pool_values[0]))
-          throw InputError("reduced model: the derivatives hold fewer than " + std::to_string(wanted) +
-                           " independent fields beyond the modes; ask for a smaller --basis");
-        rep.kept_share = total > 0 ? kept / total : 1;
-        for (unsigned k = 0; k < wanted; ++k)
-          {
-            const Eigen::Index col = n_pool - 1 - k;
-            basis.col(whole + k) = pool * (norm.asDiagonal() * eig.eigenvectors().col(col)) /
-                                   std::sqrt(eig.eigenvalues()(col));
-          }
-      }
+    basis.leftCols(whole) = shapes;
+    basis.rightCols(o.basis_size - whole) =
+      derivative_directions(nl, shapes, derivatives, o.basis_size - whole, rep);
     mass_orthonormalize(nl, basis);
     rep.basis_size = o.basis_size;
 
@@ -221,56 +290,8 @@ namespace irdm::fem
       f.attribute("/basis", "derivative_modes", static_cast<long long>(o.derivative_modes));
       f.attribute("/basis", "pool_share_kept", rep.kept_share);
     }
-    f.create_group("/mesh");
-    {
-      std::vector<long long> cells;
-      std::vector<double>    grads;
-      for (size_t e = 0; e < tets.volume.size(); ++e)
-        for (int i = 0; i < 4; ++i)
-          {
-            cells.push_back(tets.vertices[e][i]);
-            for (int d = 0; d < 3; ++d)
-              grads.push_back(tets.gradients[e][i][d]);
-          }
-      f.write("/mesh/tetrahedra", {tets.volume.size(), 4}, cells.data());
-      f.write("/mesh/gradients", {tets.volume.size(), 4, 3}, grads.data());
-      f.write("/mesh/volumes", {tets.volume.size()}, tets.volume.data());
-    }
-    f.create_group("/surface");
-    {
-      const size_t S = boundary.mesh_vertex.size();
-      std::vector<long long> vertex(S), free_dofs(3 * S);
-      std::vector<double>    xyz, area(S, 0.0);
-      for (size_t s = 0; s < S; ++s)
-        {
-          vertex[s] = boundary.mesh_vertex[s];
-          for (int d = 0; d < 3; ++d)
-            {
-              xyz.push_back(boundary.coordinates[s][d]);
-              free_dofs[3 * s + d] = vertex_dof_to_free[3 * boundary.mesh_vertex[s] + d] >= 0;
-            }
-        }
-      std::vector<long long> tris;
-      for (const auto &t : boundary.triangles)
-        {
-          const auto &a = boundary.coordinates[t[0]], &b = boundary.coordinates[t[1]],
-                     &c = boundary.coordinates[t[2]];
-          const Eigen::Vector3d ab(b[0] - a[0], b[1] - a[1], b[2] - a[2]),
-            ac(c[0] - a[0], c[1] - a[1], c[2] - a[2]);
-          const double third = ab.cross(ac).norm() / 6; // area / 3
-          for (const unsigned v : t)
-            {
-              area[v] += third;
-              tris.push_back(v);
-            }
-        }
-      f.write("/surface/vertices", {S}, vertex.data());
-      f.write("/surface/node_tags", {S}, boundary.node_tags.data());
-      f.write("/surface/coordinates", {S, 3}, xyz.data());
-      f.write("/surface/triangles", {boundary.triangles.size(), 3}, tris.data());
-      f.write("/surface/lumped_area_m2", {S}, area.data());
-      f.write("/surface/free", {S, 3}, free_dofs.data());
-    }
+    write_mesh(f, tets);
+    write_surface(f, boundary, vertex_dof_to_free);
     f.commit();
     rep.seconds_total = since(t_start);
     return rep;
