@@ -1,6 +1,7 @@
 // irdm precompute: the impulse-response model of a scene's body (HDF5); mpirun-able.
 #include "../command.h"
 
+#include <irdm_common/error.h>
 #include <irdm_common/files.h>
 #include <irdm_common/format.h>
 #include <irdm/cubature.h>
@@ -8,6 +9,8 @@
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/reduced_model.h>
 #include <reference_fem/scene.h>
+
+#include <mpi.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -35,6 +38,10 @@ namespace irdm::cli
     int
     run_precompute_reduced(const PrecomputeArgs &a)
     {
+      int ranks = 1;
+      MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+      if (ranks > 1)
+        throw irdm::InputError("--reduced runs on one rank: run it without mpirun");
       irdm::check_output_file("--out", a.out, {a.scene});
       const auto scene = irdm::fem::read_scene(a.scene);
       const auto log   = stderr_log(a.quiet);
