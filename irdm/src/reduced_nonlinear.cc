@@ -224,8 +224,10 @@ namespace irdm
     return m;
   }
 
-  ReducedNonlinearBody::ReducedNonlinearBody(const ReducedNonlinearModel &model)
+  ReducedNonlinearBody::ReducedNonlinearBody(const ReducedNonlinearModel &model,
+                                             const ReducedBodyOptions    &options)
     : m_(model)
+    , options_(options)
     , r_(model.size)
     , h_(model.time_step)
     , solver_(model.size) // sized once here: an LDLT assigned later reads its unset status
@@ -233,14 +235,13 @@ namespace irdm
     const auto row = [&](const unsigned v, const int d) {
       return Eigen::Map<const Eigen::RowVectorXd>(&m_.basis[(3 * static_cast<size_t>(v) + d) * r_], r_);
     };
+    element_basis_.resize(12 * Eigen::Index(m_.cubature_elements.size()), r_);
     for (size_t k = 0; k < m_.cubature_elements.size(); ++k)
       {
         const unsigned e = m_.cubature_elements[k];
-        Matrix         U(12, r_);
         for (int i = 0; i < 4; ++i)
           for (int d = 0; d < 3; ++d)
-            U.row(3 * i + d) = row(m_.tetrahedra[e][i], d);
-        element_basis_.push_back(U);
+            element_basis_.row(12 * Eigen::Index(k) + 3 * i + d) = row(m_.tetrahedra[e][i], d);
         element_.push_back(m_.elements[e]);
         weight_.push_back(m_.cubature_weights[k]);
       }
@@ -260,13 +261,17 @@ namespace irdm
     for (Vector *x : {&q_, &v_, &a_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
                       &r_trial_, &dq_, &g_c_trial_, &best_, &g_int_, &Un_, &g_f_, &g_f_new_, &g_f_end_, &q0_, &v0_, &a0_, &g_c0_, &g_f0_})
       x->setZero(r_);
+    element_basis_t_ = element_basis_.transpose();
     KU_.setZero(12, r_);
-    tangent_.setZero(r_, r_);
+    for (Vector *x : {&u_all_, &v_all_, &f_all_})
+      x->setZero(element_basis_.rows());
+    for (Matrix *T : {&body_tangent_, &contact_tangent_, &tangent_})
+      T->setZero(r_, r_);
   }
 
   bool
   ReducedNonlinearBody::residual(const Vector &x, const ReducedPlane *planes, const int n,
-                                 Vector &res, Matrix *T, Vector &g_c,
+                                 Vector &res, Matrix *T, Matrix *C, Vector &g_c,
                                  std::array<std::array<double, 3>, max_planes> &force,
                                  std::array<int, max_planes> &vertices)
   {
@@ -279,27 +284,32 @@ namespace irdm
     const double c_m = (1 - am) / (b * h * h), c_c = (1 - af) * g / (b * h);
     res = (1 - am) * a1_ + am * a_ + m_.rayleigh_alpha * v_af_;
     scale_ = res.norm();
-    g_int_.setZero();
     if (T)
       {
         T->setZero();
         T->diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
       }
-    bool                       ok = true;
-    elastic::Vector12          u_e, v_e, f_e, d_e;
-    elastic::Matrix12          K_e, D_e;
+    // Every cubature element's displacement and velocity in one pass over U's rows each;
+    // their forces, weighted, back in one.
+    u_all_.noalias() = element_basis_t_.transpose() * q_af_;
+    if (m_.rayleigh_beta != 0)
+      v_all_.noalias() = element_basis_t_.transpose() * v_af_;
+    bool              ok = true;
+    elastic::Vector12 f_e, d_e;
+    elastic::Matrix12 K_e, D_e;
     for (size_t k = 0; k < element_.size(); ++k)
       {
-        const Matrix &U = element_basis_[k];
-        u_e.noalias()   = U * q_af_;
+        const Eigen::Index row = 12 * Eigen::Index(k);
+        const elastic::Vector12 u_e = u_all_.segment<12>(row);
         if (!elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, T ? &K_e : nullptr))
           {
             ok = false;
+            f_all_.segment<12>(row).setZero();
             continue;
           }
         if (m_.rayleigh_beta != 0)
           {
-            v_e.noalias() = U * v_af_;
+            const elastic::Vector12 v_e = v_all_.segment<12>(row);
             elastic::objective_damping_force(element_[k], u_e, v_e, m_.mu, m_.lambda, d_e, T ? &D_e : nullptr);
             f_e += m_.rayleigh_beta * d_e;
             if (T)
@@ -307,16 +317,21 @@ namespace irdm
           }
         else if (T)
           K_e *= 1 - af;
-        g_int_.noalias() += weight_[k] * (U.transpose() * f_e);
+        f_all_.segment<12>(row) = weight_[k] * f_e;
         if (T)
           {
-            KU_.noalias() = K_e * U;
-            T->noalias() += weight_[k] * (U.transpose() * KU_);
+            // Symmetric: the lower triangle alone, half the product's work.
+            const auto U  = element_basis_.middleRows<12>(row);
+            KU_.noalias() = (weight_[k] * K_e) * U;
+            T->triangularView<Eigen::Lower>() += U.transpose() * KU_;
           }
       }
+    g_int_.noalias() = element_basis_.transpose() * f_all_;
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
     // area, force k A g n where it has passed the plane by g).
     g_c.setZero();
+    if (C)
+      C->setZero();
     for (int p = 0; p < n; ++p)
       {
         force[p]    = {0, 0, 0};
@@ -340,10 +355,10 @@ namespace irdm
                 force[p][d] += f(d);
             ++vertices[p];
             g_c.noalias() += U.transpose() * f;
-            if (T)
+            if (C)
               {
                 Un_.noalias() = U.transpose() * normal;
-                T->noalias() += ((1 - af) * ka) * (Un_ * Un_.transpose());
+                C->selfadjointView<Eigen::Lower>().rankUpdate(Un_, (1 - af) * ka);
               }
           }
       }
@@ -418,15 +433,29 @@ namespace irdm
   }
 
   bool
+  ReducedNonlinearBody::evaluate(const ReducedPlane *planes, const int n, const bool body)
+  {
+    if (body)
+      {
+        ++tangent_evaluations_;
+        body_tangent_h_ = h_;
+      }
+    return residual(x_, planes, n, residual_, body ? &body_tangent_ : nullptr, &contact_tangent_,
+                    g_c_trial_, trial_force_, trial_vertices_);
+  }
+
+  bool
   ReducedNonlinearBody::solve(const ReducedPlane *planes, const int n)
   {
+    // The body's tangent of an earlier step serves while it was made for this step length.
+    const bool fresh = !options_.reuse_tangent || body_tangent_h_ != h_;
     // Constant-velocity predictor, as the FEM's.
-    x_ = q_ + h_ * v_;
-    if (!residual(x_, planes, n, residual_, &tangent_, g_c_trial_, trial_force_, trial_vertices_))
+    x_ = q_ + h_ * v_ + (0.5 * h_ * h_) * a_;
+    if (!evaluate(planes, n, fresh))
       {
         ++inverted_;
         x_ = q_;
-        residual(x_, planes, n, residual_, &tangent_, g_c_trial_, trial_force_, trial_vertices_);
+        evaluate(planes, n, fresh);
       }
     // Converged when the residual is round-off of the forces in it, or the update is.
     double   r_norm    = residual_.norm();
@@ -437,11 +466,12 @@ namespace irdm
     constexpr unsigned max_iterations = 30;
     for (; it < max_iterations; ++it)
       {
-        if (r_norm <= 1e-8 * std::max(scale_, 1e-300))
+        if (r_norm <= options_.tolerance * std::max(scale_, 1e-300))
           {
             converged = true;
             break;
           }
+        tangent_.triangularView<Eigen::Lower>() = body_tangent_ + contact_tangent_;
         solver_.compute(tangent_);
         dq_ = solver_.solve(residual_);
         dq_ = -dq_;
@@ -454,7 +484,8 @@ namespace irdm
         for (int cut = 0; cut < 6; ++cut, alpha /= 2)
           {
             trial_ = x_ + alpha * dq_;
-            const bool ok = residual(trial_, planes, n, r_trial_, nullptr, g_c_trial_, trial_force_, trial_vertices_);
+            const bool ok = residual(trial_, planes, n, r_trial_, nullptr, &contact_tangent_,
+                                     g_c_trial_, trial_force_, trial_vertices_);
             if (!ok)
               ++inverted_;
             if (ok && r_trial_.norm() < (1 - 1e-4 * alpha) * r_norm)
@@ -463,25 +494,42 @@ namespace irdm
                 break;
               }
           }
-        if (!accepted)
-          alpha = 1;
-        x_ += alpha * dq_;
+        const double previous = r_norm;
+        if (accepted)
+          {
+            // The accepted trial's residual and planes' tangent are the new iterate's.
+            x_ = trial_;
+            residual_.swap(r_trial_);
+          }
+        else
+          {
+            x_ += dq_;
+            evaluate(planes, n, false);
+          }
+        r_norm = residual_.norm();
+        if (r_norm < best_norm)
+          best_norm = r_norm, best_ = x_;
         if (accepted && alpha * dq_.norm() <= 1e-13 * std::max(x_.norm(), 1e-300))
           {
             converged = true;
             ++it;
             break;
           }
-        residual(x_, planes, n, residual_, &tangent_, g_c_trial_, trial_force_, trial_vertices_);
-        r_norm = residual_.norm();
-        if (r_norm < best_norm)
-          best_norm = r_norm, best_ = x_;
+        // Newton's method evaluates the body's tangent at every iterate; a kept tangent is
+        // evaluated again where the contraction was slow.
+        if (!options_.reuse_tangent || r_norm > options_.tangent_refresh_ratio * previous)
+          evaluate(planes, n, true);
       }
-    if (!converged)
-      x_ = best_;
     last_iterations_ = it;
-    // The state at the part's end (residual() leaves a1_, v1_ and the planes' force at x_).
-    residual(x_, planes, n, residual_, nullptr, g_c_trial_, plane_force_, plane_vertices_);
+    // The state at the part's end: residual() left a1_, v1_ and the planes' force at x_
+    // unless the best iterate is an earlier one.
+    if (!converged && best_ != x_)
+      {
+        x_ = best_;
+        evaluate(planes, n, false);
+      }
+    plane_force_    = trial_force_;
+    plane_vertices_ = trial_vertices_;
     q_   = x_;
     v_   = v1_;
     a_   = a1_;
@@ -511,7 +559,7 @@ namespace irdm
     for (size_t k = 0; k < element_.size(); ++k)
       {
         double w_e = 0;
-        u_e.noalias() = element_basis_[k] * q;
+        u_e.noalias() = element_basis_.middleRows<12>(12 * Eigen::Index(k)) * q;
         if (elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, nullptr, &w_e))
           W += weight_[k] * w_e;
       }

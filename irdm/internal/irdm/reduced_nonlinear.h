@@ -12,7 +12,11 @@
 // with g = sum_e w_e U_e^T f_e(U_e q) the reduced internal force, g_d the objective damping
 // force the same way, g_c = U^T f_c the planes' penalty force, and a_1, v_1 Newmark's in q_1.
 // Newton's method with the reduced tangent (the damping's dependence on q left out, as the
-// FEM's symmetric part is), a backtracking line search on the residual norm. A step where
+// FEM's symmetric part is), a backtracking line search on the residual norm. The body's part
+// of the tangent (inertia, elasticity, damping: O(elements r^2), the step's dominant cost) is
+// kept from step to step and evaluated again only where an iteration reduces the residual by
+// less than a set ratio (a modified Newton method); the planes' part (O(contacts r^2)) is
+// fresh at every iterate. It converges to the same stop either way. A step where
 // Newton does not converge is solved again in 2, 4, 8, 16 parts, as the FEM cuts back
 // (cut_steps()); if even 16 parts do not converge, their best iterates are taken and the step
 // counted (failed_steps()): a step is always taken. Allocation-free after construction.
@@ -79,13 +83,26 @@ namespace irdm
     std::array<double, 3> force{};
   };
 
+  struct ReducedBodyOptions
+  {
+    // Keep the body's tangent while Newton contracts: an iteration that leaves more than
+    // this ratio of the residual evaluates it again at the new iterate. false: every
+    // iteration evaluates it (Newton's method proper).
+    bool   reuse_tangent         = true;
+    double tangent_refresh_ratio = 0.1;
+    // Newton's stop: the residual's norm at most this fraction of the largest force in it
+    // (the nonlinear FEM's), or an update of round-off size.
+    double tolerance = 1e-8;
+  };
+
   class ReducedNonlinearBody
   {
   public:
     static constexpr int max_planes = 8;
 
     /// Gathers the cubature elements' and the surface's rows of the basis (allocates).
-    explicit ReducedNonlinearBody(const ReducedNonlinearModel &model);
+    explicit ReducedNonlinearBody(const ReducedNonlinearModel &model,
+                                  const ReducedBodyOptions    &options = {});
 
     /// One step of tau with the planes where they are at its end, and the vertex forces at
     /// its end. Returns true if Newton converged; false if it did not (the step is still
@@ -134,6 +151,12 @@ namespace irdm
     {
       return cut_steps_;
     }
+    /// Evaluations of the body's tangent so far (each O(elements r^2)).
+    unsigned long
+    tangent_evaluations() const
+    {
+      return tangent_evaluations_;
+    }
     unsigned long
     inverted_evaluations() const // residuals refused because a cubature element inverted
     {
@@ -149,9 +172,13 @@ namespace irdm
     using Matrix = Eigen::MatrixXd;
     using Vector = Eigen::VectorXd;
     const ReducedNonlinearModel &m_;
+    ReducedBodyOptions           options_;
     unsigned                     r_ = 0;
-    // Per cubature element: U_e (12 x r, contiguous), its tetrahedron and weight.
-    std::vector<Matrix>               element_basis_;
+    // The cubature elements' rows of U (12 per element, one after another), each element's
+    // tetrahedron and weight, and their displacements, velocities and weighted forces.
+    Matrix                            element_basis_;
+    Matrix                            element_basis_t_; // its transpose: U q as dot products
+    Vector                            u_all_, v_all_, f_all_;
     std::vector<elastic::Tetrahedron> element_;
     std::vector<double>               weight_;
     // Per surface vertex with a free DoF: U_s (3 x r, rows of fixed DoFs zero), X_s, area.
@@ -173,20 +200,29 @@ namespace irdm
     Vector x_, a1_, v1_, q_af_, v_af_, residual_, trial_, r_trial_, dq_, g_c_trial_, best_;
     Vector g_int_, Un_;  // the reduced internal and damping force; U_s^T n
     double scale_ = 0;   // the residual's force scale (its largest part), for convergence
-    Matrix tangent_;
-    Eigen::Matrix<double, 12, Eigen::Dynamic> KU_; // an element's K_e U_e
+    // The tangent: the body's part (lower triangle; valid for the step length it was made
+    // with), the planes' part, and their sum as factorized.
+    Matrix body_tangent_, contact_tangent_, tangent_;
+    double body_tangent_h_ = 0; // 0: none yet
+    unsigned long tangent_evaluations_ = 0;
+    Eigen::Matrix<double, 12, Eigen::Dynamic> KU_; // an element's w_e K_e U_e
     Eigen::LDLT<Matrix> solver_;
     std::array<std::array<double, 3>, max_planes> plane_force_{}, trial_force_{};
     std::array<int, max_planes>                   plane_vertices_{}, trial_vertices_{};
     unsigned      last_iterations_ = 0;
     unsigned long failed_steps_ = 0, inverted_ = 0;
 
-    // The step's residual at q_1 = x (and its tangent if T); the planes' force into g_c,
-    // plane_force, vertices. False if a cubature element inverted.
+    // The step's residual at q_1 = x, with the body's tangent into T (lower triangle) and the
+    // planes' into C where they are given; the planes' force into g_c, plane_force,
+    // vertices. False if a cubature element inverted.
     bool
     residual(const Vector &x, const ReducedPlane *planes, int n, Vector &res, Matrix *T,
-             Vector &g_c, std::array<std::array<double, 3>, max_planes> &force,
+             Matrix *C, Vector &g_c, std::array<std::array<double, 3>, max_planes> &force,
              std::array<int, max_planes> &vertices);
+    // The residual at x_ into residual_, its planes' tangent, and the body's tangent where
+    // `body` (counted). False if an element inverted.
+    bool
+    evaluate(const ReducedPlane *planes, int n, bool body);
     double
     strain_energy(const Vector &q) const;
     // Newton's method for one step or part of length h_ from the state (q_, v_, a_) with the

@@ -1,0 +1,125 @@
+// Google Benchmark of the reduced nonlinear model's deformation step (irdm/reduced_nonlinear.h):
+// a rigid plane pressing into the top of the body, its depth going sinusoidally between 0 and
+// DEPTH with a period of 0.2 s, so that every step has contact and a moving plane. Newton's
+// method with the body's tangent at every iteration beside the modified Newton method that
+// keeps it (the runtime's default), and the latter with a stop 100 times looser; the ratios
+// and each one's iterations and tangent evaluations per step are printed at the end, side by
+// side in one run.
+//
+//   irdm_reduced_kernels REDUCED_MODEL.h5 [DEPTH_M] [google-benchmark flags]
+// REDUCED_MODEL.h5: irdm precompute SCENE --reduced (docs/reduced-model.md); DEPTH_M default
+// 0.005 (m).
+#include <irdm/reduced_nonlinear.h>
+#include <irdm_common/error.h>
+
+#include <benchmark/benchmark.h>
+
+#include "time_collector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+namespace
+{
+  std::unique_ptr<irdm::ReducedNonlinearModel> g_model;
+  double                                       g_depth = 0.005;
+
+  struct Counts
+  {
+    double iterations = 0, tangents = 0;
+  };
+  Counts g_counts[3];
+
+  /// The plane `depth` into the top of the body, pushing down.
+  irdm::ReducedPlane
+  top_plane(const double depth)
+  {
+    double top = -INFINITY;
+    for (const auto &x : g_model->coordinates)
+      top = std::max(top, x[2]);
+    irdm::ReducedPlane p;
+    p.normal = {0, 0, -1};
+    p.point  = {0, 0, top - depth};
+    return p;
+  }
+
+  void
+  run(benchmark::State &state, const int variant)
+  {
+    // 0: Newton; 1: the kept tangent; 2: the kept tangent and a looser stop.
+    irdm::ReducedBodyOptions o;
+    o.reuse_tangent = variant > 0;
+    if (variant == 2)
+      o.tolerance = 1e-6;
+    irdm::ReducedNonlinearBody body(*g_model, o);
+    const double               tau = g_model->time_step, period = 0.2;
+    long                       n   = 0;
+    const auto                 step = [&] {
+      const double depth = 0.5 * g_depth * (1 - std::cos(2 * M_PI * tau * double(++n) / period));
+      const irdm::ReducedPlane plane = top_plane(depth);
+      body.step(&plane, 1);
+    };
+    // A quarter period first: the plane in contact and moving.
+    while (tau * double(n) < period / 4)
+      step();
+    const unsigned long tangents0 = body.tangent_evaluations();
+    long                steps = 0, iterations = 0;
+    for (auto _ : state)
+      {
+        step();
+        iterations += body.newton_iterations();
+        ++steps;
+        benchmark::ClobberMemory();
+      }
+    Counts &c    = g_counts[variant];
+    c.iterations = double(iterations) / double(std::max(steps, 1L));
+    c.tangents   = double(body.tangent_evaluations() - tangents0) / double(std::max(steps, 1L));
+    state.counters["iterations"] = c.iterations;
+    state.counters["tangents"]   = c.tangents;
+    state.counters["failed"]     = double(body.failed_steps());
+  }
+} // namespace
+
+int
+main(int argc, char **argv)
+{
+  benchmark::Initialize(&argc, argv);
+  if (argc < 2 || std::string(argv[1]) == "--help")
+    {
+      std::fprintf(stderr, "Usage: irdm_reduced_kernels REDUCED_MODEL.h5 [DEPTH_M] [benchmark flags]\n"
+                           "REDUCED_MODEL.h5: irdm precompute SCENE --reduced; DEPTH_M: the top\n"
+                           "press's largest depth (m, default 0.005)\n");
+      return argc < 2 ? 2 : 0;
+    }
+  try
+    {
+      if (argc > 2)
+        g_depth = std::stod(argv[2]);
+      if (!(g_depth > 0 && g_depth < 1))
+        throw irdm::InputError("DEPTH_M must be in (0, 1) m");
+      g_model = std::make_unique<irdm::ReducedNonlinearModel>(irdm::load_reduced_nonlinear_model(argv[1]));
+    }
+  catch (const std::exception &e)
+    {
+      std::fprintf(stderr, "irdm_reduced_kernels: error: %s\n", e.what());
+      return 2;
+    }
+  const char *names[] = {"step, Newton", "step, kept tangent", "step, kept tangent, stop 1e-6"};
+  for (int v = 0; v < 3; ++v)
+    benchmark::RegisterBenchmark(names[v], [v](benchmark::State &s) { run(s, v); })
+      ->Unit(benchmark::kMicrosecond);
+  irdm_bench::TimeCollector collector;
+  benchmark::RunSpecifiedBenchmarks(&collector);
+  std::printf("\nreduced model: r = %u, %zu of %zu elements, tau = %g s, top press to %g m\n",
+              g_model->size, g_model->cubature_elements.size(), g_model->tetrahedra.size(),
+              g_model->time_step, g_depth);
+  for (size_t k = 0; k < collector.times.size(); ++k)
+    std::printf("  %-32s %9.1f us  ratio %.3f  %.2f iterations, %.2f tangents per step\n",
+                collector.times[k].first.c_str(), collector.times[k].second,
+                collector.times[k].second / collector.times[0].second,
+                g_counts[std::min<size_t>(k, 2)].iterations, g_counts[std::min<size_t>(k, 2)].tangents);
+  return 0;
+}
