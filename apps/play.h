@@ -50,4 +50,11 @@ namespace irdm::play
   /// missed more than 0.1 % of its deadlines). InputError on bad input.
   int
   run_play(const PlayOptions &options, std::ostream &out);
+
+  /// run_play for a reduced nonlinear model (irdm precompute --reduced; apps/play_reduced.cc):
+  /// the force loop on the probed point's local compliance, the deformation loop taking the
+  /// Newton step; a virtual coupling (coupling_stiffness > 0) is required. Writes
+  /// DIR/forces.csv, deformation.csv, summary.csv and play.md.
+  int
+  run_reduced_play(const PlayOptions &options, std::ostream &out);
 } // namespace irdm::play

@@ -8,6 +8,7 @@
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/mesh.h>
+#include <reference_fem/reduced_model.h>
 
 #include "irdm_test_util.h"
 
@@ -423,6 +424,59 @@ TEST(Cli, PlayRunsBothLoopsAndMatchesTheOfflineReplay)
   std::ofstream(tmp("cli_play_bad.csv")) << "time_s,x_m,y_m\n0,0.255,0\n";
   EXPECT_EQ(status(play + "_bad --trajectory " + tmp("cli_play_bad.csv")), 2);
   EXPECT_EQ(status(play + "_missing --trajectory " + tmp("no_such.csv")), 2);
+}
+
+// irdm play with a reduced nonlinear model: the seed's split runs (the force loop on the local
+// compliance, the deformation loop taking the Newton step), writes the files other programs
+// read with their columns, and offline the split follows the coupling solved inside the step.
+// Without a coupling the command refuses (exit 2).
+TEST(Cli, PlayRunsTheReducedModelsTwoLoops)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(R"(, "kinematics": "nonlinear")"), ".");
+  fem::ReducedModelOptions ro;
+  ro.output           = tmp("cli_play_reduced.h5");
+  ro.modes            = 6;
+  ro.derivative_modes = 3;
+  ro.residual_modes   = false;
+  ro.basis_size       = 12;
+  fs::remove(ro.output);
+  fem::precompute_reduced_model(scene, ro);
+  const std::string trajectory = tmp("cli_play_reduced_device.csv");
+  // Into the free end (x = 0.25 m, outward normal +x) by 5 mm and back, over 0.2 s.
+  std::ofstream(trajectory) << "time_s,x_m,y_m,z_m\n0,0.255,0,0.01\n0.1,0.245,0,0.01\n0.2,0.255,0,0.01\n";
+  const std::string dir = tmp("cli_play_reduced_out");
+  fs::remove_all(dir);
+  const std::string play = std::string(IRDM_CLI) + " play " + ro.output + " --trajectory " + trajectory +
+                           " --rate-hz 1000 --quiet --out " + dir;
+  EXPECT_EQ(status(play + "_refused"), 2) << "a reduced model needs a coupling";
+  const int s = status(play + " --coupling-stiffness 100 --coupling-damping 0.2");
+  EXPECT_TRUE(s == 0 || s == 3) << s; // 3: more than 0.1 % of deadlines missed (a busy machine)
+  std::ifstream csv(fs::path(dir) / "summary.csv");
+  std::string   header, row;
+  ASSERT_TRUE(std::getline(csv, header) && std::getline(csv, row));
+  std::map<std::string, double> v;
+  std::stringstream             h(header), r(row);
+  for (std::string name, value; std::getline(h, name, ',') && std::getline(r, value, ',');)
+    v[name] = std::stod(value);
+  EXPECT_EQ(v["steps"], 200);
+  EXPECT_EQ(v["deformation_steps"], 100);
+  EXPECT_GT(v["peak_force_N"], 1e-3) << "the coupling pressed the beam";
+  EXPECT_GT(v["force_step_p99_us"], 0);
+  EXPECT_GT(v["deformation_step_p50_us"], 0);
+  EXPECT_GE(v["split_force_error"], 0) << "the offline checks ran";
+  EXPECT_LT(v["split_force_error"], 0.05);
+  EXPECT_EQ(v["failed_steps"], 0);
+  std::ifstream deformation(fs::path(dir) / "deformation.csv");
+  ASSERT_TRUE(std::getline(deformation, header));
+  EXPECT_EQ(header, "step,time_s,deformation_step_us,lag_ms,newton_iterations,force_x_N,force_y_N,"
+                    "force_z_N,probed_u_x_m,probed_u_y_m,probed_u_z_m");
+  long rows = 0;
+  for (std::string line; std::getline(deformation, line);)
+    ++rows;
+  EXPECT_EQ(rows, 100);
+  std::ifstream forces(fs::path(dir) / "forces.csv");
+  ASSERT_TRUE(std::getline(forces, header));
+  EXPECT_EQ(header.rfind("step,time_s,device_x_m,device_y_m,device_z_m,present,force_x_N,", 0), 0u);
 }
 
 namespace

@@ -5,6 +5,7 @@
 #include <irdm/modal_model.h>
 #include <irdm/model.h>
 #include <irdm/point_interaction.h>
+#include <irdm/reduced_force_loop.h>
 #include <irdm/reduced_nonlinear.h>
 #include <irdm/vertex_contact.h>
 #include <irdm_common/error.h>
@@ -1020,39 +1021,205 @@ TEST(RuntimeApi, RefusesWhatABodyDoesNotTakeAndSaysWhy)
   EXPECT_THROW(irdm::Model::load(tmp("api_missing.h5")), irdm::InputError);
 }
 
-// The reduced nonlinear model's step (Newton, cubature, planes, vertex forces, and a step cut
-// into parts) and its surface allocate nothing.
+namespace
+{
+  // A small reduced model of the soft beam (6 modes and the derivatives of 3, r = 10, every
+  // element), damped as beam_scene or undamped; each made once per test binary.
+  irdm::ReducedNonlinearModel
+  make_reduced_beam(const bool damped)
+  {
+    std::string scene = irdm_test::beam_scene(R"(, "kinematics": "nonlinear")");
+    if (!damped)
+      scene.replace(scene.find("[0.05, 0.05]"), 12, "[0, 0]");
+    const fem::Scene         s = fem::parse_scene(scene, ".");
+    fem::ReducedModelOptions o;
+    o.output = tmp(damped ? "reduced_beam_r10.h5" : "reduced_beam_r10_undamped.h5");
+    o.modes            = 6;
+    o.derivative_modes = 3;
+    o.residual_modes   = false;
+    o.basis_size       = 10;
+    std::filesystem::remove(o.output);
+    fem::precompute_reduced_model(s, o);
+    return irdm::load_reduced_nonlinear_model(o.output, s.time_step);
+  }
+
+  const irdm::ReducedNonlinearModel &
+  reduced_beam(const bool damped = true)
+  {
+    static const irdm::ReducedNonlinearModel with = make_reduced_beam(true), without = make_reduced_beam(false);
+    return damped ? with : without;
+  }
+
+  // The surface vertex at the middle of the beam's free end's top edge, and a coupling to it
+  // whose device goes 4 mm down over the first 0.06 s (a half cosine: no jump in velocity),
+  // then holds.
+  irdm::ReducedProbe
+  tip_coupling(const irdm::ReducedNonlinearModel &m, const int step, const double damping)
+  {
+    irdm::ReducedProbe p;
+    p.n_patch = 1;
+    double best = 1e300;
+    for (unsigned v = 0; v < m.coordinates.size(); ++v)
+      {
+        const auto  &x = m.coordinates[v];
+        const double d = std::hypot(x[0] - 0.25, x[1], x[2] - 0.01);
+        if (d < best)
+          best = d, p.vertices[0] = v;
+      }
+    p.weights[0]        = 1;
+    const double t      = m.time_step * (step + 1), ramp = 0.06;
+    const double phase  = M_PI * std::min(t / ramp, 1.0);
+    p.target            = {0, 0, -0.002 * (1 - std::cos(phase))};
+    p.target_velocity   = {0, 0, -0.002 * std::sin(phase) * M_PI / ramp};
+    p.stiffness         = 200;
+    p.damping           = damping;
+    return p;
+  }
+} // namespace
+
+// The reduced nonlinear model's step (Newton, cubature, planes, vertex forces, a coupled probe,
+// and a step cut into parts), its surface and a force loop's local compliance allocate nothing.
 TEST(ReducedRuntime, StepAndSurfaceAllocateNothing)
 {
-  const fem::Scene s = fem::parse_scene(irdm_test::beam_scene(R"(, "kinematics": "nonlinear")"), ".");
-  fem::ReducedModelOptions o;
-  o.output           = tmp("reduced_alloc.h5");
-  o.modes            = 6;
-  o.derivative_modes = 3;
-  o.residual_modes   = false;
-  o.basis_size       = 10;
-  std::filesystem::remove(o.output);
-  fem::precompute_reduced_model(s, o);
-  const irdm::ReducedNonlinearModel m = irdm::load_reduced_nonlinear_model(o.output, s.time_step);
-  irdm::ReducedNonlinearBody        body(m);
-  std::vector<double>               u(3 * m.surface_vertex.size());
-  irdm::ReducedPlane                plane;
+  const irdm::ReducedNonlinearModel &m = reduced_beam();
+  irdm::ReducedNonlinearBody         body(m);
+  std::vector<double>                u(3 * m.surface_vertex.size());
+  irdm::ReducedPlane                 plane;
   plane.normal = {0, 0, -1};
   const irdm::ReducedVertexForce push{static_cast<unsigned>(m.surface_vertex.size() - 1), {0, 0, -1e-3}};
-  int most = 0;
+  int    most = 0;
+  double uc[3], vc[3], ac[3], W[9];
   for (int k = 0; k < 40; ++k)
     {
       // The plane jumps 5 mm into the beam's top at step 20 (the step that needs parts) and
       // goes on down 0.5 mm a step.
-      plane.point         = {0, 0, 0.01 - (k < 20 ? -1e-3 : 5e-3 + 5e-4 * (k - 20))};
-      g_allocations       = 0;
-      g_count_allocations = true;
-      body.step(&plane, 1, &push, 1);
+      plane.point                    = {0, 0, 0.01 - (k < 20 ? -1e-3 : 5e-3 + 5e-4 * (k - 20))};
+      const irdm::ReducedProbe probe = tip_coupling(m, k, 0.5);
+      g_allocations                  = 0;
+      g_count_allocations            = true;
+      body.step(&plane, 1, &push, 1, &probe, k < 20 ? 1 : 0);
       body.surface_displacement(u.data());
+      body.point_state(probe.vertices.data(), probe.weights.data(), 1, uc, vc, ac, W);
       g_count_allocations = false;
       EXPECT_EQ(g_allocations, 0) << "step " << k;
       most = std::max(most, body.plane_vertices(0));
     }
   EXPECT_GT(most, 0) << "the plane reached the beam";
   EXPECT_GT(body.cut_steps(), 0u) << "the jump was solved in parts";
+}
+
+// A coupled probe is solved with the body: its force is the spring's k (d - u_p) at the step's
+// end, and the body it moves is the body the same forces move when applied as known forces
+// (to Newton's tolerance). A coupling that is not positive, or a patch off the surface, is
+// refused without a step.
+TEST(ReducedRuntime, ACoupledProbePushesAsItsForceAppliedWould)
+{
+  const irdm::ReducedNonlinearModel &m = reduced_beam();
+  irdm::ReducedNonlinearBody         coupled(m), forced(m);
+  double                             largest = 0, worst_spring = 0, worst_path = 0;
+  for (int k = 0; k < 60; ++k)
+    {
+      const irdm::ReducedProbe probe = tip_coupling(m, k, 0);
+      ASSERT_TRUE(coupled.step(nullptr, 0, nullptr, 0, &probe, 1)) << k;
+      const auto                    &f = coupled.probe_force(0);
+      const auto                     u = coupled.probe_displacement(0);
+      const irdm::ReducedVertexForce as_force{probe.vertices[0], f};
+      ASSERT_TRUE(forced.step(nullptr, 0, &as_force, 1));
+      for (int d = 0; d < 3; ++d)
+        worst_spring = std::max(worst_spring, std::abs(f[d] - probe.stiffness * (probe.target[d] - u[d])));
+      largest    = std::max(largest, std::hypot(f[0], f[1], f[2]));
+      worst_path = std::max(worst_path, (coupled.coordinates() - forced.coordinates()).norm() /
+                                          std::max(coupled.coordinates().norm(), 1e-300));
+    }
+  EXPECT_GT(largest, 0.01) << "the coupling pressed the beam";
+  EXPECT_LT(worst_spring, 1e-12 * largest);
+  EXPECT_LT(worst_path, 1e-6);
+  irdm::ReducedProbe bad = tip_coupling(m, 0, 0);
+  bad.stiffness          = 0;
+  EXPECT_FALSE(coupled.step(nullptr, 0, nullptr, 0, &bad, 1));
+  bad                    = tip_coupling(m, 0, 0);
+  bad.vertices[0]        = static_cast<unsigned>(m.surface_vertex.size());
+  EXPECT_FALSE(coupled.step(nullptr, 0, nullptr, 0, &bad, 1));
+}
+
+// The local compliance a force loop works on is the step's derivative: from one pressed state,
+// two steps with forces differing by delta end with the point W delta apart (to first order;
+// Newton's method proper, so that W is the tangent at the step's end). Undamped to round-off;
+// damped within the damping force's dependence on the deformation, which the tangent leaves
+// out as the FEM's does.
+TEST(ReducedRuntime, PointComplianceIsTheStepsDerivative)
+{
+  for (const bool damped : {false, true})
+    {
+      const irdm::ReducedNonlinearModel &m = reduced_beam(damped);
+      irdm::ReducedBodyOptions           o;
+      o.reuse_tangent = false;
+      irdm::ReducedNonlinearBody body(m, o);
+      const irdm::ReducedProbe   probe = tip_coupling(m, 0, 0);
+      irdm::ReducedVertexForce   f{probe.vertices[0], {0, 0, -0.3}};
+      for (int k = 0; k < 30; ++k)
+        ASSERT_TRUE(body.step(nullptr, 0, &f, 1));
+      // The step from here with f, and with f + delta along each axis in turn.
+      irdm::ReducedNonlinearBody a = body;
+      ASSERT_TRUE(a.step(nullptr, 0, &f, 1));
+      double ua[3], v[3], acc[3], W[9];
+      ASSERT_TRUE(a.point_state(probe.vertices.data(), probe.weights.data(), 1, ua, v, acc, W));
+      EXPECT_LT(ua[2], -1e-3) << "the force bent the beam";
+      double worst = 0;
+      for (int d = 0; d < 3; ++d)
+        {
+          irdm::ReducedNonlinearBody b = body;
+          irdm::ReducedVertexForce   g = f;
+          const double               delta = 1e-4;
+          g.force[d] += delta;
+          ASSERT_TRUE(b.step(nullptr, 0, &g, 1));
+          double ub[3], Wb[9];
+          ASSERT_TRUE(b.point_state(probe.vertices.data(), probe.weights.data(), 1, ub, v, acc, Wb));
+          double column = 0, miss = 0;
+          for (int i = 0; i < 3; ++i)
+            column += W[3 * i + d] * W[3 * i + d],
+              miss += std::pow((ub[i] - ua[i]) / delta - W[3 * i + d], 2);
+          worst = std::max(worst, std::sqrt(miss / column));
+        }
+      std::printf("%s: compliance against the step's finite difference %.3g\n",
+                  damped ? "damped" : "undamped", worst);
+      // Undamped, the tangent is the step's; damped, it leaves out the damping force's
+      // dependence on the deformation (as the FEM's does).
+      EXPECT_LT(worst, damped ? 0.02 : 1e-5);
+    }
+}
+
+// The seed's split on the reduced body, in lockstep (the force loop at the deformation rate,
+// each tick on the state just taken): the force loop's coupling force against the local
+// compliance follows the coupling solved inside the Newton step.
+TEST(ReducedRuntime, TheTwoLoopSplitFollowsTheImplicitCoupling)
+{
+  const irdm::ReducedNonlinearModel &m = reduced_beam();
+  for (const double damping : {0.0, 0.5})
+    {
+      irdm::ReducedNonlinearBody implicit(m), split(m);
+      irdm::LocalCompliance      local;
+      double                     diff = 0, norm = 0;
+      for (int k = 0; k < 100; ++k)
+        {
+          const irdm::ReducedProbe probe = tip_coupling(m, k, damping);
+          ASSERT_TRUE(implicit.step(nullptr, 0, nullptr, 0, &probe, 1));
+          irdm::CouplingTarget target;
+          target.d = probe.target, target.d_dot = probe.target_velocity;
+          target.stiffness = probe.stiffness, target.damping = probe.damping;
+          const std::array<double, 3>    f = irdm::coupling_force(local, m.time_step * (k + 1), target);
+          const irdm::ReducedVertexForce as_force{probe.vertices[0], f};
+          ASSERT_TRUE(split.step(nullptr, 0, &as_force, 1));
+          ASSERT_TRUE(split.point_state(probe.vertices.data(), probe.weights.data(), 1, local.u.data(),
+                                        local.v.data(), local.a.data(), local.W.data()));
+          local.step = k + 1, local.time = m.time_step * (k + 1), local.f = f;
+          const auto &fi = implicit.probe_force(0);
+          for (int d = 0; d < 3; ++d)
+            diff += std::pow(f[d] - fi[d], 2), norm += fi[d] * fi[d];
+        }
+      const double error = std::sqrt(diff / norm);
+      std::printf("coupling damping %g N s/m: the split's force against the implicit coupling's %.3g "
+                  "(relative L2)\n", damping, error);
+      EXPECT_LT(error, damping > 0 ? 0.05 : 0.07);
+    }
 }

@@ -267,6 +267,55 @@ namespace irdm
       x->setZero(element_basis_.rows());
     for (Matrix *T : {&body_tangent_, &contact_tangent_, &tangent_})
       T->setZero(r_, r_);
+    for (auto &B : probe_basis_)
+      B.setZero(3, r_);
+    point_basis_.setZero(3, r_);
+    point_solve_.setZero(r_, 3);
+  }
+
+  bool
+  ReducedNonlinearBody::patch_basis(const unsigned *vertices, const double *weights, const int n,
+                                    Eigen::Matrix<double, 3, Eigen::Dynamic> &B) const
+  {
+    if (n < 1 || n > ReducedProbe::max_patch || !vertices || !weights)
+      return false;
+    B.setZero();
+    for (int i = 0; i < n; ++i)
+      {
+        const unsigned s = vertices[i];
+        if (s >= m_.surface_vertex.size() || !std::isfinite(weights[i]))
+          return false;
+        for (int d = 0; d < 3; ++d)
+          if (m_.free_dof[s][d])
+            B.row(d) += weights[i] * Eigen::Map<const Eigen::RowVectorXd>(
+                                       &m_.basis[(3 * size_t(m_.surface_vertex[s]) + d) * r_], r_);
+      }
+    return true;
+  }
+
+  std::array<double, 3>
+  ReducedNonlinearBody::probe_displacement(const int p) const
+  {
+    const Eigen::Vector3d u = probe_basis_[p] * q_;
+    return {u(0), u(1), u(2)};
+  }
+
+  bool
+  ReducedNonlinearBody::point_state(const unsigned *vertices, const double *weights, const int n,
+                                    double u[3], double v[3], double a[3], double W[9])
+  {
+    if (factorized_h_ != m_.time_step || !patch_basis(vertices, weights, n, point_basis_))
+      return false;
+    point_solve_ = solver_.solve(point_basis_.transpose());
+    const Eigen::Matrix3d C = (1 - m_.alpha_f) * (point_basis_ * point_solve_);
+    const Eigen::Vector3d x = point_basis_ * q_, xd = point_basis_ * v_, xdd = point_basis_ * a_;
+    for (int i = 0; i < 3; ++i)
+      {
+        u[i] = x(i), v[i] = xd(i), a[i] = xdd(i);
+        for (int j = 0; j < 3; ++j)
+          W[3 * i + j] = 0.5 * (C(i, j) + C(j, i));
+      }
+    return true;
   }
 
   bool
@@ -362,6 +411,24 @@ namespace irdm
               }
           }
       }
+    // The probes' couplings at the step's end: spring and damper between the device and the
+    // point, none where a unilateral one would pull.
+    for (int p = 0; p < n_probes_; ++p)
+      {
+        const ReducedProbe   &pr = probes_[p];
+        const auto           &U  = probe_basis_[p];
+        const Eigen::Vector3d u = U * x, u_dot = U * v1_;
+        Eigen::Vector3d       f;
+        for (int d = 0; d < 3; ++d)
+          f(d) = pr.stiffness * (part_target_[p][d] - u(d)) + pr.damping * (pr.target_velocity[d] - u_dot(d));
+        const bool active = !pr.unilateral || f(0) * pr.direction[0] + f(1) * pr.direction[1] + f(2) * pr.direction[2] > 0;
+        if (!active)
+          f.setZero();
+        probe_trial_force_[p] = {f(0), f(1), f(2)};
+        g_c.noalias() += U.transpose() * f;
+        if (C && active)
+          C->selfadjointView<Eigen::Lower>().rankUpdate(U.transpose(), (1 - af) * (pr.stiffness + pr.damping * g / (b * h)));
+      }
     res += g_int_;
     res -= (1 - af) * (g_c + g_f_new_) + af * (g_c_ + g_f_);
     scale_ = std::max({scale_, g_int_.norm(), g_c.norm(), g_f_new_.norm()});
@@ -370,10 +437,24 @@ namespace irdm
 
   bool
   ReducedNonlinearBody::step(const ReducedPlane *planes, const int n,
-                             const ReducedVertexForce *forces, const int n_forces)
+                             const ReducedVertexForce *forces, const int n_forces,
+                             const ReducedProbe *probes, const int n_probes)
   {
-    if (n < 0 || n > max_planes || (n > 0 && !planes) || n_forces < 0 || (n_forces > 0 && !forces))
+    if (n < 0 || n > max_planes || (n > 0 && !planes) || n_forces < 0 || (n_forces > 0 && !forces) ||
+        n_probes < 0 || n_probes > max_probes || (n_probes > 0 && !probes))
       return false;
+    for (int p = 0; p < n_probes; ++p)
+      {
+        const ReducedProbe &pr = probes[p];
+        if (!(std::isfinite(pr.stiffness) && pr.stiffness > 0 && std::isfinite(pr.damping) && pr.damping >= 0) ||
+            !patch_basis(pr.vertices.data(), pr.weights.data(), pr.n_patch, probe_basis_[p]))
+          return false;
+        for (int d = 0; d < 3; ++d)
+          if (!std::isfinite(pr.target[d]) || !std::isfinite(pr.target_velocity[d]) || !std::isfinite(pr.direction[d]))
+            return false;
+        probes_[p] = pr;
+      }
+    n_probes_ = n_probes;
     g_f_end_.setZero();
     for (int i = 0; i < n_forces; ++i)
       {
@@ -416,6 +497,11 @@ namespace irdm
                 for (int d = 0; d < 3; ++d)
                   part_planes_[p].normal[d] /= norm;
               }
+            for (int p = 0; p < n_probes; ++p)
+              for (int d = 0; d < 3; ++d)
+                part_target_[p][d] = parts > 1 && last_target_known_[p]
+                                       ? last_target_[p][d] + s * (probes[p].target[d] - last_target_[p][d])
+                                       : probes[p].target[d];
             g_f_new_ = g_f0_ + s * (g_f_end_ - g_f0_);
             h_       = m_.time_step / parts;
             // At the last division every part is taken, converged or not (its best iterate).
@@ -429,6 +515,14 @@ namespace irdm
     for (int p = 0; p < n; ++p)
       last_planes_[p] = planes[p];
     last_n_ = n;
+    for (int p = 0; p < max_probes; ++p)
+      {
+        last_target_known_[p] = p < n_probes;
+        if (p < n_probes)
+          last_target_[p] = probes[p].target;
+        else
+          probe_force_[p] = {0, 0, 0};
+      }
     return converged;
   }
 
@@ -473,6 +567,7 @@ namespace irdm
           }
         tangent_.triangularView<Eigen::Lower>() = body_tangent_ + contact_tangent_;
         solver_.compute(tangent_);
+        factorized_h_ = h_;
         dq_ = solver_.solve(residual_);
         dq_ = -dq_;
         // A backtracking line search on the residual norm. Where it finds no decrease (a
@@ -530,6 +625,7 @@ namespace irdm
       }
     plane_force_    = trial_force_;
     plane_vertices_ = trial_vertices_;
+    probe_force_    = probe_trial_force_;
     q_   = x_;
     v_   = v1_;
     a_   = a1_;

@@ -83,6 +83,24 @@ namespace irdm
     std::array<double, 3> force{};
   };
 
+  /// A virtual coupling (Colgate et al. 1995) to a point of the surface (a patch of surface
+  /// vertices with weights summing to 1): a spring and a damper between the device and the
+  /// point, solved implicitly with the body in the step, as the planes are. The force on the
+  /// body is k (d - u_p) + b (d' - u_p') at the step's end; unilateral: none where it would
+  /// pull against `direction`.
+  struct ReducedProbe
+  {
+    static constexpr int max_patch = 256;
+    int                             n_patch = 0;
+    std::array<unsigned, max_patch> vertices{}; // into the model's surface
+    std::array<double, max_patch>   weights{};
+    std::array<double, 3>           target{};          // m: the device's displacement, step's end
+    std::array<double, 3>           target_velocity{}; // m/s
+    double                          stiffness = 0, damping = 0; // N/m (> 0), N s/m
+    std::array<double, 3>           direction{0, 0, -1};        // unit push direction
+    bool                            unilateral = false;
+  };
+
   struct ReducedBodyOptions
   {
     // Keep the body's tangent while Newton contracts: an iteration that leaves more than
@@ -98,7 +116,7 @@ namespace irdm
   class ReducedNonlinearBody
   {
   public:
-    static constexpr int max_planes = 8;
+    static constexpr int max_planes = 8, max_probes = 4;
 
     /// Gathers the cubature elements' and the surface's rows of the basis (allocates).
     explicit ReducedNonlinearBody(const ReducedNonlinearModel &model,
@@ -109,7 +127,30 @@ namespace irdm
     /// taken, counted in failed_steps()) or if the input is out of range (no step taken).
     bool
     step(const ReducedPlane *planes, int n, const ReducedVertexForce *forces = nullptr,
-         int n_forces = 0);
+         int n_forces = 0, const ReducedProbe *probes = nullptr, int n_probes = 0);
+
+    /// Force of probe p's coupling on the body after the latest step (N), and the probed
+    /// point's displacement (m).
+    const std::array<double, 3> &
+    probe_force(int p) const
+    {
+      return probe_force_[p];
+    }
+    std::array<double, 3>
+    probe_displacement(int p) const;
+
+    /// What a force loop needs of the latest state at a point (a patch of surface vertices
+    /// and weights, as a probe's): its displacement u (m), velocity v (m/s) and acceleration
+    /// a (m/s^2), and its
+    /// compliance over one step, W = (1 - af) U_p T^-1 U_p^T (m/N, row-major 3 x 3): the
+    /// change of the point's displacement at the next step's end per unit change of a force
+    /// held on it over that step, T the step's tangent as Newton last factorized it (the
+    /// planes' contacts in it; a probe's coupling too if the step had one). False (nothing
+    /// written) for a bad patch or before the first factorization at the model's step.
+    /// Allocates nothing.
+    bool
+    point_state(const unsigned *vertices, const double *weights, int n, double u[3],
+                double v[3], double a[3], double W[9]);
 
     /// Force of plane a on the body after the latest step (N, model frame), and how many
     /// surface vertices it pushes.
@@ -195,6 +236,16 @@ namespace irdm
     static constexpr unsigned max_parts = 16;
     std::array<ReducedPlane, max_planes> part_planes_{}, last_planes_{};
     int                                  last_n_ = 0;
+    // The step's probes, each one's U_p (3 x r), its target at the part's end, and its force.
+    std::array<ReducedProbe, max_probes>                          probes_{};
+    int                                                           n_probes_ = 0;
+    std::array<Eigen::Matrix<double, 3, Eigen::Dynamic>, max_probes> probe_basis_;
+    std::array<std::array<double, 3>, max_probes> last_target_{}, part_target_{};
+    std::array<bool, max_probes>                  last_target_known_{};
+    std::array<std::array<double, 3>, max_probes> probe_force_{}, probe_trial_force_{};
+    Eigen::Matrix<double, 3, Eigen::Dynamic>      point_basis_; // point_state's U_p
+    Matrix                                        point_solve_; // T^-1 U_p^T
+    double                                        factorized_h_ = 0; // solver_'s step length
     unsigned long                        cut_steps_ = 0;
     // The step being solved.
     Vector x_, a1_, v1_, q_af_, v_af_, residual_, trial_, r_trial_, dq_, g_c_trial_, best_;
@@ -212,6 +263,10 @@ namespace irdm
     unsigned      last_iterations_ = 0;
     unsigned long failed_steps_ = 0, inverted_ = 0;
 
+    // U_p of a patch into B (its fixed DoFs' rows zero). False for a bad patch.
+    bool
+    patch_basis(const unsigned *vertices, const double *weights, int n,
+                Eigen::Matrix<double, 3, Eigen::Dynamic> &B) const;
     // The step's residual at q_1 = x, with the body's tangent into T (lower triangle) and the
     // planes' into C where they are given; the planes' force into g_c, plane_force,
     // vertices. False if a cubature element inverted.
