@@ -1189,6 +1189,69 @@ TEST(ReducedRuntime, PointComplianceIsTheStepsDerivative)
     }
 }
 
+// The public API takes a reduced nonlinear model as it takes the others: Model::load knows the
+// kind, and Body::step hands planes, applied forces and coupled probes to the reduced body's
+// own step (the same numbers as that step given the same inputs, bit for bit). A rigid probe or
+// a coupled plate is refused with a reason.
+TEST(ReducedRuntime, ThePublicApiRunsAReducedModel)
+{
+  const irdm::ReducedNonlinearModel m     = make_reduced_beam(true); // the file in this test's folder
+  const irdm::Model                 model = irdm::Model::load(tmp("reduced_beam_r10.h5"));
+  ASSERT_EQ(model.kind(), "reduced_nonlinear");
+  EXPECT_EQ(model.time_step(), m.time_step);
+  EXPECT_EQ(model.rest_positions().size(), m.coordinates.size());
+  irdm::Body                 body(model);
+  irdm::ReducedNonlinearBody direct(m);
+  irdm::StepOutput           out;
+  irdm::Plane                plane;
+  plane.normal = {0, 0, -1};
+  irdm::Probe probe;
+  const irdm::ReducedProbe coupled = tip_coupling(m, 0, 0.5);
+  probe.n_patch           = 1;
+  probe.patch_vertices[0] = coupled.vertices[0];
+  probe.patch_weights[0]  = 1;
+  probe.coupling_stiffness = coupled.stiffness, probe.coupling_damping = coupled.damping;
+  probe.direction          = coupled.direction;
+  const irdm::AppliedForce push{static_cast<unsigned>(m.surface_vertex.size() - 1), {0, 0, -1e-3}};
+  ASSERT_TRUE(model.can_push(push.vertex));
+  std::array<double, 3> device_before{};
+  for (int k = 0; k < 40; ++k)
+    {
+      plane.point             = {0, 0, 0.01 - 1e-4 * k}; // into the top from step 1 on
+      const irdm::ReducedProbe target = tip_coupling(m, k, 0.5);
+      probe.displacement      = target.target;
+      irdm::StepInput in;
+      in.planes = &plane, in.n_planes = 1, in.probes = &probe, in.n_probes = 1, in.forces = &push, in.n_forces = 1;
+      ASSERT_TRUE(body.step(in, out)) << body.refusal();
+      // The same inputs to the reduced body's own step: the device's velocity as the API takes
+      // it, from its displacement one step before.
+      irdm::ReducedProbe same = target;
+      for (int d = 0; d < 3; ++d)
+        same.target_velocity[d] = k == 0 ? 0 : (same.target[d] - device_before[d]) / m.time_step;
+      device_before                   = same.target;
+      const irdm::ReducedPlane     p{plane.normal, plane.point, 0, 0};
+      const irdm::ReducedVertexForce f{push.vertex, push.force};
+      direct.step(&p, 1, &f, 1, &same, 1);
+      EXPECT_EQ(out.plane_force[0], direct.plane_force(0)) << k;
+      EXPECT_EQ(out.probe_force[0], direct.probe_force(0)) << k;
+    }
+  EXPECT_GT(out.plane_vertices[0], 0) << "the plane reached the beam";
+  EXPECT_GT(body.energy(), 0);
+  EXPECT_EQ(body.unconverged_steps(), 0u);
+  irdm::Probe rigid = probe;
+  rigid.coupling_stiffness = 0;
+  irdm::StepInput in;
+  in.probes = &rigid, in.n_probes = 1;
+  EXPECT_FALSE(body.step(in, out));
+  EXPECT_NE(std::string(body.refusal()).find("virtual coupling"), std::string::npos);
+  irdm::Plane plate = plane;
+  plate.coupling_stiffness = 100;
+  in        = {};
+  in.planes = &plate, in.n_planes = 1;
+  EXPECT_FALSE(body.step(in, out));
+  EXPECT_NE(std::string(body.refusal()).find("plate coupling"), std::string::npos);
+}
+
 // The seed's split on the reduced body, in lockstep (the force loop at the deformation rate,
 // each tick on the state just taken): the force loop's coupling force against the local
 // compliance follows the coupling solved inside the Newton step.

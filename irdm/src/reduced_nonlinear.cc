@@ -396,7 +396,7 @@ namespace irdm
             const double          depth = rest_gap_bound - normal.dot(xs);
             if (depth <= 0)
               continue;
-            const double          ka = k * surface_area_[s];
+            const double          ka = planes[p].stiffness > 0 ? planes[p].stiffness : k * surface_area_[s];
             const Eigen::Vector3d f  = ka * depth * normal;
             const auto           &free = m_.free_dof[surface_index_[s]];
             for (int d = 0; d < 3; ++d)

@@ -7,6 +7,7 @@
 #include <irdm/model.h>
 #include <irdm/plane_interaction.h>
 #include <irdm/point_interaction.h>
+#include <irdm/reduced_nonlinear.h>
 #include <irdm/representative_interaction.h>
 #include <irdm/representative_model.h>
 #include <irdm/state_space_interaction.h>
@@ -29,6 +30,8 @@ namespace irdm
     RepresentativeModel  representative;
     StateSpaceModel      state_space;
     VirtualDofModel      virtual_dofs;
+    ReducedNonlinearModel reduced;
+    std::vector<int>      reduced_inputs; // every surface vertex with a free DoF
     // The kind's own surface and inputs.
     const std::vector<std::array<double, 3>>   *rest      = nullptr;
     const std::vector<std::array<unsigned, 3>> *triangles = nullptr;
@@ -117,6 +120,18 @@ namespace irdm
         d->kind        = "state_space";
         use_frame(*d, d->state_space);
       }
+    else if (format == "irdm-reduced-model")
+      {
+        d->reduced = load_reduced_nonlinear_model(path);
+        const ReducedNonlinearModel &r = d->reduced;
+        d->kind                        = "reduced_nonlinear";
+        d->rest                        = &r.coordinates;
+        d->triangles                   = &r.triangles;
+        d->reduced_inputs.resize(r.coordinates.size());
+        for (size_t v = 0; v < r.coordinates.size(); ++v)
+          d->reduced_inputs[v] = r.free_dof[v][0] || r.free_dof[v][1] || r.free_dof[v][2] ? int(v) : -1;
+        d->input_of_vertex = &d->reduced_inputs;
+      }
     else if (format == "irdm-virtual-dof-model")
       {
         d->virtual_dofs = load_virtual_dof_model(path);
@@ -158,6 +173,8 @@ namespace irdm
       return d.representative.time_step;
     if (d.kind == "state_space")
       return d.state_space.time_step;
+    if (d.kind == "reduced_nonlinear")
+      return d.reduced.time_step;
     return d.virtual_dofs.time_step;
   }
   const std::vector<std::array<double, 3>> &
@@ -237,7 +254,8 @@ namespace irdm
     BodyOptions                        options;
     double                             tau = 0;
     std::variant<std::monostate, ModalInteraction, PointInteraction, RepresentativeInteraction,
-                 StateSpaceInteraction, PlaneInteraction, FreeBodyInteraction, FreeBodyVirtualDofs>
+                 StateSpaceInteraction, PlaneInteraction, FreeBodyInteraction, FreeBodyVirtualDofs,
+                 ReducedNonlinearBody>
       runtime;
 
     // The parts' targets, filled from the public types each step.
@@ -253,6 +271,12 @@ namespace irdm
     std::array<std::array<double, 3>, StepInput::max_planes> plate_device{}, plate{};
     std::array<bool, StepInput::max_planes>                  plate_known{};
     RigidStepCompliance                                      no_rigid_motion; // zero
+    // A reduced nonlinear body's inputs, and which public probe each of its probes is.
+    std::array<ReducedPlane, StepInput::max_planes>       reduced_planes;
+    std::array<ReducedVertexForce, StepInput::max_forces> reduced_forces;
+    std::array<ReducedProbe, StepInput::max_probes>       reduced_probes;
+    std::array<int, StepInput::max_probes>                reduced_probe_of{};
+    std::array<bool, StepInput::max_probes>               probe_was_present{};
     const char                                              *refusal = "";
     long long                                                steps   = 0;
   };
@@ -473,6 +497,99 @@ namespace irdm
       return true;
     }
 
+    // A reduced nonlinear body: planes (penalty or stiffness), applied forces and probes through
+    // a virtual coupling, all solved together in its Newton step.
+    bool
+    reduced_inputs(State &s, const StepInput &in, int &n_probes)
+    {
+      static_assert(StepInput::max_planes <= ReducedNonlinearBody::max_planes &&
+                    StepInput::max_probes <= ReducedNonlinearBody::max_probes &&
+                    Probe::max_patch <= ReducedProbe::max_patch);
+      for (int p = 0; p < in.n_planes; ++p)
+        {
+          const Plane &a = in.planes[p];
+          if (a.coupling_stiffness > 0 || a.coupling_damping > 0)
+            return s.refusal = "a reduced nonlinear body's planes stand where they are given: no "
+                               "plate coupling",
+                   false;
+          s.reduced_planes[p] = {a.normal, a.point, a.penalty, a.stiffness};
+        }
+      for (int a = 0; a < in.n_forces; ++a)
+        {
+          if (!s.model_handle.can_push(in.forces[a].vertex))
+            return s.refusal = refused_solve, false;
+          s.reduced_forces[a] = {in.forces[a].vertex, in.forces[a].force};
+        }
+      n_probes = 0;
+      for (int p = 0; p < in.n_probes; ++p)
+        {
+          const Probe &a = in.probes[p];
+          if (!(a.coupling_stiffness > 0))
+            return s.refusal = "a reduced nonlinear body takes probes through a virtual coupling "
+                               "(coupling_stiffness > 0)",
+                   false;
+          // The device's velocity over the step, from where it was one step before.
+          std::array<double, 3> velocity{};
+          if (s.probe_was_present[p])
+            for (int d = 0; d < 3; ++d)
+              velocity[d] = (a.displacement[d] - s.probe_device[p][d]) / s.tau;
+          s.probe_device[p]      = a.displacement;
+          s.probe_was_present[p] = a.present;
+          if (!a.present)
+            continue;
+          ReducedProbe &r = s.reduced_probes[n_probes];
+          if (a.n_patch > 0)
+            {
+              r.n_patch = std::min(a.n_patch, Probe::max_patch);
+              std::copy_n(a.patch_vertices.begin(), r.n_patch, r.vertices.begin());
+              std::copy_n(a.patch_weights.begin(), r.n_patch, r.weights.begin());
+            }
+          else
+            {
+              if (a.triangle < 0 || a.triangle >= static_cast<int>(s.model->triangles->size()))
+                return s.refusal = refused_solve, false;
+              r.n_patch = 3;
+              for (int i = 0; i < 3; ++i)
+                r.vertices[i] = (*s.model->triangles)[a.triangle][i], r.weights[i] = a.weights[i];
+            }
+          r.target = a.displacement, r.target_velocity = velocity, r.direction = a.direction;
+          r.stiffness = a.coupling_stiffness, r.damping = a.coupling_damping, r.unilateral = a.unilateral;
+          s.reduced_probe_of[n_probes++] = p;
+        }
+      return true;
+    }
+
+    bool
+    step_with(State &s, ReducedNonlinearBody &b, const StepInput &in, StepOutput &out)
+    {
+      int n_probes = 0;
+      if (!reduced_inputs(s, in, n_probes))
+        return false;
+      // A step Newton does not converge is still taken (its best iterate, counted); only a
+      // refused input leaves the count and the state as they were.
+      const unsigned long unconverged = b.failed_steps();
+      if (!b.step(s.reduced_planes.data(), in.n_planes, s.reduced_forces.data(), in.n_forces,
+                  s.reduced_probes.data(), n_probes) &&
+          b.failed_steps() == unconverged)
+        return s.refusal = refused_solve, false;
+      for (int p = 0; p < in.n_planes; ++p)
+        {
+          out.plane_force[p]    = b.plane_force(p);
+          out.plane_vertices[p] = b.plane_vertices(p);
+        }
+      for (int p = 0; p < in.n_probes; ++p)
+        out.probe_force[p] = {0, 0, 0}, out.probe_active[p] = false;
+      for (int i = 0; i < n_probes; ++i)
+        {
+          const int   p = s.reduced_probe_of[i];
+          const auto &f = b.probe_force(i);
+          out.probe_force[p]        = f;
+          out.probe_displacement[p] = b.probe_displacement(i);
+          out.probe_active[p]       = f[0] != 0 || f[1] != 0 || f[2] != 0;
+        }
+      return true;
+    }
+
     template <class Deformation>
     void
     rigid_results(const FreeBody<Deformation> &b, StepOutput &out)
@@ -546,6 +663,8 @@ namespace irdm
           s.runtime.emplace<RepresentativeInteraction>(d.representative);
         else if (d.kind == "state_space")
           s.runtime.emplace<StateSpaceInteraction>(d.state_space, contact);
+        else if (d.kind == "reduced_nonlinear")
+          s.runtime.emplace<ReducedNonlinearBody>(d.reduced);
         else
           s.runtime.emplace<PlaneInteraction>(d.virtual_dofs,
                                               o.interpolate_orientations
@@ -700,6 +819,8 @@ namespace irdm
       return b->energy();
     if (const auto *v = std::get_if<FreeBodyVirtualDofs>(&state_->runtime))
       return v->energy();
+    if (const auto *r = std::get_if<ReducedNonlinearBody>(&state_->runtime))
+      return r->energy();
     return 0;
   }
 
@@ -732,6 +853,13 @@ namespace irdm
   {
     const VertexContact *c = vertex_contact_of(*state_);
     return c ? c->limited_steps() : 0;
+  }
+
+  unsigned long
+  Body::unconverged_steps() const
+  {
+    const auto *r = std::get_if<ReducedNonlinearBody>(&state_->runtime);
+    return r ? r->failed_steps() : 0;
   }
 
   unsigned long

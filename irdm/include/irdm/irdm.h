@@ -39,8 +39,9 @@ namespace irdm
 
   struct SurfaceState;
 
-  /// A model file written by `irdm precompute` (impulse responses, with or without H),
-  /// `irdm precompute-vdof` (virtual DOFs) or `irdm compress` (representative waveforms).
+  /// A model file written by `irdm precompute` (impulse responses, with or without H; with
+  /// --reduced a reduced nonlinear model), `irdm precompute-vdof` (virtual DOFs) or
+  /// `irdm compress` (representative waveforms).
   /// Copies share the loaded data; it is read-only once loaded.
   class Model
   {
@@ -49,8 +50,8 @@ namespace irdm
     static Model
     load(const std::string &path, const ModelOptions &options = {});
 
-    /// "modal", "direct", "representative", "state_space" (irdm compress --method era) or
-    /// "virtual_dof".
+    /// "modal", "direct", "representative", "state_space" (irdm compress --method era),
+    /// "virtual_dof" or "reduced_nonlinear" (irdm precompute --reduced).
     const std::string &
     kind() const;
     bool
@@ -64,7 +65,8 @@ namespace irdm
     const std::vector<std::array<unsigned, 3>> &
     triangles() const;
     /// Whether a probe or an applied force may act at vertex v (it is one of the model's
-    /// inputs). A virtual-DOF model takes planes only: false everywhere.
+    /// inputs; a reduced nonlinear model: any surface vertex with a free DoF). A virtual-DOF
+    /// model takes planes only: false everywhere.
     bool
     can_push(unsigned v) const;
     /// A free body's mass (kg) and centre of mass (m, model frame); 0 for a grounded one.
@@ -144,7 +146,9 @@ namespace irdm
   /// body probes, or planes and applied forces (the direct and state-space kinds: planes
   /// only); a representative model
   /// probes; a free modal body planes and applied forces; a virtual-DOF model planes (at
-  /// most 4). Anything else is refused (Body::step returns false and says why).
+  /// most 4); a reduced nonlinear body planes (no plate coupling), applied forces and probes
+  /// through a virtual coupling, all in one step. Anything else is refused (Body::step
+  /// returns false and says why).
   struct StepInput
   {
     static constexpr int max_probes = 4, max_planes = 8, max_forces = 16;
@@ -269,6 +273,10 @@ namespace irdm
     /// steps taken, not refused; 0 for a body without many-vertex contact.
     unsigned long
     contact_limited_steps() const;
+    /// A reduced nonlinear body's steps where Newton did not converge (taken all the same,
+    /// from its best iterate, after the step was solved again in up to 16 parts); 0 otherwise.
+    unsigned long
+    unconverged_steps() const;
     unsigned long
     contact_fallback_steps() const;
 

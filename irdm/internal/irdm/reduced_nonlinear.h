@@ -67,11 +67,13 @@ namespace irdm
   load_reduced_nonlinear_model(const std::string &path, double expected_time_step = 0);
 
   /// A rigid frictionless plane for one step: normal (unit, toward the body), a point of it
-  /// at the step's end (m, model frame), and the penalty (Pa/m; 0: the model's default).
+  /// at the step's end (m, model frame), and the penalty (Pa/m times each vertex's lumped
+  /// area; 0: the model's default) or a stiffness per vertex.
   struct ReducedPlane
   {
     std::array<double, 3> normal{0, 0, 1}, point{0, 0, 0};
-    double                penalty = 0;
+    double                penalty   = 0;
+    double                stiffness = 0; // N/m per vertex (> 0: instead of the penalty)
   };
 
   /// A known force on a surface vertex (index into the model's surface) at the end of a step
