@@ -235,13 +235,13 @@ namespace irdm
     const auto row = [&](const unsigned v, const int d) {
       return Eigen::Map<const Eigen::RowVectorXd>(&m_.basis[(3 * static_cast<size_t>(v) + d) * r_], r_);
     };
-    element_basis_.resize(12 * Eigen::Index(m_.cubature_elements.size()), r_);
+    element_basis_.resize(r_, 12 * Eigen::Index(m_.cubature_elements.size()));
     for (size_t k = 0; k < m_.cubature_elements.size(); ++k)
       {
         const unsigned e = m_.cubature_elements[k];
         for (int i = 0; i < 4; ++i)
           for (int d = 0; d < 3; ++d)
-            element_basis_.row(12 * Eigen::Index(k) + 3 * i + d) = row(m_.tetrahedra[e][i], d);
+            element_basis_.col(12 * Eigen::Index(k) + 3 * i + d) = row(m_.tetrahedra[e][i], d).transpose();
         element_.push_back(m_.elements[e]);
         weight_.push_back(m_.cubature_weights[k]);
       }
@@ -261,10 +261,7 @@ namespace irdm
     for (Vector *x : {&q_, &v_, &a_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
                       &r_trial_, &dq_, &g_c_trial_, &best_, &g_int_, &Un_, &g_f_, &g_f_new_, &g_f_end_, &q0_, &v0_, &a0_, &g_c0_, &g_f0_})
       x->setZero(r_);
-    element_basis_t_ = element_basis_.transpose();
-    KU_.setZero(12, r_);
-    for (Vector *x : {&u_all_, &v_all_, &f_all_})
-      x->setZero(element_basis_.rows());
+    KU_.setZero(r_, 12);
     for (Matrix *T : {&body_tangent_, &contact_tangent_, &tangent_})
       T->setZero(r_, r_);
     for (auto &B : probe_basis_)
@@ -333,32 +330,29 @@ namespace irdm
     const double c_m = (1 - am) / (b * h * h), c_c = (1 - af) * g / (b * h);
     res = (1 - am) * a1_ + am * a_ + m_.rayleigh_alpha * v_af_;
     scale_ = res.norm();
+    g_int_.setZero();
     if (T)
       {
         T->setZero();
         T->diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
       }
-    // Every cubature element's displacement and velocity in one pass over U's rows each;
-    // their forces, weighted, back in one.
-    u_all_.noalias() = element_basis_t_.transpose() * q_af_;
-    if (m_.rayleigh_beta != 0)
-      v_all_.noalias() = element_basis_t_.transpose() * v_af_;
+    // Element by element: its 12 columns of U^T (contiguous, read from memory once and then
+    // from the cache) give its displacement and velocity and take back its force.
     bool              ok = true;
-    elastic::Vector12 f_e, d_e;
+    elastic::Vector12 u_e, v_e, f_e, d_e;
     elastic::Matrix12 K_e, D_e;
     for (size_t k = 0; k < element_.size(); ++k)
       {
-        const Eigen::Index row = 12 * Eigen::Index(k);
-        const elastic::Vector12 u_e = u_all_.segment<12>(row);
+        const auto Ut = element_basis_.middleCols<12>(12 * Eigen::Index(k));
+        u_e.noalias() = Ut.transpose() * q_af_;
         if (!elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, T ? &K_e : nullptr))
           {
             ok = false;
-            f_all_.segment<12>(row).setZero();
             continue;
           }
         if (m_.rayleigh_beta != 0)
           {
-            const elastic::Vector12 v_e = v_all_.segment<12>(row);
+            v_e.noalias() = Ut.transpose() * v_af_;
             elastic::objective_damping_force(element_[k], u_e, v_e, m_.mu, m_.lambda, d_e, T ? &D_e : nullptr);
             f_e += m_.rayleigh_beta * d_e;
             if (T)
@@ -366,16 +360,14 @@ namespace irdm
           }
         else if (T)
           K_e *= 1 - af;
-        f_all_.segment<12>(row) = weight_[k] * f_e;
+        g_int_.noalias() += Ut * (weight_[k] * f_e);
         if (T)
           {
             // Symmetric: the lower triangle alone, half the product's work.
-            const auto U  = element_basis_.middleRows<12>(row);
-            KU_.noalias() = (weight_[k] * K_e) * U;
-            T->triangularView<Eigen::Lower>() += U.transpose() * KU_;
+            KU_.noalias() = Ut * (weight_[k] * K_e);
+            T->triangularView<Eigen::Lower>() += KU_ * Ut.transpose();
           }
       }
-    g_int_.noalias() = element_basis_.transpose() * f_all_;
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
     // area, force k A g n where it has passed the plane by g).
     g_c.setZero();
@@ -655,7 +647,7 @@ namespace irdm
     for (size_t k = 0; k < element_.size(); ++k)
       {
         double w_e = 0;
-        u_e.noalias() = element_basis_.middleRows<12>(12 * Eigen::Index(k)) * q;
+        u_e.noalias() = element_basis_.middleCols<12>(12 * Eigen::Index(k)).transpose() * q;
         if (elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, nullptr, &w_e))
           W += weight_[k] * w_e;
       }

@@ -217,11 +217,9 @@ namespace irdm
     const ReducedNonlinearModel &m_;
     ReducedBodyOptions           options_;
     unsigned                     r_ = 0;
-    // The cubature elements' rows of U (12 per element, one after another), each element's
-    // tetrahedron and weight, and their displacements, velocities and weighted forces.
+    // The cubature elements' rows of U as columns of U^T (12 per element, one after another:
+    // each element's block contiguous), each element's tetrahedron and weight.
     Matrix                            element_basis_;
-    Matrix                            element_basis_t_; // its transpose: U q as dot products
-    Vector                            u_all_, v_all_, f_all_;
     std::vector<elastic::Tetrahedron> element_;
     std::vector<double>               weight_;
     // Per surface vertex with a free DoF: U_s (3 x r, rows of fixed DoFs zero), X_s, area.
@@ -258,7 +256,7 @@ namespace irdm
     Matrix body_tangent_, contact_tangent_, tangent_;
     double body_tangent_h_ = 0; // 0: none yet
     unsigned long tangent_evaluations_ = 0;
-    Eigen::Matrix<double, 12, Eigen::Dynamic> KU_; // an element's w_e K_e U_e
+    Eigen::Matrix<double, Eigen::Dynamic, 12> KU_; // an element's U_e^T w_e K_e
     Eigen::LDLT<Matrix> solver_;
     std::array<std::array<double, 3>, max_planes> plane_force_{}, trial_force_{};
     std::array<int, max_planes>                   plane_vertices_{}, trial_vertices_{};
