@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# The reduced nonlinear model's haptic figures (reports/reduced; docs/reduced-model.md): the
+# models, the deformation step's benchmark (Newton beside the kept tangent), the two loops of
+# `irdm play` on a press of the head, and the map's grounded family with the reduced models
+# against the P1 neo-Hookean truth. Run on a quiet machine: the timings are the point.
+# Usage: scripts/reduced_report.sh [report dir]   (default reports/reduced)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=${1:-reports/reduced}
+models=out/models/reduced
+mkdir -p "$models" "$out" out/models/quick
+irdm=build/apps/irdm
+# The models (each made once): r = 82, the first basis; r = 222, more modes with their
+# derivatives. Both with the default cubature (1 % training residual).
+[ -f $models/cat_top.h5 ] ||
+  $irdm precompute validation/scenes/reduced/cat_top.json --reduced --basis 82 --out $models/cat_top.h5
+[ -f $models/cat_top_r222.h5 ] ||
+  $irdm precompute validation/scenes/reduced/cat_top.json --reduced --modes 100 --derivative-modes 60 \
+    --basis 222 --out $models/cat_top_r222.h5
+for m in cat_top cat_top_r222; do
+  # The deformation step on one core: a top press going between 0 and 5 mm.
+  build/benchmarks/irdm_reduced_kernels $models/$m.h5 0.005 --benchmark_min_time=2 \
+    --benchmark_repetitions=3 --benchmark_color=false > "$out/kernels_$m.txt"
+  # The two loops in real time, the force loop at the model's rate and at 1 kHz.
+  for rate in 500 1000; do
+    $irdm play $models/$m.h5 --trajectory examples/trajectories/press_head.csv \
+      --coupling-stiffness 50 --coupling-damping 0.05 --rate-hz $rate --quiet \
+      --out "$out/play_${m}_${rate}hz" > /dev/null || [ $? -eq 3 ] # 3: deadlines missed, reported
+  done
+done
+# The map's grounded family (presses and side impacts) with the reduced models, against the
+# P1 truth (the P2 truth is the map's own: reports/nonlinear).
+$irdm validate-nonlinear --families planes --model out/models/quick/cat_vdof.h5 --subdivisions 1 \
+  --vertex-model out/models/quick/cat_vertex.h5 --converged-cases none \
+  --reduced-model $models/cat_top.h5 $models/cat_top_r222.h5 --out "$out"
