@@ -53,29 +53,6 @@ namespace irdm::play
   {
     namespace fs = std::filesystem;
 
-    // Outward unit normal at an output vertex: the area-weighted mean of its triangles'.
-    Vec3
-    vertex_normal(const ModelFrame &m, const unsigned v)
-    {
-      Vec3 n{0, 0, 0};
-      for (const auto &tri : m.triangles)
-        if (tri[0] == v || tri[1] == v || tri[2] == v)
-          {
-            const auto &a = m.output_coordinates[tri[0]], &b = m.output_coordinates[tri[1]],
-                       &c = m.output_coordinates[tri[2]];
-            const Vec3 e{b[0] - a[0], b[1] - a[1], b[2] - a[2]},
-              f{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-            n[0] += e[1] * f[2] - e[2] * f[1];
-            n[1] += e[2] * f[0] - e[0] * f[2];
-            n[2] += e[0] * f[1] - e[1] * f[0];
-          }
-      const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-      if (!(l > 0))
-        throw InputError("play: vertex " + std::to_string(v) + " lies on no model triangle");
-      return {n[0] / l, n[1] / l, n[2] / l};
-    }
-
-
     // The surface as an ASCII VTU: deformed points, triangles, and the displacement (m).
     std::string
     vtu(const ModelFrame &m, const double *u)
@@ -226,7 +203,7 @@ namespace irdm::play
         throw InputError("--rate-hz must be at most 100000");
       s.speed  = s.rate * s.tau; // trajectory time per real time
       s.vertex = probed_vertex(o, s.model, s.trajectory);
-      s.normal = vertex_normal(s.model, s.vertex);
+      s.normal = outward_normal(s.model.output_coordinates, s.model.triangles, s.vertex);
       s.rest   = s.model.output_coordinates[s.vertex];
       s.duration = s.trajectory.time.back() - s.trajectory.time.front();
       s.n_steps  = static_cast<long>(std::floor(s.duration / s.tau + 1e-9));

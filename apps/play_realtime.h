@@ -294,4 +294,24 @@ namespace irdm::play
       return c;
     }
   };
+  // Outward unit normal at a surface vertex: the area-weighted mean of its triangles'.
+  inline Vec3
+  outward_normal(const std::vector<Vec3> &X, const std::vector<std::array<unsigned, 3>> &triangles,
+                 const unsigned v)
+  {
+    Vec3 n{0, 0, 0};
+    for (const auto &t : triangles)
+      if (t[0] == v || t[1] == v || t[2] == v)
+        {
+          const Vec3 &a = X[t[0]], &b = X[t[1]], &c = X[t[2]];
+          const Vec3  e{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, f{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+          n[0] += e[1] * f[2] - e[2] * f[1];
+          n[1] += e[2] * f[0] - e[0] * f[2];
+          n[2] += e[0] * f[1] - e[1] * f[0];
+        }
+    const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(l > 0))
+      throw InputError("play: vertex " + std::to_string(v) + " lies on no surface triangle");
+    return {n[0] / l, n[1] / l, n[2] / l};
+  }
 } // namespace irdm::play

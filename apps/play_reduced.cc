@@ -54,26 +54,6 @@ namespace irdm::play
       std::vector<long>           window_end; // per deformation step: its last tick + 1
     };
 
-    /// Outward unit normal at a surface vertex: the area-weighted mean of its triangles'.
-    Vec3
-    surface_normal(const ReducedNonlinearModel &m, const unsigned v)
-    {
-      Vec3 n{0, 0, 0};
-      for (const auto &t : m.triangles)
-        if (t[0] == v || t[1] == v || t[2] == v)
-          {
-            const auto &a = m.coordinates[t[0]], &b = m.coordinates[t[1]], &c = m.coordinates[t[2]];
-            const Vec3  e{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, f{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-            n[0] += e[1] * f[2] - e[2] * f[1];
-            n[1] += e[2] * f[0] - e[0] * f[2];
-            n[2] += e[0] * f[1] - e[1] * f[0];
-          }
-      const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-      if (!(l > 0))
-        throw InputError("play: surface vertex " + std::to_string(v) + " lies on no triangle");
-      return {n[0] / l, n[1] / l, n[2] / l};
-    }
-
     /// The probed vertex (given, or the free surface vertex nearest the first sample) and
     /// every tick's target: the device's motion since it crossed the rest surface while behind
     /// it, pushing along the inward normal.
@@ -111,7 +91,7 @@ namespace irdm::play
                   best = d, s.vertex = v;
               }
         }
-      s.normal   = surface_normal(s.model, s.vertex);
+      s.normal   = outward_normal(s.model.coordinates, s.model.triangles, s.vertex);
       s.rest     = X[s.vertex];
       s.duration = s.trajectory.time.back() - s.trajectory.time.front();
       s.n_steps  = static_cast<long>(std::floor(s.duration / s.tau + 1e-9));

@@ -339,6 +339,24 @@ TEST(Cli, SimulateRunsLinearPlanesByVertexContact)
   EXPECT_NEAR(n[1], 0.5 / std::sqrt(2.5), 1e-15);
 }
 
+namespace
+{
+  // irdm play's summary.csv: its one row by column name (empty if it cannot be read).
+  std::map<std::string, double>
+  play_summary(const std::string &dir)
+  {
+    std::ifstream                 csv(fs::path(dir) / "summary.csv");
+    std::string                   header, row;
+    std::map<std::string, double> v;
+    if (!std::getline(csv, header) || !std::getline(csv, row))
+      return v;
+    std::stringstream h(header), r(row);
+    for (std::string name, value; std::getline(h, name, ',') && std::getline(r, value, ',');)
+      v[name] = std::stod(value);
+    return v;
+  }
+} // namespace
+
 // irdm play on the beam: both loops run, the files other programs read are there with their
 // columns, and with every mode in the force loop the real-time forces are the offline replay's
 // (force_error 0: the threads change nothing). A bad trajectory is refused (exit 2).
@@ -355,13 +373,9 @@ TEST(Cli, PlayRunsBothLoopsAndMatchesTheOfflineReplay)
                            " --rate-hz 2000 --display-hz 200 --frames 3 --quiet --out " + dir;
   const int s = status(play + " --trajectory " + trajectory);
   EXPECT_TRUE(s == 0 || s == 3) << s; // 3: more than 0.1 % of deadlines missed (a busy machine)
-  std::ifstream csv(fs::path(dir) / "summary.csv");
-  std::string   header, row;
-  ASSERT_TRUE(std::getline(csv, header) && std::getline(csv, row));
-  std::map<std::string, double> v;
-  std::stringstream             h(header), r(row);
-  for (std::string name, value; std::getline(h, name, ',') && std::getline(r, value, ',');)
-    v[name] = std::stod(value);
+  std::map<std::string, double> v = play_summary(dir);
+  ASSERT_FALSE(v.empty()) << "no summary.csv";
+  std::string header;
   EXPECT_EQ(v["steps"], 100);
   EXPECT_NE(v["baseline_missed"], -1); // the baseline ran
   EXPECT_NE(v["force_error"], -1);     // the offline replay ran, and the loop matches it
@@ -451,13 +465,9 @@ TEST(Cli, PlayRunsTheReducedModelsTwoLoops)
   EXPECT_EQ(status(play + "_refused"), 2) << "a reduced model needs a coupling";
   const int s = status(play + " --coupling-stiffness 100 --coupling-damping 0.2");
   EXPECT_TRUE(s == 0 || s == 3) << s; // 3: more than 0.1 % of deadlines missed (a busy machine)
-  std::ifstream csv(fs::path(dir) / "summary.csv");
-  std::string   header, row;
-  ASSERT_TRUE(std::getline(csv, header) && std::getline(csv, row));
-  std::map<std::string, double> v;
-  std::stringstream             h(header), r(row);
-  for (std::string name, value; std::getline(h, name, ',') && std::getline(r, value, ',');)
-    v[name] = std::stod(value);
+  std::map<std::string, double> v = play_summary(dir);
+  ASSERT_FALSE(v.empty()) << "no summary.csv";
+  std::string header;
   EXPECT_EQ(v["steps"], 200);
   EXPECT_EQ(v["deformation_steps"], 100);
   EXPECT_GT(v["peak_force_N"], 1e-3) << "the coupling pressed the beam";
