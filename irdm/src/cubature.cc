@@ -13,13 +13,19 @@ namespace irdm
   namespace
   {
     // Lawson and Hanson's active-set method on the normal equations (AtA, Atb): the passive
-    // set's subproblem is a small Cholesky solve.
+    // set's subproblem is a small Cholesky solve. A start (non-negative; its positive entries
+    // the first passive set) saves the outer iterations a nearby problem already made.
     Eigen::VectorXd
-    nnls_normal(const Eigen::MatrixXd &AtA, const Eigen::VectorXd &Atb)
+    nnls_normal(const Eigen::MatrixXd &AtA, const Eigen::VectorXd &Atb,
+                const Eigen::VectorXd &start = Eigen::VectorXd())
     {
       const Eigen::Index n = Atb.size();
       Eigen::VectorXd    x = Eigen::VectorXd::Zero(n), z(n);
       std::vector<char>  passive(n, 0);
+      if (start.size() == n)
+        for (Eigen::Index i = 0; i < n; ++i)
+          if (start(i) > 0)
+            x(i) = start(i), passive[i] = 1;
       const double       tol = 1e-12 * std::max(Atb.cwiseAbs().maxCoeff(), 1e-300);
       const auto solve_passive = [&]() {
         std::vector<Eigen::Index> P;
@@ -172,8 +178,12 @@ namespace irdm
     c.n_states = static_cast<unsigned>(rows / r);
     std::vector<char> chosen(E, 0);
     Eigen::VectorXd   residual = b, w;
-    Eigen::MatrixXd   GS(rows, 0);
-    const double      b_norm = b.norm();
+    // The chosen columns' normal equations, grown by one row and column per element (never
+    // formed again from the columns: that is O(rows n^2) per element).
+    const Eigen::Index capacity = std::min<Eigen::Index>(o.max_elements, E);
+    Eigen::MatrixXd    gram(capacity, capacity);
+    Eigen::VectorXd    Gtb(capacity);
+    const double       b_norm = b.norm();
     while (c.elements.size() < std::min<size_t>(o.max_elements, E))
       {
         c.training_error = residual.norm() / b_norm;
@@ -187,12 +197,21 @@ namespace irdm
             best = e;
         if (best < 0 || !(score(best) > 0))
           break; // no element moves the residual any more
-        chosen[best] = 1;
+        chosen[best]         = 1;
+        const Eigen::Index n = static_cast<Eigen::Index>(c.elements.size());
         c.elements.push_back(static_cast<unsigned>(best));
-        GS.conservativeResize(Eigen::NoChange, GS.cols() + 1);
-        GS.col(GS.cols() - 1) = G.col(best);
-        w        = nnls_normal(GS.transpose() * GS, GS.transpose() * b);
-        residual = b - GS * w;
+        for (Eigen::Index i = 0; i < n; ++i)
+          gram(i, n) = gram(n, i) = G.col(c.elements[i]).dot(G.col(best));
+        gram(n, n) = G.col(best).squaredNorm();
+        Gtb(n)     = G.col(best).dot(b);
+        Eigen::VectorXd start(n + 1);
+        start.head(n) = w.size() == n ? w : Eigen::VectorXd::Zero(n);
+        start(n)      = 0;
+        w             = nnls_normal(gram.topLeftCorner(n + 1, n + 1), Gtb.head(n + 1), start);
+        residual      = b;
+        for (Eigen::Index i = 0; i <= n; ++i)
+          if (w(i) > 0)
+            residual -= w(i) * G.col(c.elements[i]);
       }
     c.training_error = residual.norm() / b_norm;
     // Elements whose weight came out zero are left out.
