@@ -131,10 +131,13 @@ namespace irdm::play
         s.window_end[k] = std::min(s.n_ticks, static_cast<long>(std::floor((k + 1) * s.tau * s.rate + 1e-9)));
     }
 
-    /// The mean force of ticks [from, to) (N); zero for none.
+    /// The mean force of ticks [from, to) (N); a window without a tick (a force loop slower
+    /// than the deformation loop) holds the force before it.
     Vec3
-    mean_force(const std::vector<Vec3> &force, const long from, const long to)
+    mean_force(const std::vector<Vec3> &force, const long from, const long to, const Vec3 &before)
     {
+      if (to <= from)
+        return before;
       Vec3 f{0, 0, 0};
       for (long n = from; n < to; ++n)
         for (int d = 0; d < 3; ++d)
@@ -227,7 +230,7 @@ namespace irdm::play
             while (ticks_done.load(std::memory_order_acquire) < to)
               std::this_thread::sleep_for(std::chrono::microseconds(20));
             const std::int64_t t0 = now_ns();
-            r.step_force[k]       = mean_force(r.force, from, to);
+            r.step_force[k]       = mean_force(r.force, from, to, k > 0 ? r.step_force[k - 1] : Vec3{0, 0, 0});
             deformation_step(body, s, k, r.step_force[k], exchange.back());
             r.probed_u[k] = exchange.back().u;
             exchange.publish();
@@ -263,7 +266,7 @@ namespace irdm::play
           const long to = s.window_end[k];
           for (long n = from; n < to; ++n)
             tick[n] = s.present[n] > 0 ? coupling_force(c, predicted_time(s, n, c), s.targets[n]) : Vec3{0, 0, 0};
-          f.lockstep[k] = mean_force(tick, from, to);
+          f.lockstep[k] = mean_force(tick, from, to, k > 0 ? f.lockstep[k - 1] : Vec3{0, 0, 0});
           deformation_step(split, s, k, f.lockstep[k], c);
           ReducedProbe probe;
           probe.n_patch     = 1;

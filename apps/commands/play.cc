@@ -23,8 +23,12 @@ namespace irdm::cli
       "time. Writes DIR/forces.csv, histogram.csv, play.md (latency and jitter percentiles, "
       "missed deadlines, force error against the exact model) and surface/surface.pvd (VTU "
       "frames for ParaView). Exit 3 if more than 0.1 % of deadlines were missed. Example "
-      "trajectories: examples/trajectories/.");
-    play->add_option("model", po->model, "impulse-response model (HDF5, with its modes)")
+      "trajectories: examples/trajectories/. With a reduced nonlinear model (irdm precompute --reduced) "
+      "the loops are the seed's split on that body: the force loop solves a virtual coupling "
+      "(--coupling-stiffness required) against the probed point's local compliance, the "
+      "deformation loop takes the Newton step; writes DIR/forces.csv, deformation.csv, "
+      "summary.csv and play.md (docs/reduced-model.md).");
+    play->add_option("model", po->model, "impulse-response model (HDF5, with its modes), or a reduced nonlinear model")
       ->required()
       ->check(CLI::ExistingFile);
     play->add_option("--trajectory", po->trajectory, "device CSV: time_s,x_m,y_m,z_m (model frame, m)")
