@@ -12,9 +12,10 @@
 //   u(t) = u_k + v_k s + a_k s^2 / 2 + W (f - f_k),
 // and solves the virtual coupling's force against it, f = k (d - u(t)) + b (d' - v_k - a_k s):
 //   (I + k W) f = k (d - u_k - v_k s - a_k s^2 / 2 + W f_k) + b (d' - v_k - a_k s),
-// none where a unilateral coupling would pull. A 3 x 3 solve: no allocation, no lock.
+// none where a unilateral coupling would pull. A fixed-size 3 x 3 solve: no allocation, no lock.
+#include <Eigen/Dense>
+
 #include <array>
-#include <cmath>
 
 namespace irdm
 {
@@ -40,37 +41,16 @@ namespace irdm
   inline std::array<double, 3>
   coupling_force(const LocalCompliance &c, const double t, const CouplingTarget &g)
   {
-    const double k = g.stiffness, s = t - c.time;
-    double       A[3][3], y[3];
-    for (int i = 0; i < 3; ++i)
-      {
-        double Wf = 0;
-        for (int j = 0; j < 3; ++j)
-          {
-            A[i][j] = (i == j) + k * c.W[3 * i + j];
-            Wf += c.W[3 * i + j] * c.f[j];
-          }
-        y[i] = k * (g.d[i] - c.u[i] - c.v[i] * s - 0.5 * c.a[i] * s * s + Wf) +
-               g.damping * (g.d_dot[i] - c.v[i] - c.a[i] * s);
-      }
-    // Cramer's rule: A is I + k W with W symmetric positive semi-definite, never singular.
-    const double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
-                       A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
-                       A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
-    std::array<double, 3> f{};
-    for (int col = 0; col < 3; ++col)
-      {
-        double B[3][3];
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            B[i][j] = j == col ? y[i] : A[i][j];
-        f[col] = (B[0][0] * (B[1][1] * B[2][2] - B[1][2] * B[2][1]) -
-                  B[0][1] * (B[1][0] * B[2][2] - B[1][2] * B[2][0]) +
-                  B[0][2] * (B[1][0] * B[2][1] - B[1][1] * B[2][0])) /
-                 det;
-      }
-    if (g.unilateral && f[0] * g.direction[0] + f[1] * g.direction[1] + f[2] * g.direction[2] <= 0)
-      f = {0, 0, 0};
-    return f;
+    using V = Eigen::Vector3d;
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> W(c.W.data());
+    const Eigen::Map<const V> u(c.u.data()), v(c.v.data()), a(c.a.data()), f_k(c.f.data()),
+      d(g.d.data()), d_dot(g.d_dot.data()), n(g.direction.data());
+    const double    k = g.stiffness, s = t - c.time;
+    const V         y = k * (d - u - v * s - 0.5 * s * s * a + W * f_k) + g.damping * (d_dot - v - s * a);
+    // I + k W, with W symmetric positive semi-definite: symmetric positive definite.
+    const V f = (Eigen::Matrix3d::Identity() + k * W).ldlt().solve(y);
+    if (g.unilateral && f.dot(n) <= 0)
+      return {0, 0, 0};
+    return {f(0), f(1), f(2)};
   }
 } // namespace irdm
