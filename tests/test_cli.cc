@@ -11,9 +11,11 @@
 #include <reference_fem/reduced_model.h>
 
 #include "irdm_test_util.h"
+#include "nonlinear_map.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include <cstdlib>
@@ -93,6 +95,15 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
                    press_scene + " --converged-cases press_top_3mm --model " + tmp("vn_m.h5") +
                    " --vertex-model " + tmp("vn_v.h5")),
             2);
+  // P1 on the scene's own mesh is the truth itself; a converged mesh must exist.
+  EXPECT_EQ(status(cli + " validate-nonlinear --out " + tmp("vn") + " --families planes --scene " +
+                   press_scene + " --converged-degree 1 --model " + tmp("vn_m.h5") +
+                   " --vertex-model " + tmp("vn_v.h5")),
+            2);
+  EXPECT_EQ(status(cli + " validate-nonlinear --out " + tmp("vn") + " --families planes --scene " +
+                   press_scene + " --converged-mesh " + tmp("no_such.msh") + " --model " +
+                   tmp("vn_m.h5") + " --vertex-model " + tmp("vn_v.h5")),
+            2);
   EXPECT_EQ(status(cli + " validate-nonlinear --out " + tmp("vn") + " --scene " + press_scene +
                    " --free-scene " + free_scene + " --model " + tmp("vn_m.h5") + " --vertex-model " +
                    tmp("vn_v.h5") + " --materials 1000 2000 3000 --fem-divisions 1 2"),
@@ -137,6 +148,44 @@ TEST(Cli, ValidatePlanesNeverOverwritesAModelOfAnotherKind)
                    " --subdivisions 0 --length 10"),
             2);
   EXPECT_EQ(fem::file_hash(model), before);
+}
+
+// The converged truth on another mesh (--converged-mesh): given the scene's own mesh, no wall
+// moves (the same outermost point) and every surface vertex takes its own displacement (its
+// closest surface point is itself), so that truth is the P1 truth bit for bit: the P1 truth's row
+// against it is zero, and every method's row against it is its row against the P1 truth.
+TEST(Cli, AConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
+{
+  using namespace irdm::validation::nonlinear;
+  const std::string out = tmp("cli_cm");
+  fs::remove_all(out);
+  ASSERT_EQ(status(std::string(IRDM_CLI) + " validate-nonlinear --families planes --scene " +
+                   write_scene("cli_cm", "") + " --model " + tmp("cli_cm_v.h5") +
+                   " --vertex-model " + tmp("cli_cm_x.h5") +
+                   " --subdivisions 1 --length 20 --no-direct --press-directions top "
+                   "--press-depths 0.001 --impact-speeds none --converged-cases press_top_1mm "
+                   "--converged-mesh " IRDM_MESH_DIR "/beam_2.msh --out " + out),
+            0);
+  const std::vector<MapRow> best = read_rows(out + "/nonlinear/nonlinear.csv");
+  const std::vector<MapRow> p1   = read_rows(out + "/nonlinear/against_p1.csv");
+  ASSERT_EQ(best.size(), p1.size() + 1); // and the P1 truth's own row
+  for (const MapRow &r : best)
+    {
+      EXPECT_EQ(r.truth, "fem_neo_hookean_p1_beam_2");
+      if (r.method == p1_truth)
+        {
+          EXPECT_EQ(r.force_error, 0);
+          EXPECT_EQ(r.displacement_error, 0);
+          continue;
+        }
+      const auto same = std::find_if(p1.begin(), p1.end(), [&](const MapRow &q) { return q.method == r.method; });
+      ASSERT_NE(same, p1.end()) << r.method;
+      EXPECT_EQ(r.force_error, same->force_error) << r.method;
+      EXPECT_EQ(r.impulse_error, same->impulse_error) << r.method;
+      EXPECT_EQ(r.displacement_error, same->displacement_error) << r.method;
+    }
+  for (const char *f : {"cli_cm_v.h5", "cli_cm_x.h5"})
+    fs::remove(tmp(f));
 }
 
 TEST(Cli, CommandsThatAreNotParallelAreRefusedUnderMpirun)

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <regex>
 #include <stdexcept>
 
@@ -161,4 +162,43 @@ TEST(NonlinearMap, LimitsUseATruthOnlyWhereItCoversTheWholeFamilyAndRowsRoundTri
     }
   std::ofstream(file) << "case,material\nx,y\n";
   EXPECT_THROW(read_rows(file), irdm::InputError);
+}
+
+// Each case is mapped against its best truth: a finer mesh's over P2 on the same mesh (which
+// refines the elements, not the faceted body) over P1; a family against a truth only where that
+// truth covers it.
+TEST(NonlinearMap, EachCaseIsMappedAgainstItsFinestTruth)
+{
+  using namespace irdm::validation::nonlinear;
+  EXPECT_EQ(truth_rank(p1_truth), 0);
+  EXPECT_EQ(truth_rank(p2_truth), 1);
+  EXPECT_EQ(truth_rank("fem_neo_hookean_p1_cat_fine"), 2);
+  EXPECT_EQ(truth_rank("fem_neo_hookean_p2_cat_fine"), 2);
+  std::vector<MapRow> rows;
+  const auto add = [&](const std::string &c, const double load, const std::string &truth) {
+    MapRow r;
+    r.c = c, r.material = "2kPa", r.method = "m", r.family = "press_side", r.load = load;
+    r.truth = truth, r.displacement_error = r.force_error = r.impulse_error = 0.01;
+    rows.push_back(r);
+  };
+  add("a", 0.01, p1_truth);
+  add("b", 0.04, p1_truth);
+  add("a", 0.01, "fem_neo_hookean_p1_cat_fine");
+  add("a", 0.01, p2_truth);
+  add("b", 0.04, p2_truth);
+  const std::string dir = IRDM_TEST_TMP "/nonlinear_best";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  write_csvs(dir, rows);
+  const std::vector<MapRow> best = read_rows(dir + "/nonlinear.csv");
+  ASSERT_EQ(best.size(), 2u);
+  EXPECT_EQ(best[0].c + " " + best[0].truth, "a fem_neo_hookean_p1_cat_fine");
+  EXPECT_EQ(best[1].c + " " + best[1].truth, "b " + std::string(p2_truth));
+  EXPECT_EQ(read_rows(dir + "/against_p1.csv").size(), 2u);
+  // The limits: against P2 (it covers the family) and P1, not against the finer mesh (one case).
+  std::ifstream limits(dir + "/limits.csv");
+  const std::string text((std::istreambuf_iterator<char>(limits)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find(std::string(",") + p2_truth + ","), std::string::npos);
+  EXPECT_NE(text.find(std::string(",") + p1_truth + ","), std::string::npos);
+  EXPECT_EQ(text.find("cat_fine"), std::string::npos);
 }

@@ -76,8 +76,17 @@ namespace irdm::cli
       list_or_none(app, "--impact-speeds", o.impact_speeds, "m/s; the side impacts (2 mm deep)")
         ->check(CLI::Range(1e-3, 10.0) | CLI::IsMember({"none"}));
       list_or_none(app, "--converged-cases", p.converged_cases,
-                   "grounded cases also run by the P2 truth (case names as in nonlinear.csv, for "
-                   "example press_top_5mm); their rows are against it");
+                   "grounded cases also run by the converged truth (case names as in "
+                   "nonlinear.csv, for example press_side_5mm); their rows are against it");
+      app.add_option("--converged-mesh", p.converged_mesh,
+                     "the converged truth on this finer gmsh mesh of the body (for example "
+                     "meshes/cat_fine.msh; each wall's depth from its own outermost point) in "
+                     "place of P2 on the scene's mesh")
+        ->check(CLI::ExistingFile);
+      app.add_option("--converged-degree", p.converged_degree,
+                     "the converged truth's element degree (default: 2 on the scene's mesh, 1 "
+                     "with --converged-mesh)")
+        ->check(CLI::IsMember({1u, 2u}));
     }
 
     /// The free cat's sweeps and models (the free-body study's).
@@ -126,8 +135,8 @@ namespace irdm::cli
       "the small-strain and corotational FEM laws, against the neo-Hookean truth), and the free "
       "cat's (impacts at --free-impact-speeds, --drops, each of --materials) through the free "
       "study's (irdm validate-free: both routes, virtual DOFs, the body-frame linear and the "
-      "corotational FEM). Rows are against the P2 truth on the converged cases, the P1 truth "
-      "elsewhere (column truth). --families runs one family and keeps the other's rows from the "
+      "corotational FEM). Rows are against the converged truth on --converged-cases (P2 on the "
+      "scene's mesh, or --converged-mesh), the P1 truth elsewhere (column truth). --families runs one family and keeps the other's rows from the "
       "last run in DIR/nonlinear; --families none redraws the report from them. Writes "
       "DIR/nonlinear/nonlinear.csv (case,material,method,force_error,impulse_error,"
       "displacement_error,deformation_error,largest_strain,us_per_step,fem_ms_per_step,stable,"
@@ -140,8 +149,10 @@ namespace irdm::cli
       ->check(CLI::IsMember({"planes", "free", "none"}));
     add_plane_options(*vn, *o);
     add_free_options(*vn, *o);
-    return {vn, [o] {
+    return {vn, [o, vn] {
               irdm::check_output_folder("--out", o->report_dir);
+              if (!o->planes.converged_mesh.empty() && vn->count("--converged-degree") == 0)
+                o->planes.converged_degree = 1;
               o->plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_nonlinear.py";
               o->command     = invocation();
               irdm::validation::run_nonlinear_validation(*o, std::cout);

@@ -80,18 +80,26 @@ namespace irdm::cli
       ->capture_default_str();
     validate_planes->add_option("--converged-degree", vp->converged_degree,
                                 "the truth's own discretization error: on --converged-cases, the "
-                                "nonlinear FEM again with P2 elements on the same mesh, and every "
-                                "run scored against it beside the P1 truth (converged.csv); 0: not run")
-      ->capture_default_str()
-      ->check(CLI::IsMember({0u, 2u}));
+                                "nonlinear FEM again with elements of this degree on the same "
+                                "mesh or on --converged-mesh, and every run scored against it "
+                                "beside the P1 truth (converged.csv); 0: not run (default: 2, "
+                                "1 with --converged-mesh)")
+      ->check(CLI::IsMember({0u, 1u, 2u}));
+    validate_planes->add_option("--converged-mesh", vp->converged_mesh,
+                                "the converged truth on this finer gmsh mesh of the body (for "
+                                "example meshes/cat_fine.msh; each wall's depth from its own "
+                                "outermost point)")
+      ->check(CLI::ExistingFile);
     validate_planes->add_option("--converged-cases", vp->converged_cases,
                                 "the cases of --converged-degree")
       ->capture_default_str();
     validate_planes->add_flag("--quick", vp->quick,
                               "15 of the 22 cases: every kind and the sweep's cases, at fewer "
                               "depths and speeds (the main job's default)");
-    return {validate_planes, [vp] {
+    return {validate_planes, [vp, validate_planes] {
                irdm::check_output_folder("--out", vp->report_dir);
+               if (!vp->converged_mesh.empty() && validate_planes->count("--converged-degree") == 0)
+                 vp->converged_degree = 1;
                vp->plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_planes.py";
                irdm::validation::run_plane_validation(*vp, std::cout);
                return 0;

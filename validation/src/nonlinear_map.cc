@@ -37,10 +37,11 @@ namespace irdm::validation::nonlinear
       return hi - lo;
     }
 
-    /// A plane method's rows: against the P1 truth, and against the P2 truth where it ran.
+    /// A plane method's rows: against the P1 truth, and against the converged truth (named)
+    /// where it ran.
     void
     add_plane_rows(std::vector<MapRow> &rows, const MapRow &base, const planes::MethodResult &m,
-                   const double us_per_step, const bool converged)
+                   const double us_per_step, const std::string &converged)
     {
       if (!m.ran)
         return;
@@ -52,9 +53,9 @@ namespace irdm::validation::nonlinear
       r.impulse_error      = m.impulse_error;
       r.displacement_error = m.displacement_error;
       rows.push_back(r);
-      if (!converged || m.converged_force_error < 0)
+      if (converged.empty() || m.converged_force_error < 0)
         return;
-      r.truth              = p2_truth;
+      r.truth              = converged;
       r.force_error        = m.converged_force_error;
       r.impulse_error      = m.converged_impulse_error;
       r.displacement_error = m.converged_displacement_error;
@@ -62,7 +63,7 @@ namespace irdm::validation::nonlinear
     }
 
     /// One plane case's rows: every runtime method and every FEM law beside the truth, and the
-    /// P1 truth against the P2 truth where that ran.
+    /// P1 truth against the converged truth where that ran.
     void
     plane_rows(std::vector<MapRow> &rows, const planes::Row &pr, const std::string &material,
                const double load)
@@ -72,28 +73,28 @@ namespace irdm::validation::nonlinear
       base.c = pr.c.name, base.material = material, base.family = pr.c.kind, base.load = load;
       base.largest_strain  = pr.largest_strain;
       base.fem_ms_per_step = pr.fem_ms_per_step;
-      const bool p2        = pr.converged_degree == 2 && pr.truth_force_error >= 0;
+      const std::string converged = pr.truth_force_error >= 0 ? pr.converged_truth : "";
       for (size_t k = 0; k < planes::method_names.size(); ++k)
         {
           base.method = planes::method_names[k];
-          add_plane_rows(rows, base, pr.method[k], pr.method[k].force_us + pr.method[k].surface_us, p2);
+          add_plane_rows(rows, base, pr.method[k], pr.method[k].force_us + pr.method[k].surface_us, converged);
         }
       for (const auto &[name, m] : pr.reduced)
         {
           base.method = name;
-          add_plane_rows(rows, base, m, m.force_us + m.surface_us, p2);
+          add_plane_rows(rows, base, m, m.force_us + m.surface_us, converged);
         }
       base.method = "fem_linear_vertex_contact";
-      add_plane_rows(rows, base, pr.linear_fem, 1e6 * pr.linear_fem_seconds / N, p2);
+      add_plane_rows(rows, base, pr.linear_fem, 1e6 * pr.linear_fem_seconds / N, converged);
       base.method = "fem_small_strain";
-      add_plane_rows(rows, base, pr.linear_law, 1e3 * pr.linear_law_ms, p2);
+      add_plane_rows(rows, base, pr.linear_law, 1e3 * pr.linear_law_ms, converged);
       base.method = "fem_corotational";
-      add_plane_rows(rows, base, pr.corotational, 1e3 * pr.corotational_ms, p2);
-      if (p2)
+      add_plane_rows(rows, base, pr.corotational, 1e3 * pr.corotational_ms, converged);
+      if (!converged.empty())
         {
           MapRow t             = base;
           t.method             = p1_truth;
-          t.truth              = p2_truth;
+          t.truth              = converged;
           t.us_per_step        = 1e3 * pr.fem_ms_per_step;
           t.force_error        = pr.truth_force_error;
           t.impulse_error      = pr.truth_impulse_error;

@@ -27,7 +27,8 @@ namespace irdm::validation::nonlinear
     bool   stable          = true;
     // The scene family (press_top, press_side, press_between, impact_side, free_impact,
     // free_drop), its dimensionless load, and the truth the errors are against
-    // (fem_neo_hookean_p1, fem_neo_hookean_p2).
+    // (fem_neo_hookean_p1; fem_neo_hookean_p2, P2 on the same mesh; fem_neo_hookean_p1_<mesh>,
+    // a finer mesh's).
     std::string family;
     double      load = NAN;
     std::string truth;
@@ -43,12 +44,18 @@ namespace irdm::validation::nonlinear
   inline constexpr const char *p1_truth = "fem_neo_hookean_p1";
   inline constexpr const char *p2_truth = "fem_neo_hookean_p2";
 
+  /// How far a truth is from the converged body: 0 the P1 truth, 1 a higher degree on the same
+  /// mesh (fem_neo_hookean_p<d>), 2 another mesh (fem_neo_hookean_p<d>_<mesh>). Each case is
+  /// mapped against its highest.
+  int
+  truth_rank(const std::string &truth);
+
   /// The two scene families of a run, as --families names them.
   bool
   in_planes(const std::string &family);
 
-  /// Every row of the plane family's sweeps against the P1 truth, and against the P2 truth on
-  /// the cases where it ran (nonlinear_map.cc).
+  /// Every row of the plane family's sweeps against the P1 truth, and against the converged
+  /// truth on the cases where it ran (nonlinear_map.cc).
   std::vector<MapRow>
   run_plane_family(const NonlinearMapOptions &o, std::ostream &log);
 
@@ -98,7 +105,7 @@ namespace irdm::validation::nonlinear
   read_rows(const std::string &file);
 
   /// nonlinear.csv (each case against its best truth), against_p1.csv (every row against the
-  /// P1 truth) and limits.csv in dir, from every row (both truths).
+  /// P1 truth) and limits.csv in dir, from every row (every truth).
   void
   write_csvs(const std::string &dir, const std::vector<MapRow> &rows);
 

@@ -39,7 +39,7 @@ namespace irdm::validation
         return {};
       std::vector<MapRow> all = read_rows(p1.string()), kept;
       for (const MapRow &r : read_rows(best.string()))
-        if (r.truth == p2_truth)
+        if (r.truth != p1_truth)
           all.push_back(r);
       for (const MapRow &r : all)
         if (!runs(o, in_planes(r.family) ? "planes" : "free"))

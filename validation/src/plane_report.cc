@@ -223,7 +223,7 @@ namespace irdm::validation::planes
       std::ostringstream csv, md;
       csv << "case,method,force_error,impulse_error,displacement_error,converged_force_error,"
              "converged_impulse_error,converged_displacement_error,converged_degree,"
-             "converged_dofs,converged_ms_per_step\n";
+             "converged_dofs,converged_ms_per_step,converged_truth\n";
       bool any = false;
       for (const auto &r : rows)
         {
@@ -231,7 +231,8 @@ namespace irdm::validation::planes
             continue;
           any               = true;
           const auto suffix = "," + std::to_string(r.converged_degree) + "," +
-                              std::to_string(r.converged_dofs) + "," + fmt(r.converged_ms) + "\n";
+                              std::to_string(r.converged_dofs) + "," + fmt(r.converged_ms) +
+                              "," + r.converged_truth + "\n";
           csv << r.c.name << ",fem_neo_hookean_p1,0,0,0," << r.truth_force_error << ","
               << r.truth_impulse_error << "," << r.truth_displacement_error << suffix;
           md << "| " << r.c.name << " | P1 truth (fem_neo_hookean) | 0 / 0 / 0 | "
@@ -510,6 +511,13 @@ namespace irdm::validation::planes
     v["converged_table"] = converged_results(dir, s.rows);
     v["converged"]       = v["converged_table"].empty() ? "" : "1";
     v["converged_degree"] = std::to_string(s.options.converged_degree);
+    v["converged_truth"]  = converged_truth_name(s.options);
+    v["same_mesh"]        = s.options.converged_mesh.empty() ? "1" : "";
+    v["converged_mesh"]   = s.options.converged_mesh;
+    double gap = 0;
+    for (const Row &r : s.rows)
+      gap = std::max(gap, r.converged_surface_gap);
+    v["surface_gap_mm"] = fmt(1e3 * gap);
     v["spread_table"]  = spread_table(s.rows);
     v["mapping_table"] = mapping_table(s.mapping);
     v["plate_table"]   = plate_table(s.plate);

@@ -5,9 +5,11 @@
 
 #include <irdm/point_interaction.h>
 #include <irdm_common/error.h>
+#include <irdm_common/geometry.h>
 #include <irdm_common/h5.h>
 #include <reference_fem/elastodynamics.h>
 #include <reference_fem/impulse_response.h>
+#include <reference_fem/mesh.h>
 #include <reference_fem/nonlinear_elasticity.h>
 #include <reference_fem/virtual_dof.h>
 
@@ -134,6 +136,13 @@ namespace irdm::validation::planes
           << m.modal.bytes() / 1e9 << " GB\n";
     }
 
+    /// The converged truth's series, on the truth's own steps and surface vertices.
+    struct ConvergedTruth
+    {
+      std::vector<double>              F;       // N, per step 0..N, along -d
+      std::vector<std::vector<double>> surface; // m, per step: 3 x the truth's surface vertices
+    };
+
     /// One case's truth: the nonlinear FEM, each wall the plane through w(t) d with normal
     /// -d, sampled at every step.
     struct Truth
@@ -145,10 +154,10 @@ namespace irdm::validation::planes
       unsigned       N = 0;
       std::shared_ptr<const fem::RunResult> run; // shared by the perturbed cases
       double         u_max = 0; // m, the FEM's largest surface displacement component
-      // The converged truth (the same walls, higher-degree elements on the same mesh, so the
-      // same surface vertices) and its force along -d per step; null where it did not run.
-      std::shared_ptr<const fem::RunResult> converged;
-      std::vector<double>                   F_converged;
+      // The converged truth (PlaneValidationOptions::converged_degree and converged_mesh), its
+      // force along -d per step and its surface displacement at this truth's surface vertices;
+      // null where it did not run.
+      std::shared_ptr<const ConvergedTruth> converged;
 
       double
       wall_at(const size_t a, const double t) const
@@ -221,39 +230,135 @@ namespace irdm::validation::planes
       log << " " << since(t0) << " s; IRDM";
     }
 
-    /// The converged truth: the truth's scene with elements of the given degree on the same
-    /// mesh, and the P1 truth against it.
+    /// The vertices of a mesh's free surface: of its boundary triangles, those on no fixed
+    /// surface (as a virtual-DOF model's free surface vertices).
+    std::vector<Vec3>
+    free_surface_vertices(const fem::TetMesh &mesh, const std::vector<std::string> &fixed)
+    {
+      std::vector<char> on_fixed(mesh.vertices.size(), 0), on_boundary(mesh.vertices.size(), 0);
+      std::vector<int>  fixed_tags;
+      for (const std::string &name : fixed)
+        fixed_tags.push_back(mesh.surface_tag(name));
+      for (size_t t = 0; t < mesh.triangles.size(); ++t)
+        {
+          const bool f = std::find(fixed_tags.begin(), fixed_tags.end(), mesh.triangle_tags[t]) !=
+                         fixed_tags.end();
+          for (const unsigned v : mesh.triangles[t])
+            (f ? on_fixed : on_boundary)[v] = 1;
+        }
+      std::vector<Vec3> x;
+      for (size_t v = 0; v < mesh.vertices.size(); ++v)
+        if (on_boundary[v] && !on_fixed[v])
+          x.push_back(mesh.vertices[v]);
+      return x;
+    }
+
+    /// The support max_i d . x_i of a vertex set (m): where a press of depth 0 puts its wall.
+    double
+    support(const std::vector<Vec3> &x, const Vec3 &d)
+    {
+      double h = -INFINITY;
+      for (const Vec3 &p : x)
+        h = std::max(h, dot(d, p));
+      return h;
+    }
+
+    /// The walls of scene s moved onto another mesh's body: each wall's depth measured from that
+    /// mesh's own outermost free point along the wall's direction, as the case's depth is from
+    /// the truth's (a finer mesh's facets reach out differently, and at a shallow press that
+    /// difference is the press).
     void
-    run_converged_truth(Truth &truth, const unsigned degree, Row &row, std::ostream &log)
+    walls_onto_mesh(fem::Scene &s, const Truth &truth, const std::string &mesh_file)
+    {
+      const auto from = free_surface_vertices(fem::read_gmsh(truth.scene.mesh_file), s.fixed_surfaces);
+      const auto to   = free_surface_vertices(fem::read_gmsh(mesh_file), s.fixed_surfaces);
+      for (size_t a = 0; a < s.planes.size(); ++a)
+        for (unsigned k = 0; k <= truth.N; ++k)
+          {
+            const Vec3   d     = direction(truth.c, a, k * truth.tau);
+            const double shift = support(to, d) - support(from, d);
+            for (int i = 0; i < 3; ++i)
+              s.planes[a].position.values[k][i] += shift * d[i];
+          }
+      s.mesh_file = mesh_file;
+    }
+
+    /// A run's surface displacement at another surface's vertices: each vertex takes that of the
+    /// run's surface point closest to it (barycentric on its triangle). `gap` returns the
+    /// largest distance from a vertex to the run's surface (m): the two faceted bodies'.
+    std::vector<std::vector<double>>
+    on_vertices(const fem::SurfaceMesh &to, const fem::RunResult &r, double &gap)
+    {
+      struct Weights
+      {
+        std::array<unsigned, 3> v;
+        std::array<double, 3>   w;
+      };
+      std::vector<Weights> at;
+      gap = 0;
+      for (const Vec3 &x : to.coordinates)
+        {
+          const auto p = geometry::closest_point(r.surface.coordinates, r.surface.triangles, x);
+          at.push_back({r.surface.triangles[p.triangle], p.weights});
+          gap = std::max(gap, std::sqrt(p.distance_squared));
+        }
+      std::vector<std::vector<double>> u(r.surface_displacement.size(),
+                                         std::vector<double>(3 * at.size(), 0.0));
+      for (size_t k = 0; k < u.size(); ++k)
+        for (size_t i = 0; i < at.size(); ++i)
+          for (int j = 0; j < 3; ++j)
+            for (int a = 0; a < 3; ++a)
+              u[k][3 * i + a] += at[i].w[j] * r.surface_displacement[k][3 * at[i].v[j] + a];
+      return u;
+    }
+
+    /// The converged truth: the truth's walls on elements of degree o.converged_degree, on the
+    /// same mesh or on o.converged_mesh (a finer one), and the P1 truth against it.
+    void
+    run_converged_truth(Truth &truth, const PlaneValidationOptions &o, Row &row, std::ostream &log)
     {
       fem::Scene s = truth.scene;
-      s.fe_degree  = degree;
-      log << " P" << degree << " FEM ..." << std::flush;
+      s.fe_degree  = o.converged_degree;
+      row.converged_truth = converged_truth_name(o);
+      log << " " << row.converged_truth << " ..." << std::flush;
       try
         {
+          if (!o.converged_mesh.empty())
+            walls_onto_mesh(s, truth, o.converged_mesh);
           const fem::NonlinearElasticity fem(s);
-          truth.converged      = std::make_shared<const fem::RunResult>(fem.run());
-          truth.F_converged    = wall_force(truth, *truth.converged, s);
-          row.converged_ms     = 1e3 * truth.converged->stepping_seconds / truth.N;
-          row.converged_degree = degree;
+          const fem::RunResult           r = fem.run();
+          auto                           converged = std::make_shared<ConvergedTruth>();
+          converged->F = wall_force(truth, r, s);
+          if (o.converged_mesh.empty())
+            converged->surface = r.surface_displacement;
+          else
+            converged->surface = on_vertices(truth.run->surface, r, row.converged_surface_gap);
+          truth.converged      = converged;
+          row.converged_ms     = 1e3 * r.stepping_seconds / truth.N;
+          row.converged_degree = o.converged_degree;
           row.converged_dofs   = fem.n_dofs();
           RelativeL2   force, displacement;
           ImpulseError impulse;
           for (unsigned k = 1; k <= truth.N; ++k)
             {
-              force.add(row.F_fem[k], truth.F_converged[k]);
-              impulse.add(row.F_fem[k], truth.F_converged[k]);
-              displacement.add(truth.run->surface_displacement[k], truth.converged->surface_displacement[k]);
+              force.add(row.F_fem[k], converged->F[k]);
+              impulse.add(row.F_fem[k], converged->F[k]);
+              displacement.add(truth.run->surface_displacement[k], converged->surface[k]);
+              row.converged_peak_force = std::max(row.converged_peak_force, converged->F[k]);
             }
           row.truth_force_error        = force.value();
           row.truth_impulse_error      = impulse.value();
           row.truth_displacement_error = displacement.value();
-          log << " " << row.converged_ms << " ms/step;" << std::flush;
+          log << " " << row.converged_ms << " ms/step, peak " << row.converged_peak_force
+              << " N (P1 " << row.fem_peak_force << " N)";
+          if (!o.converged_mesh.empty())
+            log << ", surfaces at most " << 1e3 * row.converged_surface_gap << " mm apart";
+          log << ";" << std::flush;
         }
       catch (const std::exception &e)
         {
           truth.converged.reset();
-          log << " the P" << degree << " FEM failed: " << e.what() << ";" << std::flush;
+          log << " the " << row.converged_truth << " FEM failed: " << e.what() << ";" << std::flush;
         }
     }
 
@@ -285,9 +390,9 @@ namespace irdm::validation::planes
           displacement.add(u, truth.run->surface_displacement[k]);
           if (truth.converged)
             {
-              converged_force.add(F, truth.F_converged[k]);
-              converged_impulse.add(F, truth.F_converged[k]);
-              converged_displacement.add(u, truth.converged->surface_displacement[k]);
+              converged_force.add(F, truth.converged->F[k]);
+              converged_impulse.add(F, truth.converged->F[k]);
+              converged_displacement.add(u, truth.converged->surface[k]);
             }
           for (const double x : u)
             m.stable = m.stable && std::isfinite(x) && std::abs(x) <= 10 * truth.u_max;
@@ -488,7 +593,7 @@ namespace irdm::validation::planes
           Row against = row; // the corotational run's force as the reference's
           against.F_fem.assign(1, 0.0);
           against.F_fem.insert(against.F_fem.end(), row.corotational.F.begin(), row.corotational.F.end());
-          const Truth reference{truth.c, truth.models, truth.tau, cs, truth.N, run, truth.u_max, nullptr, {}};
+          const Truth reference{truth.c, truth.models, truth.tau, cs, truth.N, run, truth.u_max, nullptr};
           replay(row.rotation, reference, against, law, ls);
           log << " corotational " << row.corotational_ms << " ms/step" << std::flush;
         }
@@ -590,7 +695,7 @@ namespace irdm::validation::planes
               t *= 1 + eps;
           else
             k *= 1 + eps;
-          const Truth  t{c, truth.models, truth.tau, truth.scene, truth.N, truth.run, truth.u_max, nullptr, {}};
+          const Truth  t{c, truth.models, truth.tau, truth.scene, truth.N, truth.run, truth.u_max, nullptr};
           std::array<MethodResult, method_names.size()> m;
           run_virtual_dofs(m[0], t, row, OrientationMapping::nearest, 0);
           run_virtual_dofs(m[1], t, row, OrientationMapping::interpolated, 0);
@@ -639,9 +744,24 @@ namespace irdm::validation::planes
     return body;
   }
 
+  std::string
+  converged_truth_name(const PlaneValidationOptions &o)
+  {
+    const std::string p = "fem_neo_hookean_p" + std::to_string(o.converged_degree);
+    return o.converged_mesh.empty() ? p : p + "_" + fs::path(o.converged_mesh).stem().string();
+  }
+
   PlaneModels
   prepare_models(const fem::Scene &body, const PlaneValidationOptions &o, std::ostream &log)
   {
+    if (!o.converged_mesh.empty() && o.converged_degree > 0 && !o.converged_cases.empty())
+      {
+        if (free_surface_vertices(fem::read_gmsh(o.converged_mesh), body.fixed_surfaces).empty())
+          throw InputError("--converged-mesh '" + o.converged_mesh + "' has no free surface");
+      }
+    else if (o.converged_degree == 1 && !o.converged_cases.empty())
+      throw InputError("--converged-degree 1 on the scene's own mesh is the truth itself: give "
+                       "--converged-mesh, or degree 2");
     PlaneModels m;
     prepare_virtual_dofs(body, o, m, log);
     prepare_vertex_model(body, o, m, log);
@@ -672,11 +792,11 @@ namespace irdm::validation::planes
           best_dot = std::max(best_dot, dot(dk, d));
         row.on_dome = row.on_dome && best_dot > 1 - 1e-12;
       }
-    Truth truth{c, models, body.time_step, {}, 0, nullptr, 0, nullptr, {}};
+    Truth truth{c, models, body.time_step, {}, 0, nullptr, 0, nullptr};
     run_truth(truth, body, row, log);
     if (o.converged_degree > 0 &&
         std::find(o.converged_cases.begin(), o.converged_cases.end(), c.name) != o.converged_cases.end())
-      run_converged_truth(truth, o.converged_degree, row, log);
+      run_converged_truth(truth, o, row, log);
     if (fem_order.empty())
       {
         std::map<long long, unsigned> at;

@@ -102,9 +102,13 @@ namespace irdm::validation::planes
     // each one's Newton steps cut back or failed over the case.
     std::vector<std::pair<std::string, MethodResult>> reduced;
     std::vector<std::array<unsigned long, 2>>        reduced_cut_failed;
-    // The converged truth (PlaneValidationOptions::converged_degree) where it ran: its degree,
-    // free DoFs and cost per step, and the P1 truth against it (the truth's own discretization
-    // error; -1 where it did not run).
+    // The converged truth (PlaneValidationOptions::converged_degree, converged_mesh) where it
+    // ran: its name (converged_truth_name), degree, free DoFs, cost per step and peak force
+    // (N), and the P1 truth against it (the truth's own discretization error; -1 where it did
+    // not run). On another mesh: the largest distance from this truth's surface vertices to
+    // that mesh's surface (m), where its displacement is taken.
+    std::string converged_truth;
+    double   converged_peak_force = 0, converged_surface_gap = 0;
     unsigned converged_degree = 0, converged_dofs = 0;
     double   converged_ms = 0, truth_force_error = -1, truth_impulse_error = -1,
              truth_displacement_error = -1;
@@ -142,8 +146,14 @@ namespace irdm::validation::planes
   fem::Scene
   grounded_body(const std::string &scene);
 
+  /// The converged truth's method name: fem_neo_hookean_p<degree> on the scene's own mesh,
+  /// fem_neo_hookean_p<degree>_<mesh file stem> on PlaneValidationOptions::converged_mesh.
+  std::string
+  converged_truth_name(const PlaneValidationOptions &o);
+
   /// Makes the models (or reuses those made from this scene with this spec; a file at either
-  /// path that is not is refused, never overwritten).
+  /// path that is not is refused, never overwritten). A converged mesh that cannot carry the
+  /// body (unreadable, or without its fixed surfaces) is refused first.
   PlaneModels
   prepare_models(const fem::Scene &body, const PlaneValidationOptions &o, std::ostream &log);
 

@@ -47,9 +47,12 @@ namespace irdm::validation
     // linear model's miss, the second against the first the rotation's (cases.csv).
     bool        corotational = true;
     // The truth's own discretization error: on converged_cases, the nonlinear FEM again with
-    // elements of this degree on the same mesh (0: not run), and every method scored against
-    // it beside the P1 truth (converged.csv).
+    // elements of this degree (0: not run) on the same mesh, or on converged_mesh (a finer
+    // gmsh mesh of the same body with the same physical surfaces; each wall's depth from its
+    // own outermost point, its surface displacement taken at this mesh's surface vertices), and
+    // every method scored against it beside the P1 truth (converged.csv).
     unsigned                 converged_degree = 2;
+    std::string              converged_mesh;
     std::vector<std::string> converged_cases  = {"press_top_5mm", "press_side_10mm"};
     // Reduced nonlinear models (irdm precompute --reduced) of this scene's body, each run on
     // every case beside the other methods as the method reduced_<its file's stem>.
