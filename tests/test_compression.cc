@@ -20,6 +20,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
 
@@ -560,4 +562,72 @@ TEST(Exchange, ExportThenImportIsTheSameModelExactly)
     {
       EXPECT_NE(std::string(e.what()).find("format"), std::string::npos) << e.what();
     }
+}
+
+// The CSV layout of the exchange: our model out as a folder of CSV files and back in is the
+// same H, frame and triangles exactly (17 digits read back to the same double); a folder with a
+// bad number, a missing row, a row twice or a wrong header is refused naming the file and line,
+// and an existing folder is never written into.
+TEST(Exchange, CsvExportThenImportIsTheSameModelExactly)
+{
+  namespace fs     = std::filesystem;
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  const auto       model = make_model(scene, "exchange_csv_src.h5");
+  const std::string dir  = tmp("exchange_csv");
+  fs::remove_all(dir);
+  export_responses_csv(tmp("exchange_csv_src.h5"), dir);
+  EXPECT_FALSE(fs::exists(dir + ".part"));
+  EXPECT_THROW(export_responses_csv(tmp("exchange_csv_src.h5"), dir), InputError);
+  const ImportSummary s = import_responses(dir, tmp("exchange_csv_model.h5"));
+  EXPECT_FALSE(s.outputs_matched_by_coordinates);
+  const auto back = load_model(tmp("exchange_csv_model.h5"), scene.time_step);
+  ASSERT_EQ(back.length, model.length);
+  ASSERT_EQ(back.n_inputs, model.n_inputs);
+  ASSERT_EQ(back.n_outputs, model.n_outputs);
+  for (unsigned k = 0; k < model.n_inputs; ++k)
+    for (unsigned t = 0; t < model.length; ++t)
+      for (unsigned j = 0; j < model.n_outputs; ++j)
+        ASSERT_EQ(back.h(k, t, j), model.h(k, t, j));
+  EXPECT_EQ(back.output_coordinates, model.output_coordinates);
+  EXPECT_EQ(back.input_output_index, model.input_output_index);
+  EXPECT_EQ(back.triangles, model.triangles);
+
+  // Each corruption of a copy is refused, naming the file (and the line where there is one).
+  const auto read = [](const std::string &f) {
+    std::ifstream in(f);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string responses = read(dir + "/responses.csv");
+  const auto        refused   = [&](const std::string &file, const std::string &text,
+                            const std::string &expect) {
+    const std::string bad = tmp("exchange_csv_bad");
+    fs::remove_all(bad);
+    fs::copy(dir, bad);
+    std::ofstream(bad + "/" + file) << text;
+    try
+      {
+        import_responses(bad, tmp("exchange_csv_bad.h5"));
+        ADD_FAILURE() << "imported: " << expect;
+      }
+    catch (const InputError &e)
+      {
+        EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+      }
+  };
+  const size_t second = responses.find('\n', responses.find('\n') + 1) + 1; // after row 1
+  refused("responses.csv", responses.substr(0, second), "every input DoF at every sample");
+  // The second row (input DoF 0, sample 1) made sample 0, the first row's again.
+  std::string  twice  = responses;
+  const size_t comma1 = twice.find(',', second);
+  const size_t comma2   = twice.find(',', comma1 + 1);
+  twice.replace(comma1 + 1, comma2 - comma1 - 1, "0");
+  refused("responses.csv", twice, "twice");
+  std::string nan = responses;
+  nan.replace(nan.find(',', comma2 + 1) + 1, 1, "x");
+  refused("responses.csv", nan, "line 3");
+  refused("responses.csv", "input_dof,sample,u_0\n", "header");
+  refused("outputs.csv", "x_m,y_m,z_m\n0,0\n", "outputs.csv', line 2");
+  refused("meta.csv", "key,value\nformat,irdm-responses\nformat_version,1\n", "time_step_s");
+  fs::remove(dir + "/inputs.csv");
+  EXPECT_THROW(import_responses(dir, tmp("exchange_csv_bad.h5")), InputError);
 }
