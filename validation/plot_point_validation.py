@@ -54,7 +54,8 @@ path = os.path.join(d, "compression.csv")
 if os.path.exists(path):
     rows = list(csv.DictReader(open(path)))
     style = {"IRDM direct": ("k", "s"), "representatives": ("C0", "o"),
-             "interpolated": ("C2", "^"), "modal": ("C3", "D"), "era": ("C4", "v")}
+             "interpolated": ("C2", "^"), "modal": ("C3", "D"), "era": ("C4", "v"),
+             "balanced": ("C5", "P")}
     floor = 1e-16
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     for ax, xkey, ykey, xlabel, ylabel in (

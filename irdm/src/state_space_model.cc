@@ -13,6 +13,7 @@
 #include <random>
 
 #include "frame.h"
+#include "realization.h"
 
 namespace irdm
 {
@@ -43,13 +44,12 @@ namespace irdm
       return es.eigenvectors().rightCols(r).rowwise().reverse();
     }
 
+  } // namespace
+
+  namespace realization
+  {
     // The leading k singular triplets of a (randomized range finder with two power steps,
     // then the exact SVD of the small projected matrix; Halko, Martinsson and Tropp 2011).
-    struct Svd
-    {
-      Mat U, V;
-      Vec sigma;
-    };
     Svd
     leading_svd(const Mat &a, const unsigned k)
     {
@@ -145,7 +145,7 @@ namespace irdm
         out.c.data(), C.rows(), n) = Ct.cast<float>();
       Eigen::Map<Mat>(out.b.data(), n, out.n_inputs) = Bt; // column k contiguous: [k][state]
     }
-  } // namespace
+  } // namespace realization
 
   double
   StateSpaceModel::response(const unsigned k, const unsigned s, const unsigned j) const
@@ -294,7 +294,7 @@ namespace irdm
     samples.clear();
     log("era: SVD of the " + std::to_string(H0.rows()) + " x " + std::to_string(H0.cols()) +
         " Hankel matrix");
-    const Svd svd = leading_svd(H0, o.order);
+    const realization::Svd svd = realization::leading_svd(H0, o.order);
     e->sigma      = svd.sigma;
     e->U_top      = svd.U.topRows(ro);
     e->V_top      = svd.V.topRows(ri);
@@ -329,7 +329,7 @@ namespace irdm
     out.hankel_columns    = e.q;
     out.stability_radius  = e.options.stability_radius;
     out.hankel_singular_values.assign(e.sigma.data(), e.sigma.data() + e.sigma.size());
-    set_block_diagonal(out, A, Bp, Cp, e.options.stability_radius);
+    realization::set_block_diagonal(out, A, Bp, Cp, e.options.stability_radius);
     out.output_dimension = ro;
     if (ro < nout)
       {
@@ -372,10 +372,15 @@ namespace irdm
     f.attribute("/", "format", std::string("irdm-state-space-model"));
     f.attribute("/", "format_version", 1LL);
     f.attribute("/", "source_file", source_file);
+    const bool balanced = m.method == "balanced_truncation";
+    f.attribute("/", "method", m.method);
     f.attribute("/", "identification",
-                std::string("eigensystem realization algorithm (Ho-Kalman, Juang-Pappa) from H "
-                            "alone: x[n+1] = A x[n] + B f[n], u[n] = C x[n] + D f[n], D = H[0]; "
-                            "docs/compression.md"));
+                std::string(balanced ? "balanced truncation (square-root method) of the source's "
+                                       "modal realization"
+                                     : "eigensystem realization algorithm (Ho-Kalman, "
+                                       "Juang-Pappa) from H alone") +
+                  ": x[n+1] = A x[n] + B f[n], u[n] = C x[n] + D f[n], D = H[0]; "
+                  "docs/compression.md");
     f.attribute("/", "order", static_cast<long long>(m.order));
     f.attribute("/", "output_dimension", static_cast<long long>(m.output_dimension));
     f.attribute("/", "n_hankel_singular_values",
@@ -431,8 +436,13 @@ namespace irdm
       fail("order less the real poles must be even (complex poles come in pairs)");
     m.input_directions  = static_cast<unsigned>(r.count_attribute("/", "input_directions", 1, m.n_inputs));
     m.output_directions = static_cast<unsigned>(r.count_attribute("/", "output_directions", 0, m.n_outputs));
-    m.hankel_rows      = static_cast<unsigned>(r.count_attribute("/", "hankel_block_rows", 1, m.length));
-    m.hankel_columns   = static_cast<unsigned>(r.count_attribute("/", "hankel_block_columns", 1, m.length));
+    // Files before the attribute are ERA's; balanced truncation builds no Hankel matrix of H.
+    m.method = r.has_attribute("/", "method") ? r.string_attribute("/", "method") : "era";
+    if (m.method != "era" && m.method != "balanced_truncation")
+      fail("method must be era or balanced_truncation");
+    const long long least = m.method == "era" ? 1 : 0;
+    m.hankel_rows      = static_cast<unsigned>(r.count_attribute("/", "hankel_block_rows", least, m.length));
+    m.hankel_columns   = static_cast<unsigned>(r.count_attribute("/", "hankel_block_columns", least, m.length));
     m.poles_pulled_in  = static_cast<unsigned>(r.count_attribute("/", "poles_pulled_in", 0, m.order));
     m.stability_radius = r.double_attribute("/", "stability_radius");
     m.identification_seconds = r.double_attribute("/", "identification_seconds");
@@ -493,7 +503,6 @@ namespace irdm
         m.complex_poles.push_back(a);
         m.complex_poles.push_back(b);
       }
-    m.method = "era";
     return m;
   }
 } // namespace irdm

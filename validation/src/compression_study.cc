@@ -1,6 +1,7 @@
 // Issue 4's comparison on one scene: representative waveforms (plain and interpolated) at each
-// theta, the modal realization at several M, the realization identified from H alone (ERA) at
-// several orders, and the uncompressed model, each in closed loop.
+// theta, the modal realization at several M, the realization identified from H alone (ERA) and
+// the modal realization's balanced truncation at several orders, and the uncompressed model,
+// each in closed loop.
 #include <irdm_common/format.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
@@ -38,53 +39,87 @@ namespace irdm::validation
     }
   } // namespace
 
+  namespace
+  {
+    /// A state-space compressor's rows: prepared once for the largest order it can hold
+    /// (prepare(order) throws InputError beyond it), realized at each order (realize(order)
+    /// throws where the rank is below it: no row).
+    template <class Prepare, class Realize>
+    std::vector<CompressionRow>
+    state_space_rows(const char *method, const fem::Scene &scene, const ImpulseResponseModel &model,
+                     const Series &fem_run, const std::vector<unsigned> &orders, std::ostream &log,
+                     Prepare &&prepare, Realize &&realize)
+    {
+      const double bound   = 10 * peak_force(fem_run);
+      const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
+      std::vector<CompressionRow> rows;
+      unsigned                    prepared = 0;
+      for (auto largest = orders.rbegin(); largest != orders.rend() && !prepared; ++largest)
+        try
+          {
+            prepare(*largest);
+            prepared = *largest;
+          }
+        catch (const InputError &e)
+          {
+            log << "  " << method << " r " << *largest << ": not made (" << e.what() << ")\n";
+          }
+      for (const unsigned order : orders)
+        {
+          if (order > prepared)
+            continue;
+          StateSpaceModel ss;
+          try
+            {
+              ss = realize(order);
+            }
+          catch (const InputError &e)
+            {
+              log << "  " << method << " r " << order << ": not made (" << e.what() << ")\n";
+              continue;
+            }
+          CompressionRow r = measure<StateSpaceInteraction>(scene, ss, fem_run, bound);
+          r.method        = method;
+          r.setting       = "r " + std::to_string(order);
+          r.value         = order;
+          r.bytes         = ss.bytes();
+          r.percent       = 100 * r.bytes / h_float;
+          r.build_seconds = ss.identification_seconds;
+          log_row(log, r);
+          rows.push_back(r);
+        }
+      return rows;
+    }
+  } // namespace
+
   std::vector<CompressionRow>
   era_rows(const fem::Scene &scene, const ImpulseResponseModel &model, const Series &fem_run,
            const std::vector<unsigned> &orders, std::ostream &log, const EraOptions &base)
   {
-    const double bound   = 10 * peak_force(fem_run);
-    const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
-    std::vector<CompressionRow> rows;
-    // One Hankel SVD for every order: prepared for the largest order the data hold.
     std::shared_ptr<const EraHankel> hankel;
-    unsigned                         prepared = 0;
-    for (auto largest = orders.rbegin(); largest != orders.rend() && !hankel; ++largest)
-      try
-        {
-          EraOptions o = base;
-          o.order      = *largest;
-          hankel       = prepare_era(model, o);
-          prepared     = *largest;
-        }
-      catch (const InputError &e) // an order the Hankel matrix cannot hold: no row
-        {
-          log << "  era r " << *largest << ": not identified (" << e.what() << ")\n";
-        }
-    for (const unsigned order : orders)
-      {
-        if (order > prepared)
-          continue;
-        StateSpaceModel ss;
-        try
-          {
-            ss = realize_era(model, *hankel, order);
-          }
-        catch (const InputError &e) // the data's rank below the order: no row
-          {
-            log << "  era r " << order << ": not identified (" << e.what() << ")\n";
-            continue;
-          }
-        CompressionRow r = measure<StateSpaceInteraction>(scene, ss, fem_run, bound);
-        r.method        = "era";
-        r.setting       = "r " + std::to_string(order);
-        r.value         = order;
-        r.bytes         = ss.bytes();
-        r.percent       = 100 * r.bytes / h_float;
-        r.build_seconds = ss.identification_seconds;
-        log_row(log, r);
-        rows.push_back(r);
-      }
-    return rows;
+    return state_space_rows(
+      "era", scene, model, fem_run, orders, log,
+      [&](const unsigned order) {
+        EraOptions o = base;
+        o.order      = order;
+        hankel       = prepare_era(model, o);
+      },
+      [&](const unsigned order) { return realize_era(model, *hankel, order); });
+  }
+
+  std::vector<CompressionRow>
+  balanced_rows(const fem::Scene &scene, const ImpulseResponseModel &model, const Series &fem_run,
+                const std::vector<unsigned> &orders, std::ostream &log)
+  {
+    std::shared_ptr<const BalancedGramians> gramians;
+    return state_space_rows(
+      "balanced", scene, model, fem_run, orders, log,
+      [&](const unsigned order) {
+        BalancedOptions o;
+        o.order  = order;
+        gramians = prepare_balanced(model, o);
+      },
+      [&](const unsigned order) { return realize_balanced(model, *gramians, order); });
   }
 
   CompressionRow
@@ -160,6 +195,9 @@ namespace irdm::validation
       }
     for (auto &r : era_rows(scene, model, fem_run, {300, 600, 1000}, log))
       rows.push_back(r);
+    if (model.modes.n_modes > 0 && !model.free_body)
+      for (auto &r : balanced_rows(scene, model, fem_run, {100, 300, 600, 1000}, log))
+        rows.push_back(r);
     return rows;
   }
 

@@ -16,7 +16,8 @@ namespace irdm::validation
 {
   struct CompressionRow
   {
-    std::string method;    // "FEM", "IRDM direct", "representatives", "interpolated", "modal", "era"
+    std::string method;    // "FEM", "IRDM direct", "representatives", "interpolated", "modal",
+                           // "era", "balanced"
     std::string setting;   // e.g. "theta 0.90", "M 100, L 2"
     double      value = 0; // theta or M (chart label)
     double      bytes = 0, percent = 0; // memory, and % of the same model's H stored as float
@@ -44,6 +45,12 @@ namespace irdm::validation
   std::vector<CompressionRow>
   era_rows(const fem::Scene &scene, const ImpulseResponseModel &model, const Series &fem_run,
            const std::vector<unsigned> &orders, std::ostream &log, const EraOptions &base = {});
+
+  /// Balanced truncation of the model's modal realization (irdm compress --method balanced)
+  /// at each order, in closed loop on the scene.
+  std::vector<CompressionRow>
+  balanced_rows(const fem::Scene &scene, const ImpulseResponseModel &model, const Series &fem_run,
+                const std::vector<unsigned> &orders, std::ostream &log);
 
   /// compression.csv and the report section (Markdown) for one scene.
   void

@@ -236,7 +236,7 @@ namespace irdm::validation::points
     {
       std::ostringstream md;
       for (const auto &[name, rows] : scenes)
-        for (const char *method : {"representatives", "interpolated", "modal", "era"})
+        for (const char *method : {"representatives", "interpolated", "modal", "era", "balanced"})
           {
             const CompressionRow *best = nullptr;
             std::string           unstable;

@@ -57,12 +57,15 @@ namespace irdm
     std::vector<double>   d;                 // [input DoF][output DoF]: H[0]
 
     // How it was made.
-    std::string         source_file, method = "era";
+    std::string         source_file, method = "era"; // or "balanced_truncation"
     unsigned            input_directions = 0, output_directions = 0;
     unsigned            hankel_rows = 0, hankel_columns = 0;
     double              stability_radius = 0, identification_seconds = 0;
     unsigned            poles_pulled_in  = 0; // eigenvalues moved onto the stability radius
     std::vector<double> hankel_singular_values; // every one computed, descending
+    // Balanced truncation: every nonzero Hankel singular value is in the list (the bound on the
+    // truncation's miss is then known). Not stored in the file.
+    bool                singular_values_complete = false;
 
     unsigned
     n_pairs() const
@@ -92,6 +95,36 @@ namespace irdm
   /// The realization of order r <= the prepared order (identify_era = prepare, then realize).
   StateSpaceModel
   realize_era(const ImpulseResponseModel &model, const EraHankel &hankel, unsigned order);
+
+  /// Balanced truncation of the model's own modal realization (Moore 1981; discrete time,
+  /// the square-root method of Laub, Heath, Paige and Ward 1987), the peer of ERA for a model
+  /// whose modes are known: every mode's integrator step as a 3-state block of
+  ///     w[n + 1] = A_i w[n] + (A_i b_new + b_old) l_i^T f[n],   u[n] = sum_i phi_i w_i,u[n] + D f[n]
+  /// (l_i the load shape at the inputs), the Gramians P = A P A^T + B B^T and Q = A^T Q A + C^T C
+  /// solved block by block (a 9 x 9 system per pair of modes), P = Lp Lp^T and Q = Lq Lq^T, and
+  /// the leading singular triplets of Lq^T Lp = U S V^T: the states of the largest Hankel
+  /// singular values S. The truncation to r states misses H by at most 2 (s_r+1 + ... + s_n)
+  /// in the spectral norm, at every sample. docs/compression.md.
+  struct BalancedOptions
+  {
+    unsigned order            = 400;    // r, states kept (at most 3 x the modes)
+    double   stability_radius = 0.9999; // as EraOptions'
+    std::function<void(const std::string &)> log;
+  };
+
+  /// What every order of one truncation shares: the balancing's singular triplets up to
+  /// options.order, computed once.
+  struct BalancedGramians;
+  std::shared_ptr<const BalancedGramians>
+  prepare_balanced(const ImpulseResponseModel &model, const BalancedOptions &options);
+  /// The truncation to r <= the prepared order (InputError beyond it, or where the system has
+  /// fewer than r states that matter).
+  StateSpaceModel
+  realize_balanced(const ImpulseResponseModel &model, const BalancedGramians &gramians, unsigned r);
+  /// InputError for a model without a modal realization, a free body (its rigid modes have no
+  /// finite Gramian), or an order beyond 3 x the modes.
+  StateSpaceModel
+  balanced_truncation(const ImpulseResponseModel &model, const BalancedOptions &options);
 
   /// Writes `irdm-state-space-model` version 1 (docs/compression.md): the source's root
   /// attributes and groups copied through the checked reads, then the realization.
