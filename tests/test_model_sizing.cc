@@ -1,6 +1,8 @@
 // A model no larger than the scene needs (validation/model_sizing.h): the smallest ERA order
 // of the grid whose closed loop on the scene is within the tolerance of the exact model's.
 #include <irdm/point_interaction.h>
+#include <irdm/representative_interaction.h>
+#include <irdm/representative_model.h>
 #include <irdm/state_space_interaction.h>
 #include <irdm/state_space_model.h>
 #include <irdm_common/error.h>
@@ -49,11 +51,11 @@ TEST(ModelSizing, TheSmallestOrderWithinTheToleranceAndNoSmaller)
   const auto sized = validation::era_within_tolerance(path, model, tolerance, o, log);
   ASSERT_GT(sized.model.order, 0u) << log.str();
   ASSERT_GE(sized.tried.size(), 2u);
-  EXPECT_EQ(sized.tried.back().order, sized.model.order);
+  EXPECT_EQ(sized.tried.back().setting, sized.model.order);
   const auto again = errors_of(scene, model, sized.model);
   EXPECT_LE(again.force_rel_l2, tolerance);
   EXPECT_LE(again.disp_rms, tolerance);
-  o.order = sized.tried[sized.tried.size() - 2].order;
+  o.order = static_cast<unsigned>(sized.tried[sized.tried.size() - 2].setting);
   const auto below = errors_of(scene, model, identify_era(model, o));
   EXPECT_GT(std::max(below.force_rel_l2, below.disp_rms), tolerance) << "order " << o.order;
 
@@ -62,4 +64,50 @@ TEST(ModelSizing, TheSmallestOrderWithinTheToleranceAndNoSmaller)
   const auto short_model = make_model(scene, "sizing_short.h5", shorter);
   EXPECT_THROW(validation::era_within_tolerance(path, short_model, tolerance, o, log), InputError);
   EXPECT_THROW(validation::era_within_tolerance(path, model, 1.5, o, log), InputError);
+}
+
+// The same search for the modal realization's balanced truncation (over the order) and for
+// representative waveforms (over theta): the size found meets the tolerance run again apart,
+// the grid's size below it does not.
+TEST(ModelSizing, BalancedTruncationAndRepresentativesAreSizedTheSameWay)
+{
+  const std::string json = beam_scene(beam_probe);
+  const std::string path = tmp("sizing_bt_scene.json");
+  std::ofstream(path) << json;
+  const fem::Scene scene     = fem::parse_scene(json, ".");
+  const auto       model     = make_model(scene, "sizing_bt.h5");
+  // A rigid probe amplifies the history's error by the static over the one-step compliance:
+  // the balanced truncation meets 1 % in force only near the beam's 450 states that matter.
+  const double     tolerance = 1e-2;
+  std::ostringstream log;
+
+  BalancedOptions bo;
+  bo.order         = 400;
+  const auto sized = validation::balanced_within_tolerance(path, model, tolerance, bo, log);
+  ASSERT_GT(sized.model.order, 0u) << log.str();
+  ASSERT_GE(sized.tried.size(), 2u);
+  const auto again = errors_of(scene, model, sized.model);
+  EXPECT_LE(again.force_rel_l2, tolerance);
+  EXPECT_LE(again.disp_rms, tolerance);
+  bo.order         = static_cast<unsigned>(sized.tried[sized.tried.size() - 2].setting);
+  const auto below = errors_of(scene, model, balanced_truncation(model, bo));
+  EXPECT_GT(std::max(below.force_rel_l2, below.disp_rms), tolerance) << "order " << bo.order;
+
+  CompressionOptions co;
+  co.threads    = 1;
+  const double loose = 0.05; // representatives do not reach 1e-3 short of theta 1 on the beam
+  const auto reps  = validation::representatives_within_tolerance(path, model, loose, co, log);
+  ASSERT_GT(reps.model.theta, 0) << log.str();
+  ASSERT_GE(reps.tried.size(), 2u);
+  const auto representative_errors = [&](const RepresentativeModel &c) {
+    PointInteraction          exact(model);
+    RepresentativeInteraction runtime(c);
+    return validation::compare(validation::run_irdm(scene, c, runtime, true),
+                               validation::run_irdm(scene, model, exact, true));
+  };
+  const auto found = representative_errors(reps.model);
+  EXPECT_LE(std::max(found.force_rel_l2, found.disp_rms), loose);
+  co.theta             = reps.tried[reps.tried.size() - 2].setting;
+  const auto smaller   = representative_errors(compress(model, co));
+  EXPECT_GT(std::max(smaller.force_rel_l2, smaller.disp_rms), loose) << "theta " << co.theta;
 }

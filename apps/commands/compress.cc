@@ -25,33 +25,45 @@ namespace irdm::cli
       std::string               method = "representatives";
       irdm::CompressionOptions  o;
       irdm::EraOptions          era;
-      double                    tolerance = 0; // > 0: the smallest ERA order within it on scene
+      double                    tolerance = 0; // > 0: the smallest model within it on scene
       std::string               scene;
       bool                      quiet = false;
     };
 
-    // The smallest order on the grid whose closed loop on the scene meets --tolerance.
-    irdm::StateSpaceModel
-    sized_era(const CompressArgs &a, const irdm::ImpulseResponseModel &model)
+    /// The sizes a --tolerance search tried, and the one it took (InputError when none).
+    void
+    print_sized(const CompressArgs &a, const std::vector<irdm::validation::SizeTried> &tried,
+                const bool found, const char *size, const std::string &largest)
     {
-      std::ostream  silent(nullptr); // no buffer: writes are dropped
-      std::ostream &log = a.quiet ? silent : std::cerr;
-      const auto sized = irdm::validation::era_within_tolerance(a.scene, model, a.tolerance, a.era, log);
-      for (const auto &t : sized.tried)
-        std::printf("r %u: force %.4g, displacement %.4g against the exact model%s\n", t.order,
-                    t.force_error, t.displacement_error, t.stable ? "" : " (unstable)");
-      if (sized.model.order == 0)
-        throw irdm::InputError("compress: no order up to " + std::to_string(a.era.order) +
+      for (const auto &t : tried)
+        std::printf("%s %.6g: force %.4g, displacement %.4g against the exact model%s\n", size,
+                    t.setting, t.force_error, t.displacement_error, t.stable ? "" : " (unstable)");
+      if (!found)
+        throw irdm::InputError("compress: no " + std::string(size) + " up to " + largest +
                                " keeps the closed loop on '" + a.scene + "' within " +
-                               std::to_string(a.tolerance) + " of the exact model; raise --order");
-      std::printf("smallest order within %.4g: %u\n", a.tolerance, sized.model.order);
-      return sized.model;
+                               std::to_string(a.tolerance) + " of the exact model");
+      std::printf("smallest %s within %.4g: %.6g\n", size, a.tolerance, tried.back().setting);
+    }
+
+    std::ostream &
+    sizing_log(const CompressArgs &a)
+    {
+      static std::ostream silent(nullptr); // no buffer: writes are dropped
+      return a.quiet ? silent : std::cerr;
     }
 
     int
     run_era(const CompressArgs &a, const irdm::ImpulseResponseModel &model, irdm::OutputLock lock)
     {
-      const auto ss = a.tolerance > 0 ? sized_era(a, model) : irdm::identify_era(model, a.era);
+      irdm::StateSpaceModel ss;
+      if (a.tolerance > 0)
+        {
+          auto sized = irdm::validation::era_within_tolerance(a.scene, model, a.tolerance, a.era, sizing_log(a));
+          print_sized(a, sized.tried, sized.model.order > 0, "order", std::to_string(a.era.order) + " (--order)");
+          ss = std::move(sized.model);
+        }
+      else
+        ss = irdm::identify_era(model, a.era);
       irdm::save_state_space_model(ss, a.in, a.out, std::move(lock));
       const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
       const auto  &hsv     = ss.hankel_singular_values;
@@ -75,7 +87,15 @@ namespace irdm::cli
       o.order            = a.era.order;
       o.stability_radius = a.era.stability_radius;
       o.log              = a.era.log;
-      const auto ss      = irdm::balanced_truncation(model, o);
+      irdm::StateSpaceModel ss;
+      if (a.tolerance > 0)
+        {
+          auto sized = irdm::validation::balanced_within_tolerance(a.scene, model, a.tolerance, o, sizing_log(a));
+          print_sized(a, sized.tried, sized.model.order > 0, "order", std::to_string(o.order) + " (--order)");
+          ss = std::move(sized.model);
+        }
+      else
+        ss = irdm::balanced_truncation(model, o);
       irdm::save_state_space_model(ss, a.in, a.out, std::move(lock));
       const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
       const auto  &hsv     = ss.hankel_singular_values;
@@ -99,8 +119,8 @@ namespace irdm::cli
     run_compress(CompressArgs a)
     {
       irdm::check_output_file("--out", a.out, {a.in});
-      if (a.tolerance > 0 && (a.method != "era" || a.scene.empty()))
-        throw irdm::InputError("compress: --tolerance sizes --method era on a --scene");
+      if (a.tolerance > 0 && a.scene.empty())
+        throw irdm::InputError("compress: --tolerance sizes the model on a --scene; give one");
       irdm::OutputLock lock(a.out); // before the work: a second run to --out is refused now
       a.o.log = a.era.log = stderr_log(a.quiet);
       const auto model = irdm::load_model(a.in);
@@ -108,7 +128,15 @@ namespace irdm::cli
         return run_era(a, model, std::move(lock));
       if (a.method == "balanced")
         return run_balanced(a, model, std::move(lock));
-      const auto c     = irdm::compress(model, a.o);
+      irdm::RepresentativeModel c;
+      if (a.tolerance > 0)
+        {
+          auto sized = irdm::validation::representatives_within_tolerance(a.scene, model, a.tolerance, a.o, sizing_log(a));
+          print_sized(a, sized.tried, sized.model.theta > 0, "theta", "1");
+          c = std::move(sized.model);
+        }
+      else
+        c = irdm::compress(model, a.o);
       irdm::save_representative_model(c, a.in, a.out, std::move(lock));
       const double waveforms = static_cast<double>(model.n_inputs) * model.n_outputs;
       std::printf("compressed %s -> %s: theta %.3g, blend %u\n"
@@ -179,11 +207,13 @@ namespace irdm::cli
       ->capture_default_str()
       ->check(CLI::Range(1e-6, 1 - 1e-9));
     compress->add_option("--tolerance", ca->tolerance,
-                         "era: take the smallest order (25, 50, ... up to --order) whose closed loop "
-                         "on --scene keeps the probe force (relative L2) and the surface "
-                         "displacement (relative RMS) within this fraction of the exact model's")
+                         "take the smallest model whose closed loop on --scene keeps the probe "
+                         "force (relative L2) and the surface displacement (relative RMS) within "
+                         "this fraction of the exact model's: era and balanced, the order (25, 50, "
+                         "... up to --order); representatives, theta (0.5, 0.6, ... 1; --theta "
+                         "ignored)")
       ->check(CLI::Range(1e-12, 0.999));
-    compress->add_option("--scene", ca->scene, "era with --tolerance: the scene the model is for (its probes run in closed loop)")
+    compress->add_option("--scene", ca->scene, "with --tolerance: the scene the model is for (its probes run in closed loop)")
       ->check(CLI::ExistingFile);
     compress->add_option("--theta", ca->o.theta, "correlation threshold in (0, 1]")
       ->capture_default_str()

@@ -1,4 +1,5 @@
 #include <irdm/point_interaction.h>
+#include <irdm/representative_interaction.h>
 #include <irdm/state_space_interaction.h>
 #include <irdm_common/error.h>
 #include <irdm_common/format.h>
@@ -6,51 +7,134 @@
 #include <validation/model_sizing.h>
 
 #include <cmath>
+#include <memory>
 
 #include "compression_study.h"
 #include "scene_runs.h"
 
 namespace irdm::validation
 {
+  namespace
+  {
+    /// The scene checked against the model, and the exact model's closed loop on it.
+    struct ExactRun
+    {
+      fem::Scene scene;
+      Series     run;
+      double     bound = 0; // a run past 10 x the exact peak force is stopped, unstable
+    };
+
+    ExactRun
+    exact_run(const std::string &scene_file, const ImpulseResponseModel &model, const double tolerance)
+    {
+      if (!(tolerance > 0 && tolerance < 1))
+        throw InputError("--tolerance must be a fraction in (0, 1), for example 0.02");
+      ExactRun e;
+      e.scene = fem::read_scene(scene_file);
+      if (std::abs(e.scene.time_step - model.time_step) > 1e-12 * model.time_step)
+        throw InputError("the scene '" + scene_file + "' steps at " + fmt(e.scene.time_step) +
+                         " s, the model at " + fmt(model.time_step) + " s");
+      if (model.length < e.scene.n_steps())
+        throw InputError("the model's responses (T = " + std::to_string(model.length) +
+                         ") are shorter than the scene (" + std::to_string(e.scene.n_steps()) +
+                         " steps): the direct convolution would not be the exact model there; "
+                         "precompute with --length " + std::to_string(e.scene.n_steps()));
+      if (e.scene.probes.empty())
+        throw InputError("the scene '" + scene_file + "' has no probe: nothing to run in closed loop");
+      PointInteraction exact_runtime(model);
+      e.run   = run_irdm(e.scene, model, exact_runtime, true);
+      e.bound = 10 * peak_force(e.run);
+      return e;
+    }
+
+    /// One size's closed loop against the exact run, logged; true when within the tolerance.
+    template <class Interaction, class Model>
+    bool
+    try_size(const ExactRun &e, const Model &m, const double setting, const char *name,
+             const double tolerance, std::vector<SizeTried> &tried, std::ostream &log)
+    {
+      Interaction          runtime(m);
+      const CompressionRow row = measured_row(run_irdm(e.scene, m, runtime, true, e.bound), e.run);
+      const SizeTried      t{setting, row.errors.force_rel_l2, row.errors.disp_rms, row.stable};
+      tried.push_back(t);
+      log << "  " << name << " " << fmt(setting) << ": force " << fmt(t.force_error)
+          << ", displacement " << fmt(t.displacement_error) << (t.stable ? "" : ", unstable") << "\n";
+      return t.stable && t.force_error <= tolerance && t.displacement_error <= tolerance;
+    }
+
+    template <class Realize>
+    SizedModel
+    state_space_within(const ExactRun &e, const unsigned largest, const double tolerance,
+                       Realize &&realize, std::ostream &log)
+    {
+      SizedModel out;
+      for (const unsigned order : order_grid())
+        {
+          if (order > largest)
+            break;
+          StateSpaceModel ss = realize(order);
+          if (try_size<StateSpaceInteraction>(e, ss, order, "r", tolerance, out.tried, log))
+            {
+              out.model = std::move(ss);
+              break;
+            }
+        }
+      return out;
+    }
+  } // namespace
+
+  const std::vector<unsigned> &
+  order_grid()
+  {
+    static const std::vector<unsigned> grid = {25,  50,  75,  100,  150,  200,  300,  400,  500,
+                                               600, 800, 1000, 1200, 1600, 2000, 2500, 3000, 4000};
+    return grid;
+  }
+
   SizedModel
   era_within_tolerance(const std::string &scene_file, const ImpulseResponseModel &model,
                        const double tolerance, const EraOptions &options, std::ostream &log)
   {
-    if (!(tolerance > 0 && tolerance < 1))
-      throw InputError("--tolerance must be a fraction in (0, 1), for example 0.02");
-    const fem::Scene scene = fem::read_scene(scene_file);
-    if (std::abs(scene.time_step - model.time_step) > 1e-12 * model.time_step)
-      throw InputError("the scene '" + scene_file + "' steps at " + fmt(scene.time_step) +
-                       " s, the model at " + fmt(model.time_step) + " s");
-    if (model.length < scene.n_steps())
-      throw InputError("the model's responses (T = " + std::to_string(model.length) +
-                       ") are shorter than the scene (" + std::to_string(scene.n_steps()) +
-                       " steps): the direct convolution would not be the exact model there; "
-                       "precompute with --length " + std::to_string(scene.n_steps()));
-    if (scene.probes.empty())
-      throw InputError("the scene '" + scene_file + "' has no probe: nothing to run in closed loop");
-    PointInteraction exact_runtime(model);
-    const Series     exact = run_irdm(scene, model, exact_runtime, true);
-    const double     bound = 10 * peak_force(exact);
-    log << "sizing: the exact model's closed loop on '" << scene_file << "' (" << scene.n_steps()
+    const ExactRun e = exact_run(scene_file, model, tolerance);
+    log << "sizing: the exact model's closed loop on '" << scene_file << "' (" << e.scene.n_steps()
         << " steps); ERA orders up to " << options.order << ", tolerance " << fmt(tolerance) << "\n";
     const auto hankel = prepare_era(model, options);
-    SizedModel out;
-    for (const unsigned order : {25u, 50u, 75u, 100u, 150u, 200u, 300u, 400u, 500u, 600u, 800u,
-                                 1000u, 1200u, 1600u, 2000u, 2500u, 3000u, 4000u})
+    return state_space_within(
+      e, options.order, tolerance, [&](const unsigned r) { return realize_era(model, *hankel, r); }, log);
+  }
+
+  SizedModel
+  balanced_within_tolerance(const std::string &scene_file, const ImpulseResponseModel &model,
+                            const double tolerance, const BalancedOptions &options, std::ostream &log)
+  {
+    const ExactRun e = exact_run(scene_file, model, tolerance);
+    log << "sizing: the exact model's closed loop on '" << scene_file << "' (" << e.scene.n_steps()
+        << " steps); balanced truncation up to order " << options.order << ", tolerance "
+        << fmt(tolerance) << "\n";
+    const auto gramians = prepare_balanced(model, options);
+    return state_space_within(
+      e, options.order, tolerance,
+      [&](const unsigned r) { return realize_balanced(model, *gramians, r); }, log);
+  }
+
+  SizedRepresentatives
+  representatives_within_tolerance(const std::string &scene_file, const ImpulseResponseModel &model,
+                                   const double tolerance, const CompressionOptions &options,
+                                   std::ostream &log)
+  {
+    const ExactRun e = exact_run(scene_file, model, tolerance);
+    log << "sizing: the exact model's closed loop on '" << scene_file << "' (" << e.scene.n_steps()
+        << " steps); representatives (blend " << options.blend << ") from theta 0.5 up, tolerance "
+        << fmt(tolerance) << "\n";
+    SizedRepresentatives out;
+    for (const double theta : {0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95, 0.98, 0.99, 0.995, 0.999, 1.0})
       {
-        if (order > options.order)
-          break;
-        StateSpaceModel       ss = realize_era(model, *hankel, order);
-        StateSpaceInteraction runtime(ss);
-        const CompressionRow  row = measured_row(run_irdm(scene, ss, runtime, true, bound), exact);
-        const SizedModel::Tried t{order, row.errors.force_rel_l2, row.errors.disp_rms, row.stable};
-        out.tried.push_back(t);
-        log << "  r " << order << ": force " << fmt(t.force_error) << ", displacement "
-            << fmt(t.displacement_error) << (t.stable ? "" : ", unstable") << "\n";
-        if (t.stable && t.force_error <= tolerance && t.displacement_error <= tolerance)
+        CompressionOptions o = options;
+        o.theta              = theta;
+        RepresentativeModel c = compress(model, o);
+        if (try_size<RepresentativeInteraction>(e, c, theta, "theta", tolerance, out.tried, log))
           {
-            out.model = std::move(ss);
+            out.model = std::move(c);
             break;
           }
       }

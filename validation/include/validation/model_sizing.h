@@ -1,8 +1,10 @@
 #pragma once
-// A model no larger than the scene needs (issue 51): the smallest realization identified from
-// H alone (irdm compress --method era) whose closed loop on the scene stays within a
-// tolerance of the exact model's, the order searched upward on a fixed grid.
+// A model no larger than the scene needs (issue 51): the smallest model of a family (a
+// state-space realization identified from H alone, the modal realization's balanced truncation,
+// representative waveforms) whose closed loop on the scene stays within a tolerance of the exact
+// model's, its size searched upward on a fixed grid.
 #include <irdm/model.h>
+#include <irdm/representative_model.h>
 #include <irdm/state_space_model.h>
 
 #include <ostream>
@@ -11,25 +13,51 @@
 
 namespace irdm::validation
 {
-  struct SizedModel
+  /// One size tried: the order (state-space) or theta (representatives), and its closed loop's
+  /// errors relative to the exact model's.
+  struct SizeTried
   {
-    struct Tried
-    {
-      unsigned order = 0;
-      double   force_error = 0, displacement_error = 0; // relative, against the exact model
-      bool     stable = true;
-    };
-    StateSpaceModel    model; // order 0: no order up to the largest met the tolerance
-    std::vector<Tried> tried; // every order tried, ascending
+    double setting = 0;
+    double force_error = 0, displacement_error = 0; // probe force rel. L2, surface rel. RMS
+    bool   stable = true;
   };
 
-  /// The orders tried: 25, 50, 75, 100, 150, 200, 300, 400, 500, 600, 800, 1000, 1200,
-  /// 1600, 2000, 2500, 3000, 4000, up to options.order. The scene (a scene file with the
-  /// model's step) runs in closed loop with the exact model (H convolved directly) and with
-  /// each realization; the first whose probe force (relative L2) and surface displacement
-  /// (relative RMS) both stay within `tolerance` of the exact run's is taken, so that no smaller
-  /// order of the grid meets it. One SVD serves every order (prepare_era).
+  struct SizedModel
+  {
+    StateSpaceModel        model; // order 0: no order up to the largest met the tolerance
+    std::vector<SizeTried> tried; // every size tried, ascending
+  };
+
+  struct SizedRepresentatives
+  {
+    RepresentativeModel    model; // theta 0: no theta of the grid met the tolerance
+    std::vector<SizeTried> tried;
+  };
+
+  /// The state-space orders tried: 25, 50, 75, 100, 150, 200, 300, 400, 500, 600, 800, 1000,
+  /// 1200, 1600, 2000, 2500, 3000, 4000, up to the largest allowed.
+  const std::vector<unsigned> &
+  order_grid();
+
+  /// The scene (a scene file with the model's step and a probe) runs in closed loop with the
+  /// exact model (H convolved directly; its responses at least as long as the scene) and with
+  /// each realization of ERA (era_within_tolerance: orders up to options.order, one SVD for all,
+  /// prepare_era) or of balanced truncation (balanced_within_tolerance, prepare_balanced); the
+  /// first whose probe force (relative L2) and surface displacement (relative RMS) both stay
+  /// within `tolerance` of the exact run's is taken, so that no smaller order of the grid meets
+  /// it.
   SizedModel
   era_within_tolerance(const std::string &scene_file, const ImpulseResponseModel &model,
                        double tolerance, const EraOptions &options, std::ostream &log);
+  SizedModel
+  balanced_within_tolerance(const std::string &scene_file, const ImpulseResponseModel &model,
+                            double tolerance, const BalancedOptions &options, std::ostream &log);
+
+  /// The same for representative waveforms over theta = 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95,
+  /// 0.98, 0.99, 0.995, 0.999, 1 (more representatives as theta grows), options' blend and
+  /// delays kept.
+  SizedRepresentatives
+  representatives_within_tolerance(const std::string &scene_file, const ImpulseResponseModel &model,
+                                   double tolerance, const CompressionOptions &options,
+                                   std::ostream &log);
 } // namespace irdm::validation
