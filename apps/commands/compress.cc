@@ -7,6 +7,7 @@
 #include <irdm/state_space_model.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
+#include <irdm_common/format.h>
 #include <validation/model_sizing.h>
 
 #include <iostream>
@@ -26,6 +27,7 @@ namespace irdm::cli
       irdm::CompressionOptions  o;
       irdm::EraOptions          era;
       double                    tolerance = 0; // > 0: the smallest model within it on scene
+      double                    contact_weight = 100; // balanced: the contact rows' weight
       std::string               scene;
       bool                      quiet = false;
     };
@@ -41,7 +43,7 @@ namespace irdm::cli
       if (!found)
         throw irdm::InputError("compress: no " + std::string(size) + " up to " + largest +
                                " keeps the closed loop on '" + a.scene + "' within " +
-                               std::to_string(a.tolerance) + " of the exact model");
+                               irdm::fmt(a.tolerance) + " of the exact model");
       std::printf("smallest %s within %.4g: %.6g\n", size, a.tolerance, tried.back().setting);
     }
 
@@ -86,6 +88,7 @@ namespace irdm::cli
       irdm::BalancedOptions o;
       o.order            = a.era.order;
       o.stability_radius = a.era.stability_radius;
+      o.contact_weight   = a.contact_weight;
       o.log              = a.era.log;
       irdm::StateSpaceModel ss;
       if (a.tolerance > 0)
@@ -206,6 +209,11 @@ namespace irdm::cli
                          "era, balanced: poles beyond this radius are pulled onto it")
       ->capture_default_str()
       ->check(CLI::Range(1e-6, 1 - 1e-9));
+    compress->add_option("--contact-weight", ca->contact_weight,
+                         "balanced: the input vertices' own output DoFs weigh this much more "
+                         "than the other outputs in the observability Gramian")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 1e12));
     compress->add_option("--tolerance", ca->tolerance,
                          "take the smallest model whose closed loop on --scene keeps the probe "
                          "force (relative L2) and the surface displacement (relative RMS) within "

@@ -149,7 +149,12 @@ namespace irdm
     log("balanced truncation: Gramians of " + std::to_string(N) + " modes (" + std::to_string(n) +
         " states)");
     Mat P(n, n), Q(n, n);
-    gramian_blocks(*g, g->load_in.transpose() * g->load_in, g->phi_out.transpose() * g->phi_out, P, Q);
+    if (!(o.contact_weight >= 1 && std::isfinite(o.contact_weight)))
+      throw InputError("balanced truncation: the contact weight must be at least 1");
+    Mat weighted = g->phi_out; // C^T W^2 C: the contact rows weighed
+    for (unsigned k = 0; k < nin; ++k)
+      weighted.row(3 * m.input_output_index[k / 3] + k % 3) *= o.contact_weight;
+    gramian_blocks(*g, g->load_in.transpose() * g->load_in, weighted.transpose() * weighted, P, Q);
     g->Lp = psd_factor(P, "controllability");
     P.resize(0, 0);
     g->Lq = psd_factor(Q, "observability");

@@ -57,7 +57,7 @@ namespace irdm::validation
       const CompressionRow row = measured_row(run_irdm(e.scene, m, runtime, true, e.bound), e.run);
       const SizeTried      t{setting, row.errors.force_rel_l2, row.errors.disp_rms, row.stable};
       tried.push_back(t);
-      log << "  " << name << " " << fmt(setting) << ": force " << fmt(t.force_error)
+      log << "  " << name << " " << fmt(setting, "%.6g") << ": force " << fmt(t.force_error)
           << ", displacement " << fmt(t.displacement_error) << (t.stable ? "" : ", unstable") << "\n";
       return t.stable && t.force_error <= tolerance && t.displacement_error <= tolerance;
     }
