@@ -484,6 +484,22 @@ TEST(Era, ClosedLoopConvergesToTheExactModelWithTheOrder)
 }
 
 
+// A model read back from the exchange layout: the same H, frame and triangles, exactly.
+void
+expect_same_responses(const ImpulseResponseModel &back, const ImpulseResponseModel &model)
+{
+  ASSERT_EQ(back.length, model.length);
+  ASSERT_EQ(back.n_inputs, model.n_inputs);
+  ASSERT_EQ(back.n_outputs, model.n_outputs);
+  for (unsigned k = 0; k < model.n_inputs; ++k)
+    for (unsigned t = 0; t < model.length; ++t)
+      for (unsigned j = 0; j < model.n_outputs; ++j)
+        ASSERT_EQ(back.h(k, t, j), model.h(k, t, j));
+  EXPECT_EQ(back.output_coordinates, model.output_coordinates);
+  EXPECT_EQ(back.input_output_index, model.input_output_index);
+  EXPECT_EQ(back.triangles, model.triangles);
+}
+
 // The exchange layout (irdm export / import): our model out and back in is the same H, the
 // same frame and the same closed loop, exactly; responses per unit impulse, inputs matched by
 // coordinates and no triangles import as well; bad files are refused naming the field.
@@ -495,16 +511,7 @@ TEST(Exchange, ExportThenImportIsTheSameModelExactly)
   const ImportSummary s = import_responses(tmp("exchange.h5"), tmp("imported.h5"));
   EXPECT_FALSE(s.outputs_matched_by_coordinates);
   const auto back = load_model(tmp("imported.h5"), scene.time_step);
-  ASSERT_EQ(back.length, model.length);
-  ASSERT_EQ(back.n_inputs, model.n_inputs);
-  ASSERT_EQ(back.n_outputs, model.n_outputs);
-  for (unsigned k = 0; k < model.n_inputs; ++k)
-    for (unsigned t = 0; t < model.length; ++t)
-      for (unsigned j = 0; j < model.n_outputs; ++j)
-        ASSERT_EQ(back.h(k, t, j), model.h(k, t, j));
-  EXPECT_EQ(back.output_coordinates, model.output_coordinates);
-  EXPECT_EQ(back.input_output_index, model.input_output_index);
-  EXPECT_EQ(back.triangles, model.triangles);
+  expect_same_responses(back, model);
   EXPECT_EQ(back.modes.n_modes, 0u); // H alone: the direct runtime, compress, ERA
   PointInteraction original(model), imported(back);
   const Difference diff = run_side_by_side(scene, model, original, imported);
@@ -581,16 +588,7 @@ TEST(Exchange, CsvExportThenImportIsTheSameModelExactly)
   const ImportSummary s = import_responses(dir, tmp("exchange_csv_model.h5"));
   EXPECT_FALSE(s.outputs_matched_by_coordinates);
   const auto back = load_model(tmp("exchange_csv_model.h5"), scene.time_step);
-  ASSERT_EQ(back.length, model.length);
-  ASSERT_EQ(back.n_inputs, model.n_inputs);
-  ASSERT_EQ(back.n_outputs, model.n_outputs);
-  for (unsigned k = 0; k < model.n_inputs; ++k)
-    for (unsigned t = 0; t < model.length; ++t)
-      for (unsigned j = 0; j < model.n_outputs; ++j)
-        ASSERT_EQ(back.h(k, t, j), model.h(k, t, j));
-  EXPECT_EQ(back.output_coordinates, model.output_coordinates);
-  EXPECT_EQ(back.input_output_index, model.input_output_index);
-  EXPECT_EQ(back.triangles, model.triangles);
+  expect_same_responses(back, model);
 
   // Each corruption of a copy is refused, naming the file (and the line where there is one).
   const auto read = [](const std::string &f) {
