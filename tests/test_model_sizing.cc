@@ -76,9 +76,8 @@ TEST(ModelSizing, BalancedTruncationAndRepresentativesAreSizedTheSameWay)
   std::ofstream(path) << json;
   const fem::Scene scene     = fem::parse_scene(json, ".");
   const auto       model     = make_model(scene, "sizing_bt.h5");
-  // A rigid probe amplifies the history's error by the static over the one-step compliance:
-  // the balanced truncation (contact rows weighed 100) meets 1 % in force from a few hundred
-  // of the beam's 450 states that matter.
+  // A rigid probe amplifies the history's error by the static over the one-step compliance,
+  // so the tolerance is looser than ERA's above.
   const double     tolerance = 1e-2;
   std::ostringstream log;
 
@@ -96,7 +95,7 @@ TEST(ModelSizing, BalancedTruncationAndRepresentativesAreSizedTheSameWay)
 
   CompressionOptions co;
   co.threads    = 1;
-  const double loose = 0.05; // representatives do not reach 1e-3 short of theta 1 on the beam
+  const double loose = 0.05; // representatives under a rigid probe: a looser tolerance still
   const auto reps  = validation::representatives_within_tolerance(path, model, loose, co, log);
   ASSERT_GT(reps.model.theta, 0) << log.str();
   ASSERT_GE(reps.tried.size(), 2u);

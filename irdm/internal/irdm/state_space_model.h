@@ -111,8 +111,8 @@ namespace irdm
     double   stability_radius = 0.9999; // as EraOptions'
     // The input vertices' own output DoFs (the contact rows, whose history the force loop reads)
     // weigh this much more than the other outputs in the observability Gramian: a rigid probe
-    // divides their error by the one-step compliance, not the static one (on the cat's press,
-    // docs/compression.md: 100 takes the force error at r = 1000 from 1e-2 to 2e-5).
+    // divides their error by the one-step compliance, not the static one (docs/compression.md
+    // measures the choice).
     double   contact_weight = 100;
     std::function<void(const std::string &)> log;
   };
