@@ -52,6 +52,8 @@ namespace irdm::cli
   Command
   add_import(CLI::App &app);
   Command
+  add_calculix(CLI::App &app);
+  Command
   add_validate(CLI::App &app);
   Command
   add_validate_planes(CLI::App &app);

@@ -41,7 +41,7 @@ namespace
       add_simulate(app),        add_static(app),          add_modes(app),
       add_probe_stiffness(app), add_verify_fem(app),      add_precompute(app),
       add_precompute_vdof(app), add_compress(app),        add_compare_models(app),
-      add_export(app),          add_import(app),
+      add_export(app),          add_import(app),          add_calculix(app),
       add_validate(app),        add_validate_planes(app), add_validate_free(app),
       add_validate_converged(app), add_validate_nonlinear(app), add_play(app)};
 

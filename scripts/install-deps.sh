@@ -8,6 +8,7 @@ packages=(
   libdeal.ii-dev            # deal.II 9.4 with PETSc/MUMPS, MPI, HDF5 (openmpi flavour)
   libcli11-dev              # command-line options (apps/irdm.cc)
   libeigen3-dev nlohmann-json3-dev libgtest-dev libopenblas-dev openmpi-bin libbenchmark-dev
+  calculix-ccx              # a second FEM as a source of impulse responses (irdm calculix)
 )
 if [ "${1:-}" != --tests ]; then
   packages+=(

@@ -513,6 +513,12 @@ TEST(Exchange, ExportThenImportIsTheSameModelExactly)
   const auto back = load_model(tmp("imported.h5"), scene.time_step);
   expect_same_responses(back, model);
   EXPECT_EQ(back.modes.n_modes, 0u); // H alone: the direct runtime, compress, ERA
+  // The mesh's node tags and the triangles' surfaces come back too: the probe finds its
+  // surface by name, and compare-models pairs the two.
+  EXPECT_EQ(back.output_node_tags, model.output_node_tags);
+  EXPECT_EQ(back.input_node_tags, model.input_node_tags);
+  EXPECT_EQ(back.triangle_surface, model.triangle_surface);
+  EXPECT_EQ(back.surface_names, model.surface_names);
   PointInteraction original(model), imported(back);
   const Difference diff = run_side_by_side(scene, model, original, imported);
   EXPECT_EQ(diff.force, 0);
@@ -548,6 +554,7 @@ TEST(Exchange, ExportThenImportIsTheSameModelExactly)
   EXPECT_EQ(o.n_triangles, 0u);
   const auto other = load_model(tmp("other_model.h5"));
   EXPECT_EQ(other.input_output_index, model.input_output_index);
+  EXPECT_EQ(other.output_node_tags[0], 1); // no tags given: the output vertex number from 1
   double err = 0, peak = 0;
   for (unsigned k = 0; k < model.n_inputs; ++k)
     for (unsigned t = 0; t < model.length; ++t)

@@ -2,6 +2,7 @@
 #include "../command.h"
 
 #include <irdm/model.h>
+#include <validation/model_sizing.h>
 #include <irdm_common/error.h>
 
 #include <algorithm>
@@ -17,7 +18,8 @@ namespace irdm::cli
     /// compare-models: how far a model's H is from a reference model's (same inputs, outputs,
     /// step and length), e.g. a truncated or coarser-storage model against the exact one.
     int
-    run_compare_models(const std::string &reference_path, const std::string &model_path)
+    run_compare_models(const std::string &reference_path, const std::string &model_path,
+                       const std::string &scene)
     {
       const auto ref = irdm::load_model(reference_path);
       const auto m   = irdm::load_model(model_path, ref.time_step);
@@ -56,6 +58,15 @@ namespace irdm::cli
                   "  driving-point feed-through H_kk[0], worst relative: %.3e\n",
                   model_path.c_str(), reference_path.c_str(), nin, T, nout, std::sqrt(d2 / r2),
                   worst_input, worst_static, worst_feedthrough);
+      if (!scene.empty())
+        {
+          const auto c = irdm::validation::closed_loop_difference(scene, ref, m);
+          std::printf("  closed loop on %s (point probes, H convolved directly; the reference's "
+                      "peak force %.6g N): probe force relative L2 %.3e, surface displacement "
+                      "relative RMS %.3e%s\n",
+                      scene.c_str(), c.reference_peak_force, c.force_error, c.displacement_error,
+                      c.stable ? "" : ", unstable");
+        }
       return 0;
     }
   } // namespace
@@ -65,17 +76,22 @@ namespace irdm::cli
   {
     struct Args
     {
-      std::string reference, model;
+      std::string reference, model, scene;
     };
     auto a = std::make_shared<Args>();
     auto *compare = app.add_subcommand("compare-models", "how far a model's H is from a reference model's");
     compare->footer("Relative differences of H between two models of the same inputs, outputs, "
       "time step and length (for example a sparse-route model with --modes against the "
       "all-modes model): over all entries, for the worst input, and of the driving-point "
-      "static compliance and feed-through.");
+      "static compliance and feed-through. With --scene, also both models in closed loop on "
+      "the scene's probes.");
     compare->add_option("reference", a->reference, "reference model (from 'irdm precompute')")
       ->required()->check(CLI::ExistingFile);
     compare->add_option("model", a->model, "model to compare")->required()->check(CLI::ExistingFile);
-    return {compare, [a] { return run_compare_models(a->reference, a->model); }};
+    compare->add_option("--scene", a->scene,
+                        "also run both in closed loop on this scene (its step, a probe; the "
+                        "models at least as long as it)")
+      ->check(CLI::ExistingFile);
+    return {compare, [a] { return run_compare_models(a->reference, a->model, a->scene); }};
   }
 } // namespace irdm::cli

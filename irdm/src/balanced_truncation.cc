@@ -214,19 +214,17 @@ namespace irdm
     out.output_directions =
       nout - static_cast<unsigned>(std::count(contact.begin(), contact.end(), 1));
     // D = H[0]: from H, or from the modes, q_i[0] = b_new's displacement.
-    out.d.resize(static_cast<size_t>(nin) * nout);
-    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> D(out.d.data(), nin, nout);
     if (m.modal_only)
       {
+        out.d.resize(static_cast<size_t>(nin) * nout);
         Vec q0(N);
         for (unsigned i = 0; i < N; ++i)
           q0[i] = m.modes.step[15 * static_cast<size_t>(i) + 3];
-        D = g.load_in * q0.asDiagonal() * g.phi_out.transpose();
+        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+          out.d.data(), nin, nout) = g.load_in * q0.asDiagonal() * g.phi_out.transpose();
       }
     else
-      for (unsigned k = 0; k < nin; ++k)
-        for (unsigned j = 0; j < nout; ++j)
-          D(k, j) = m.h(k, 0, j);
+      realization::set_feedthrough_from_h(out, m);
     out.identification_seconds =
       g.seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;

@@ -28,4 +28,14 @@ namespace irdm::realization
   /// basis of eigenvectors.
   void
   set_block_diagonal(StateSpaceModel &out, const Mat &A, const Mat &B, const Mat &C, double radius);
+
+  /// The feed-through D = H[0] (n_inputs x n_outputs, row-major) from the model's H.
+  inline void
+  set_feedthrough_from_h(StateSpaceModel &out, const ImpulseResponseModel &m)
+  {
+    out.d.resize(static_cast<size_t>(m.n_inputs) * m.n_outputs);
+    for (unsigned k = 0; k < m.n_inputs; ++k)
+      for (unsigned j = 0; j < m.n_outputs; ++j)
+        out.d[static_cast<size_t>(k) * m.n_outputs + j] = m.h(k, 0, j);
+  }
 } // namespace irdm::realization

@@ -61,6 +61,7 @@ namespace irdm
     f.create_group("/outputs");
     const auto out_xyz = flat(m.output_coordinates);
     f.write("/outputs/coordinates", {nvo, 3}, out_xyz.data());
+    f.write("/outputs/node_tags", {nvo}, m.output_node_tags.data());
     if (!m.triangles.empty())
       {
         f.create_group("/surface");
@@ -68,6 +69,12 @@ namespace irdm
         for (const auto &t : m.triangles)
           tri.insert(tri.end(), t.begin(), t.end());
         f.write("/surface/triangles", {m.triangles.size(), 3}, tri.data());
+        const std::vector<long long> ts(m.triangle_surface.begin(), m.triangle_surface.end());
+        f.write("/surface/triangle_surface", {ts.size()}, ts.data());
+        std::string names;
+        for (const auto &n : m.surface_names)
+          names += (names.empty() ? "" : ",") + n;
+        f.attribute("/surface", "surface_names", names);
       }
     if (m.double_storage)
       f.write("/responses", {m.n_inputs, m.length, m.n_outputs}, m.h_double.data());
@@ -85,7 +92,10 @@ namespace irdm
       std::string            convention, source;
       std::vector<double>    out_xyz, in_xyz; // (n, 3), m
       std::vector<long long> output_index;    // empty: match by coordinates
+      std::vector<long long> output_tags;     // the source mesh's node tags; empty: 1, 2, ...
       std::vector<long long> triangles;       // (n_tri, 3)
+      std::vector<long long> triangle_surface; // index into surface_names; empty: "imported"
+      std::string            surface_names;    // comma-separated
       unsigned long long     length = 0;      // T
       std::vector<double>    H;               // [input DoF][sample][output DoF]
     };
@@ -121,12 +131,21 @@ namespace irdm
       d.in_xyz  = r.read_double("/inputs/coordinates", {si[0], 3});
       if (r.exists("/inputs/output_index"))
         d.output_index = r.read_int("/inputs/output_index", {si[0]});
+      if (r.exists("/outputs/node_tags"))
+        d.output_tags = r.read_int("/outputs/node_tags", {so[0]});
       if (r.exists("/surface/triangles"))
         {
           const auto st = shape_of("/surface/triangles", 2);
           if (st[1] != 3)
             fail("surface/triangles must be (n, 3)");
           d.triangles = r.read_int("/surface/triangles", st);
+          if (r.exists("/surface/triangle_surface"))
+            {
+              if (!r.has_attribute("/surface", "surface_names"))
+                fail("surface/triangle_surface needs the attribute surface_names on /surface");
+              d.triangle_surface = r.read_int("/surface/triangle_surface", {st[0]});
+              d.surface_names    = r.string_attribute("/surface", "surface_names");
+            }
         }
       const auto sh = shape_of("/responses", 3);
       if (sh[0] != 3 * si[0] || sh[2] != 3 * so[0] || sh[1] < 1 || sh[1] > 10000000)
@@ -391,6 +410,21 @@ namespace irdm
             if (in_xyz[3 * k + a] != out_xyz[3 * io[k] + a])
               fail("input " + std::to_string(k) + " is not at its output vertex's coordinates");
         }
+      if (!d.output_tags.empty())
+        {
+          std::vector<long long> sorted = d.output_tags;
+          std::sort(sorted.begin(), sorted.end());
+          if (sorted.front() < 1 || std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+            fail("the outputs' node tags must be positive and distinct");
+        }
+      if (!d.triangle_surface.empty())
+        {
+          const long long n_names =
+            1 + std::count(d.surface_names.begin(), d.surface_names.end(), ',');
+          for (const long long t : d.triangle_surface)
+            if (t < 0 || t >= n_names)
+              fail("surface/triangle_surface refers to a name that surface_names does not list");
+        }
       for (const long long v : d.triangles)
         if (v < 0 || v >= static_cast<long long>(nvo))
           fail("the surface triangles refer to a vertex that is not an output");
@@ -423,10 +457,11 @@ namespace irdm
       f.attribute("/", "mesh_file", std::string("unknown (imported)"));
       f.create_group("/outputs");
       std::vector<long long> out_tags(nvo), in_tags(nvi);
+      // The source mesh's node tags where given, else the output vertex number from 1.
       for (hsize_t v = 0; v < nvo; ++v)
-        out_tags[v] = static_cast<long long>(v) + 1; // tags: output vertex number from 1
+        out_tags[v] = d.output_tags.empty() ? static_cast<long long>(v) + 1 : d.output_tags[v];
       for (hsize_t k = 0; k < nvi; ++k)
-        in_tags[k] = io[k] + 1;
+        in_tags[k] = out_tags[io[k]];
       f.write("/outputs/node_tags", {nvo}, out_tags.data());
       f.write("/outputs/coordinates", {nvo, 3}, out_xyz.data());
       f.create_group("/inputs");
@@ -435,10 +470,12 @@ namespace irdm
       f.write("/inputs/output_index", {nvi}, io.data());
       f.create_group("/surface");
       const hsize_t           n_tri = tri.size() / 3;
-      const std::vector<long long> surface(n_tri, 0);
+      const std::vector<long long> surface =
+        d.triangle_surface.empty() ? std::vector<long long>(n_tri, 0) : d.triangle_surface;
       f.write("/surface/triangles", {n_tri, 3}, tri.data());
       f.write("/surface/triangle_surface", {n_tri}, surface.data());
-      f.attribute("/surface", "surface_names", std::string("imported"));
+      f.attribute("/surface", "surface_names",
+                  d.triangle_surface.empty() ? std::string("imported") : d.surface_names);
       f.create_group("/impulse_response");
       f.write("/impulse_response/H", {sh[0], sh[1], sh[2]}, H.data());
       f.create_group("/progress");

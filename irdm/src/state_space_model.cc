@@ -347,10 +347,7 @@ namespace irdm
           ro == nout ? j
                      : static_cast<unsigned>(std::count(e.contact_row.begin(), e.contact_row.begin() + j, 1));
       }
-    out.d.resize(static_cast<size_t>(nin) * nout);
-    for (unsigned k = 0; k < nin; ++k)
-      for (unsigned j = 0; j < nout; ++j)
-        out.d[static_cast<size_t>(k) * nout + j] = m.h(k, 0, j);
+    realization::set_feedthrough_from_h(out, m);
     out.identification_seconds =
       e.seconds + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;

@@ -356,6 +356,10 @@ namespace irdm::fem
     std::vector<double>                  div(n);
     std::vector<Tensor<1, 3>>            phi(n);
 
+    // CalculiX's C3D4 mass: the integrand at the centroid only (scene "mass_matrix").
+    const QGaussSimplex<3> centroid(1);
+    FEValues<3> centroid_values(mapping, fe, centroid, update_values | update_JxW_values);
+
     for (const auto &cell : dof_handler.active_cell_iterators())
       {
         fe_values.reinit(cell);
@@ -377,10 +381,20 @@ namespace irdm::fem
                   {
                     cell_k(i, j) += (2 * mu * scalar_product(eps[i], eps[j]) +
                                      lambda * div[i] * div[j]) * dx;
-                    cell_m(i, j) += rho * (phi[i] * phi[j]) * dx;
+                    if (!scene.one_point_mass)
+                      cell_m(i, j) += rho * (phi[i] * phi[j]) * dx;
                   }
                 cell_f(i) += rho * (phi[i] * g) * dx;
               }
+          }
+        if (scene.one_point_mass)
+          {
+            centroid_values.reinit(cell);
+            for (unsigned i = 0; i < n; ++i)
+              for (unsigned j = 0; j < n; ++j)
+                cell_m(i, j) += rho * (centroid_values[displacement].value(i, 0) *
+                                       centroid_values[displacement].value(j, 0)) *
+                                centroid_values.JxW(0);
           }
         cell->get_dof_indices(dof_indices);
         stiffness.add(dof_indices, cell_k);

@@ -33,6 +33,7 @@ namespace irdm::fem
     f.attribute("/", "rayleigh_alpha_1_s", scene.rayleigh_alpha);
     f.attribute("/", "rayleigh_beta_s", scene.rayleigh_beta);
     f.attribute("/", "fe_degree", static_cast<long long>(scene.fe_degree));
+    f.attribute("/", "mass_matrix", std::string(scene.one_point_mass ? "one_point" : "consistent"));
     f.attribute("/", "mesh_file", scene.mesh_file);
     f.attribute("/", "mesh_hash", file_hash(scene.mesh_file));
     f.attribute("/", "fixed_surfaces", fixed);

@@ -435,6 +435,13 @@ namespace irdm::fem
           fail(top.where + ".fe_degree", "must be 1 or 2 (linear or quadratic tetrahedra)");
         s.fe_degree = static_cast<unsigned>(p);
       }
+    if (top.has("mass_matrix"))
+      {
+        const std::string m = top.at("mass_matrix").string();
+        if (m != "consistent" && m != "one_point")
+          fail(top.where + ".mass_matrix", "must be 'consistent' or 'one_point'");
+        s.one_point_mass = m == "one_point";
+      }
     }
 
     /// Young's modulus, Poisson's ratio, density and the law.
@@ -775,6 +782,9 @@ namespace irdm::fem
     if (s.kinematics == Kinematics::linear && (s.small_strain_law || s.corotational_law))
       fail(top.where + ".material.law", "is for nonlinear kinematics (linear kinematics are "
                                         "small-strain elasticity already)");
+    if (s.one_point_mass && (s.fe_degree != 1 || s.kinematics != Kinematics::linear))
+      fail(top.where + ".mass_matrix", "'one_point' is for linear tetrahedra (fe_degree 1) "
+                                       "under linear kinematics");
     if (s.kinematics == Kinematics::linear && !s.planes.empty() && !s.probes.empty())
       fail(top.where, "linear kinematics take either probes or planes in one scene, not both");
     if (s.kinematics == Kinematics::nonlinear && (!s.probes.empty() || !s.prescribed.empty()))
@@ -888,7 +898,7 @@ namespace irdm::fem
                          e.what() + ")");
       }
     const Node top{root, "'" + origin + "'"};
-    top.allow_only({"format", "name", "mesh", "fe_degree", "material", "damping",
+    top.allow_only({"format", "name", "mesh", "fe_degree", "mass_matrix", "material", "damping",
                     "integrator", "time", "initial_state", "gravity",
                     "kinematics", "initial_velocity_m_s", "initial_angular_velocity_rad_s", "planes",
                     "fixed_surfaces", "loads", "prescribed_displacements",

@@ -83,6 +83,21 @@ namespace irdm::validation
     }
   } // namespace
 
+  ClosedLoopDifference
+  closed_loop_difference(const std::string &scene_file, const ImpulseResponseModel &reference,
+                         const ImpulseResponseModel &model)
+  {
+    const ExactRun e = exact_run(scene_file, reference, 0.5); // no tolerance is applied here
+    if (std::abs(model.time_step - reference.time_step) > 1e-12 * reference.time_step ||
+        model.length < e.scene.n_steps())
+      throw InputError("the model steps at " + fmt(model.time_step) + " s with " +
+                       std::to_string(model.length) + " samples; the scene needs " +
+                       fmt(e.scene.time_step) + " s and " + std::to_string(e.scene.n_steps()));
+    PointInteraction     runtime(model);
+    const CompressionRow row = measured_row(run_irdm(e.scene, model, runtime, true, e.bound), e.run);
+    return {row.errors.force_rel_l2, row.errors.disp_rms, peak_force(e.run), row.stable};
+  }
+
   const std::vector<unsigned> &
   order_grid()
   {

@@ -173,6 +173,11 @@ namespace irdm::fem
     std::string json_text;  // the scene as given, stored with every result
     std::string mesh_file;  // resolved path
     unsigned    fe_degree = 2;
+    // The linear FEM's mass matrix: consistent (exact integration), or "one_point": the
+    // tetrahedron's rule at its centroid, rho V / 16 between every pair of its vertices, which is
+    // what CalculiX's C3D4 element assembles. For cross-checking a model made by CalculiX; P1
+    // and linear kinematics only.
+    bool        one_point_mass = false;
 
     double youngs_modulus = 0; // Pa
     double poisson_ratio  = 0;
