@@ -141,6 +141,14 @@ def scaling_headline(folder):
             f"{float(big['seconds_total']):.0f} s, {big['peak_rss_MB']} MB peak")
 
 
+def calculix_headline(folder):
+    table = markdown_table(os.path.join(folder, "README.md"))
+    same = [r["H"] for r in table if r["model"] == "CalculiX" and "CalculiX's mass" in r["reference"]]
+    mass = [r["H"] for r in table if r["model"] == "CalculiX" and "consistent" in r["reference"]]
+    return (f"CalculiX's model against ours with its mass rule: H {' and '.join(same)}; "
+            f"against ours with the consistent mass: H {' and '.join(mass)} (the mass rule)")
+
+
 def benchmarks_headline(folder):
     table = markdown_table(os.path.join(folder, "benchmarks.md"))
     return f"{len(table)} runtime kernels timed, with their ratios to the direct convolution"
@@ -200,6 +208,9 @@ STUDIES = [
      RUNTIME + ["apps/play.cc", "apps/templates/play.md", "scripts/play_study.sh"]),
     ("Precompute cost against DoFs", "scaling/scaling.md", "scaling/scaling.png",
      scaling_headline, ["reference_fem", "common", "scripts/scaling.sh"]),
+    ("A second FEM as a source of models: CalculiX against ours", "calculix/README.md", None,
+     calculix_headline, ["reference_fem", "irdm/src/response_exchange.cc",
+                         "validation/src/model_sizing.cc"]),
     ("Runtime kernels (Google Benchmark)", "quick/benchmarks.md", None, benchmarks_headline,
      RUNTIME + ["benchmarks"]),
 ]
