@@ -3,6 +3,7 @@
 // files refused (exit 2), inputs never overwritten, commands that are not parallel refused
 // under mpirun. Runs the real binary (IRDM_CLI).
 #include <irdm/model.h>
+#include <irdm/state_space_model.h>
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
 #include <irdm_common/h5.h>
@@ -682,4 +683,35 @@ TEST(Cli, EveryWriterOnAFillingDiskExitsFourAndLeavesNothingBehind)
     "filling_sim", R"(, "outputs": {"directory": ")" + dir + R"(", "surface": true})", 0.1);
   expect_cli_fails_cleanly_at_every_size(cli + " simulate " + sim + " --quiet",
                                          dir + "/irdm_beam.h5", false);
+}
+
+// ERA from noisy responses (compress --noise, a measured-response stand-in): the same seed
+// draws the same model, another seed another; the file says what it was identified from; noise
+// is refused where it means nothing (balanced truncation reads the modes) or would bias the
+// sizing (with --tolerance).
+TEST(Cli, NoisyIdentificationIsReproducibleBySeed)
+{
+  const std::string cli   = IRDM_CLI;
+  const fem::Scene  scene = fem::parse_scene(beam_scene(""), ".");
+  make_model(scene, "noise_src.h5");
+  const std::string src = tmp("noise_src.h5");
+  const auto era = [&](const std::string &out, const std::string &extra) {
+    return status(cli + " compress " + src + " --method era --order 60 --quiet --out " + tmp(out) + " " + extra);
+  };
+  ASSERT_EQ(era("a.h5", "--noise 1e-3 --seed 3"), 0);
+  ASSERT_EQ(era("b.h5", "--noise 1e-3 --seed 3"), 0);
+  ASSERT_EQ(era("c.h5", "--noise 1e-3 --seed 4"), 0);
+  ASSERT_EQ(era("clean.h5", ""), 0);
+  const auto a = load_state_space_model(tmp("a.h5")), b = load_state_space_model(tmp("b.h5")),
+             c = load_state_space_model(tmp("c.h5")), clean = load_state_space_model(tmp("clean.h5"));
+  EXPECT_EQ(a.d, b.d);
+  EXPECT_EQ(a.c, b.c);
+  EXPECT_NE(a.d, c.d);
+  EXPECT_NE(a.d, clean.d);
+  EXPECT_NE(a.identified_from.find("seed 3"), std::string::npos) << a.identified_from;
+  EXPECT_EQ(clean.identified_from, "H as stored");
+  EXPECT_EQ(status(cli + " compress " + src + " --method balanced --order 30 --noise 1e-3 --out " + tmp("x.h5")), 2);
+  EXPECT_EQ(era("y.h5", "--noise 1e-3 --tolerance 0.01 --scene " + write_scene("noise_scene", beam_probe)), 2);
+  EXPECT_FALSE(std::filesystem::exists(tmp("x.h5")));
+  EXPECT_FALSE(std::filesystem::exists(tmp("y.h5")));
 }

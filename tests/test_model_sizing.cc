@@ -111,3 +111,38 @@ TEST(ModelSizing, BalancedTruncationAndRepresentativesAreSizedTheSameWay)
   const auto smaller   = representative_errors(compress(model, co));
   EXPECT_GT(std::max(smaller.force_rel_l2, smaller.disp_rms), loose) << "theta " << co.theta;
 }
+
+// Two models in closed loop (validation::closed_loop_difference, `irdm compare-models
+// --scene`): a model against itself is exactly 0; a realization against its source is what the
+// runner measures apart; on a virtual coupling the passivity of both runs is reported, and the
+// exact model on the beam's coupled probe is passive.
+TEST(ModelSizing, ClosedLoopDifferenceOfTwoModels)
+{
+  const std::string coupled = R"("unilateral": false, "coupling": {"stiffness_N_m": 30, "damping_N_s_m": 0.05},)";
+  std::string       probe   = beam_probe;
+  probe.replace(probe.find(R"("unilateral": false,)"), std::string(R"("unilateral": false,)").size(), coupled);
+  for (const std::string &p : {std::string(beam_probe), probe})
+    {
+      const std::string json = beam_scene(p);
+      const std::string path = tmp("closed_loop_scene.json");
+      std::ofstream(path) << json;
+      const fem::Scene scene = fem::parse_scene(json, ".");
+      const auto       model = make_model(scene, "closed_loop.h5");
+      const auto       self  = validation::closed_loop_difference(path, model, model);
+      EXPECT_EQ(self.force_error, 0);
+      EXPECT_EQ(self.displacement_error, 0);
+      EXPECT_GT(self.reference_peak_force, 0);
+      EXPECT_EQ(self.coupled, p != beam_probe);
+      EXPECT_TRUE(self.passive);
+      EXPECT_TRUE(self.reference_passive);
+
+      EraOptions o;
+      o.order             = 200;
+      const auto ss       = identify_era(model, o);
+      const auto d        = validation::closed_loop_difference(path, model, ss);
+      const auto apart    = errors_of(scene, model, ss);
+      EXPECT_EQ(d.force_error, apart.force_rel_l2);
+      EXPECT_EQ(d.displacement_error, apart.disp_rms);
+      EXPECT_GT(d.force_error, 0);
+    }
+}

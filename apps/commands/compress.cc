@@ -11,7 +11,10 @@
 #include <validation/model_sizing.h>
 
 #include <iostream>
+#include <random>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -30,7 +33,34 @@ namespace irdm::cli
       double                    contact_weight = 100; // balanced: the contact rows' weight
       std::string               scene;
       bool                      quiet = false;
+      double                    noise = 0;    // > 0: H with Gaussian noise of this std / peak
+      unsigned                  noise_seed = 1;
+      std::string               noisy_h;      // what add_noise did, in words
     };
+
+    /// A measured-response stand-in: every entry of H (H[0] included) plus Gaussian noise of
+    /// standard deviation `fraction` of H's largest entry, from a seeded generator so that a
+    /// figure can be drawn again and its spread over seeds reported.
+    std::string
+    add_noise(irdm::ImpulseResponseModel &m, const double fraction, const unsigned seed)
+    {
+      if (m.h_double.empty() && m.h_float.empty())
+        throw irdm::InputError("compress: --noise needs a model with H (not --modal-only)");
+      double peak = 0;
+      for (const double x : m.h_double)
+        peak = std::max(peak, std::abs(x));
+      for (const float x : m.h_float)
+        peak = std::max(peak, static_cast<double>(std::abs(x)));
+      std::mt19937_64                  rng(seed);
+      std::normal_distribution<double> gauss(0.0, fraction * peak);
+      for (double &x : m.h_double)
+        x += gauss(rng);
+      for (float &x : m.h_float)
+        x = static_cast<float>(x + gauss(rng));
+      return "H with Gaussian noise of standard deviation " + irdm::fmt(fraction) +
+             " of its largest entry (" + irdm::fmt(fraction * peak) + " m/N), seed " +
+             std::to_string(seed);
+    }
 
     /// The sizes a --tolerance search tried, and the one it took (InputError when none).
     void
@@ -66,6 +96,8 @@ namespace irdm::cli
         }
       else
         ss = irdm::identify_era(model, a.era);
+      if (!a.noisy_h.empty())
+        ss.identified_from = a.noisy_h;
       irdm::save_state_space_model(ss, a.in, a.out, std::move(lock));
       const double h_float = 4.0 * model.n_inputs * model.n_outputs * model.length;
       const auto  &hsv     = ss.hankel_singular_values;
@@ -126,7 +158,17 @@ namespace irdm::cli
         throw irdm::InputError("compress: --tolerance sizes the model on a --scene; give one");
       irdm::OutputLock lock(a.out); // before the work: a second run to --out is refused now
       a.o.log = a.era.log = stderr_log(a.quiet);
-      const auto model = irdm::load_model(a.in);
+      auto model = irdm::load_model(a.in);
+      if (a.noise > 0)
+        {
+          if (a.method != "era")
+            throw irdm::InputError("compress: --noise is for --method era (identification from "
+                                   "measured responses)");
+          if (a.tolerance > 0)
+            throw irdm::InputError("compress: --noise with --tolerance would size against the "
+                                   "noisy H; size without noise, then identify with it");
+          a.noisy_h = add_noise(model, a.noise, a.noise_seed);
+        }
       if (a.method == "era")
         return run_era(a, model, std::move(lock));
       if (a.method == "balanced")
@@ -241,6 +283,13 @@ namespace irdm::cli
     compress->add_option("--threads", ca->o.threads, "worker threads (0: all cores)")
       ->capture_default_str()
       ->check(CLI::Range(0u, 1024u));
+    compress->add_option("--noise", ca->noise,
+                         "era: identify from H plus Gaussian noise of this standard deviation, "
+                         "as a fraction of H's largest entry (a stand-in for measured responses; "
+                         "the file says so)")
+      ->check(CLI::Range(0.0, 1.0));
+    compress->add_option("--seed", ca->noise_seed, "with --noise: the generator's seed")
+      ->capture_default_str();
     compress->add_flag("--quiet", ca->quiet, "no progress on stderr");
     return {compress, [ca] { return run_compress(*ca); }};
   }

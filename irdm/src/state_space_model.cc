@@ -371,6 +371,7 @@ namespace irdm
     f.attribute("/", "source_file", source_file);
     const bool balanced = m.method == "balanced_truncation";
     f.attribute("/", "method", m.method);
+    f.attribute("/", "identified_from", m.identified_from);
     f.attribute("/", "identification",
                 std::string(balanced ? "balanced truncation (square-root method) of the source's "
                                        "modal realization"
@@ -437,6 +438,8 @@ namespace irdm
     m.method = r.has_attribute("/", "method") ? r.string_attribute("/", "method") : "era";
     if (m.method != "era" && m.method != "balanced_truncation")
       fail("method must be era or balanced_truncation");
+    if (r.has_attribute("/", "identified_from"))
+      m.identified_from = r.string_attribute("/", "identified_from");
     const long long least = m.method == "era" ? 1 : 0;
     m.hankel_rows      = static_cast<unsigned>(r.count_attribute("/", "hankel_block_rows", least, m.length));
     m.hankel_columns   = static_cast<unsigned>(r.count_attribute("/", "hankel_block_columns", least, m.length));

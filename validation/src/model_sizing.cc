@@ -83,19 +83,46 @@ namespace irdm::validation
     }
   } // namespace
 
+  namespace
+  {
+    template <class Interaction, class Model>
+    ClosedLoopDifference
+    closed_loop_of(const std::string &scene_file, const ImpulseResponseModel &reference,
+                   const Model &model)
+    {
+      const ExactRun e = exact_run(scene_file, reference, 0.5); // no tolerance is applied here
+      if (std::abs(model.time_step - reference.time_step) > 1e-12 * reference.time_step)
+        throw InputError("the model steps at " + fmt(model.time_step) + " s, the scene at " +
+                         fmt(e.scene.time_step) + " s");
+      Interaction          runtime(model);
+      const Series         run = run_irdm(e.scene, model, runtime, true, e.bound);
+      const CompressionRow row = measured_row(run, e.run);
+      ClosedLoopDifference d{row.errors.force_rel_l2, row.errors.disp_rms, peak_force(e.run), row.stable};
+      for (const auto &p : e.scene.probes)
+        d.coupled = d.coupled || p.coupling_stiffness > 0 || p.coupling_damping > 0;
+      if (d.coupled)
+        {
+          const CouplingRun mine{0, 0, e.scene.time_step, "model", run};
+          const CouplingRun exact{0, 0, e.scene.time_step, "reference", e.run};
+          d.passive           = coupling_passive(mine, d.reference_peak_force);
+          d.reference_passive = coupling_passive(exact, d.reference_peak_force);
+        }
+      return d;
+    }
+  } // namespace
+
   ClosedLoopDifference
   closed_loop_difference(const std::string &scene_file, const ImpulseResponseModel &reference,
                          const ImpulseResponseModel &model)
   {
-    const ExactRun e = exact_run(scene_file, reference, 0.5); // no tolerance is applied here
-    if (std::abs(model.time_step - reference.time_step) > 1e-12 * reference.time_step ||
-        model.length < e.scene.n_steps())
-      throw InputError("the model steps at " + fmt(model.time_step) + " s with " +
-                       std::to_string(model.length) + " samples; the scene needs " +
-                       fmt(e.scene.time_step) + " s and " + std::to_string(e.scene.n_steps()));
-    PointInteraction     runtime(model);
-    const CompressionRow row = measured_row(run_irdm(e.scene, model, runtime, true, e.bound), e.run);
-    return {row.errors.force_rel_l2, row.errors.disp_rms, peak_force(e.run), row.stable};
+    return closed_loop_of<PointInteraction>(scene_file, reference, model);
+  }
+
+  ClosedLoopDifference
+  closed_loop_difference(const std::string &scene_file, const ImpulseResponseModel &reference,
+                         const StateSpaceModel &model)
+  {
+    return closed_loop_of<StateSpaceInteraction>(scene_file, reference, model);
   }
 
   const std::vector<unsigned> &

@@ -58,6 +58,8 @@ namespace irdm
 
     // How it was made.
     std::string         source_file, method = "era"; // or "balanced_truncation"
+    // What ERA saw: "H as stored", or H with noise added (irdm compress --noise).
+    std::string         identified_from = "H as stored";
     unsigned            input_directions = 0, output_directions = 0;
     unsigned            hankel_rows = 0, hankel_columns = 0;
     double              stability_radius = 0, identification_seconds = 0;

@@ -34,18 +34,23 @@ namespace irdm::validation
     std::vector<SizeTried> tried;
   };
 
-  /// Two models of the same body on one scene in closed loop (point probes; each model's H
-  /// convolved directly, at least as long as the scene): the model's probe force (relative L2)
-  /// and surface displacement (relative RMS) against the reference's, and the reference's peak
-  /// probe force (N). For a model made elsewhere (irdm import, irdm calculix) against ours.
+  /// Two models of the same body on one scene in closed loop (point probes, a virtual coupling
+  /// where the scene's probes have one; the reference's H convolved directly, at least as long
+  /// as the scene): the model's probe force (relative L2) and surface displacement (relative
+  /// RMS) against the reference's, the reference's peak probe force (N), and, on a coupled
+  /// scene, whether the model's run stayed passive (the passivity observer). For a model made
+  /// elsewhere (irdm import, irdm calculix) or identified (ERA) against ours.
   struct ClosedLoopDifference
   {
     double force_error = 0, displacement_error = 0, reference_peak_force = 0;
-    bool   stable = true;
+    bool   stable = true, coupled = false, passive = true, reference_passive = true;
   };
   ClosedLoopDifference
   closed_loop_difference(const std::string &scene_file, const ImpulseResponseModel &reference,
                          const ImpulseResponseModel &model);
+  ClosedLoopDifference
+  closed_loop_difference(const std::string &scene_file, const ImpulseResponseModel &reference,
+                         const StateSpaceModel &model);
 
   /// The state-space orders tried: 25, 50, 75, 100, 150, 200, 300, 400, 500, 600, 800, 1000,
   /// 1200, 1600, 2000, 2500, 3000, 4000, up to the largest allowed.
