@@ -146,3 +146,36 @@ TEST(ModelSizing, ClosedLoopDifferenceOfTwoModels)
       EXPECT_GT(d.force_error, 0);
     }
 }
+
+// precompute --tolerance: the lowest modes (sparse route with its residual modes) and the length,
+// each the smallest of its grid whose closed loop on the scene is within the tolerance of the
+// every-mode model's; the size below it on the grid misses; no scratch model is left behind.
+TEST(ModelSizing, PrecomputeSizesTheModesAndTheLength)
+{
+  namespace fs = std::filesystem;
+  std::string json = beam_scene(beam_probe);
+  json.replace(json.find(R"("duration_s": 0.2)"), 17, R"("duration_s": 0.4)");
+  json.replace(json.find(R"("length": 100)"), 13, R"("length": 200)");
+  const std::string path = tmp("precompute_sizing.json");
+  std::ofstream(path) << json;
+  std::ostringstream log;
+  for (const auto what : {validation::PrecomputeSize::modes, validation::PrecomputeSize::length})
+    {
+      const double tolerance = what == validation::PrecomputeSize::modes ? 1e-3 : 5e-2;
+      fem::PrecomputeOptions o;
+      o.output          = tmp(what == validation::PrecomputeSize::modes ? "modes.h5" : "length.h5");
+      const auto sized  = validation::precompute_within_tolerance(path, what, tolerance, o, log);
+      ASSERT_GE(sized.tried.size(), 2u) << log.str();
+      ASSERT_GT(sized.size, 0u);
+      const auto &found = sized.tried.back(), &below = sized.tried[sized.tried.size() - 2];
+      EXPECT_LE(std::max(found.force_error, found.displacement_error), tolerance);
+      EXPECT_TRUE(!below.stable || std::max(below.force_error, below.displacement_error) > tolerance);
+      const auto model = load_model(o.output);
+      if (what == validation::PrecomputeSize::modes)
+        EXPECT_GT(model.modes.n_modes, sized.size); // the lowest, plus the residual modes
+      else
+        EXPECT_EQ(model.length, sized.size);
+      for (const char *scratch : {".exact.h5", ".try.h5", ".exact.h5.part", ".try.h5.part"})
+        EXPECT_FALSE(fs::exists(o.output + scratch)) << scratch;
+    }
+}

@@ -9,10 +9,12 @@
 #include <reference_fem/impulse_response.h>
 #include <reference_fem/reduced_model.h>
 #include <reference_fem/scene.h>
+#include <validation/model_sizing.h>
 
 #include <mpi.h>
 
 #include <cstdio>
+#include <iostream>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -31,6 +33,9 @@ namespace irdm::cli
       bool     reduced = false, no_residual_modes = false;
       unsigned derivative_modes = 8, derivative_residual = 0, basis = 40, training_presses = 12;
       double   cubature_tolerance = 0.01, training_depth = 0.02;
+      // --tolerance: the smallest model within it on the scene's own probes.
+      double      tolerance = 0;
+      std::string size_by   = "modes";
     };
 
     // The reduced model: the every-element file from the FEM, then (unless the tolerance is 0)
@@ -94,6 +99,38 @@ namespace irdm::cli
       return 0;
     }
 
+    // --tolerance: the modes or the length sized on the scene's probes (validation/model_sizing.h).
+    int
+    run_precompute_within(const PrecomputeArgs &a, const irdm::fem::PrecomputeOptions &o)
+    {
+      int ranks = 1;
+      MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+      if (ranks > 1)
+        throw irdm::InputError("--tolerance runs on one rank: run it without mpirun");
+      if (a.modes > 0 || a.modal_only)
+        throw irdm::InputError("--tolerance chooses the modes itself: leave out --modes and --modal-only");
+      irdm::OutputLock lock(a.out);
+      const auto what = a.size_by == "length" ? irdm::validation::PrecomputeSize::length
+                                              : irdm::validation::PrecomputeSize::modes;
+      static std::ostream silent(nullptr);
+      const auto sized = irdm::validation::precompute_within_tolerance(
+        a.scene, what, a.tolerance, o, a.quiet ? silent : std::cerr);
+      for (const auto &t : sized.tried)
+        std::printf("%s %.0f: force %.4g, displacement %.4g against the every-mode model%s\n",
+                    a.size_by.c_str(), t.setting, t.force_error, t.displacement_error,
+                    t.stable ? "" : " (unstable)");
+      if (what == irdm::validation::PrecomputeSize::modes)
+        std::printf("model %s: %s within %.4g on the scene\n", a.out.c_str(),
+                    sized.size == 0 ? "every mode (no fewer lowest modes of the grid)"
+                                    : ("the lowest " + std::to_string(sized.size) +
+                                       " modes and the residual modes").c_str(),
+                    a.tolerance);
+      else
+        std::printf("model %s: T = %u samples, the shortest of the grid within %.4g on the scene\n",
+                    a.out.c_str(), sized.size, a.tolerance);
+      return 0;
+    }
+
     int
     run_precompute(const PrecomputeArgs &a)
     {
@@ -120,6 +157,8 @@ namespace irdm::cli
       o.fit_weights      = a.fit_weights == "mass" ? irdm::fem::RigidFitWeights::mass
                                                    : irdm::fem::RigidFitWeights::uniform;
       o.log              = stderr_log(a.quiet);
+      if (a.tolerance > 0)
+        return run_precompute_within(a, o);
       const auto r = irdm::fem::precompute_impulse_responses(scene, o);
       if (mpi_rank() == 0 && r.sparse)
         std::printf("sparse route: the lowest %u of %u modes (largest relative residual %.2g, %u "
@@ -194,6 +233,17 @@ namespace irdm::cli
                              std::to_string(irdm::fem::default_inertial_modes) +
                              ", or every mode if fewer)")
       ->check(CLI::Range(1u, 1000000u));
+    precompute->add_option("--tolerance", pre->tolerance,
+                           "write the smallest model whose closed loop on the scene's own probes "
+                           "keeps the probe force (relative L2) and the surface displacement "
+                           "(relative RMS) within this fraction of the every-mode model's (dense "
+                           "route, the scene's or --length's T): fewer lowest modes (--size-by "
+                           "modes: 10, 25, 50, ... with the residual modes) or a shorter length "
+                           "(--size-by length: 50, 100, 150, ...); one rank")
+      ->check(CLI::Range(1e-12, 0.999));
+    precompute->add_option("--size-by", pre->size_by, "with --tolerance: what is sized")
+      ->check(CLI::IsMember({"modes", "length"}))
+      ->capture_default_str();
     precompute->add_flag("--restart", pre->restart, "ignore a partial file and start over");
     precompute->add_flag("--allow-large", pre->allow_large,
                          "run even if the memory or disk estimate exceeds what is free");

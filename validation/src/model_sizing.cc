@@ -7,6 +7,7 @@
 #include <validation/model_sizing.h>
 
 #include <cmath>
+#include <filesystem>
 #include <memory>
 
 #include "compression_study.h"
@@ -180,6 +181,76 @@ namespace irdm::validation
             break;
           }
       }
+    return out;
+  }
+
+  SizedPrecompute
+  precompute_within_tolerance(const std::string &scene_file, const PrecomputeSize what,
+                              const double tolerance, const fem::PrecomputeOptions &options,
+                              std::ostream &log)
+  {
+    namespace fs = std::filesystem;
+    const fem::Scene scene = fem::read_scene(scene_file);
+    // Scratch models beside the output, removed whatever happens.
+    struct Scratch
+    {
+      std::string path;
+      ~Scratch()
+      {
+        std::error_code ec;
+        fs::remove(path, ec);
+      }
+    } exact_file{options.output + ".exact.h5"}, try_file{options.output + ".try.h5"};
+    const auto precompute = [&](fem::PrecomputeOptions o, const std::string &path) {
+      o.output  = path;
+      o.restart = true;
+      o.log     = nullptr;
+      return fem::precompute_impulse_responses(scene, o);
+    };
+
+    fem::PrecomputeOptions exact_options = options;
+    exact_options.modes.reset();
+    const auto exact_report = precompute(exact_options, exact_file.path);
+    if (exact_report.sparse)
+      throw InputError("precompute --tolerance: the scene's " + std::to_string(exact_report.n_free) +
+                       " free DoFs are beyond the dense route, so there is no every-mode model "
+                       "to size against");
+    const ImpulseResponseModel exact_model = load_model(exact_file.path, scene.time_step);
+    const ExactRun             e           = exact_run(scene_file, exact_model, tolerance);
+    log << "sizing: the exact model (" << exact_report.n_free << " modes, T = " << exact_model.length
+        << ") in closed loop on '" << scene_file << "' (" << e.scene.n_steps() << " steps); "
+        << (what == PrecomputeSize::modes ? "lowest modes" : "length") << ", tolerance "
+        << fmt(tolerance) << "\n";
+
+    SizedPrecompute out;
+    const std::vector<unsigned> grid =
+      what == PrecomputeSize::modes
+        ? std::vector<unsigned>{10, 25, 50, 100, 200, 400, 800, 1600, 3200, 6400}
+        : std::vector<unsigned>{50, 100, 150, 200, 300, 400, 500, 750, 1000, 1500, 2000, 3000, 5000};
+    const unsigned beyond = what == PrecomputeSize::modes ? exact_report.n_free : exact_model.length;
+    for (const unsigned size : grid)
+      {
+        if (size >= beyond)
+          break;
+        fem::PrecomputeOptions o = exact_options;
+        if (what == PrecomputeSize::modes)
+          o.modes = size;
+        else
+          o.length = size;
+        precompute(o, try_file.path);
+        const ImpulseResponseModel m = load_model(try_file.path, scene.time_step);
+        if (try_size<PointInteraction>(e, m, size, what == PrecomputeSize::modes ? "modes" : "T",
+                                       tolerance, out.tried, log))
+          {
+            fs::rename(try_file.path, options.output);
+            out.size = size;
+            return out;
+          }
+      }
+    // None smaller: the exact model itself.
+    out.tried.push_back({double(what == PrecomputeSize::modes ? 0 : exact_model.length), 0, 0, true});
+    fs::rename(exact_file.path, options.output);
+    out.size = what == PrecomputeSize::modes ? 0 : exact_model.length;
     return out;
   }
 } // namespace irdm::validation

@@ -4,6 +4,7 @@
 // representative waveforms) whose closed loop on the scene stays within a tolerance of the exact
 // model's, its size searched upward on a fixed grid.
 #include <irdm/model.h>
+#include <reference_fem/impulse_response.h>
 #include <irdm/representative_model.h>
 #include <irdm/state_space_model.h>
 
@@ -51,6 +52,31 @@ namespace irdm::validation
   ClosedLoopDifference
   closed_loop_difference(const std::string &scene_file, const ImpulseResponseModel &reference,
                          const StateSpaceModel &model);
+
+  /// What `irdm precompute --tolerance` sizes: the lowest modes the sparse route keeps (with
+  /// its residual modes), or the responses' length T.
+  enum class PrecomputeSize
+  {
+    modes,
+    length
+  };
+
+  /// The smallest precomputed model within a tolerance. The exact model is the scene's own
+  /// (every mode by the dense route, the given length; at least as long as the scene); the
+  /// candidates are the same precompute with fewer lowest modes (10, 25, 50, 100, 200, 400, 800,
+  /// 1600, 3200, 6400 below the free DoFs) or a shorter length (50, 100, 150, 200, 300, 400,
+  /// 500, 750, 1000, 1500, 2000, 3000, 5000 below the exact one), in closed loop on the scene as
+  /// for the other families; the first within the tolerance (the exact model when none is) is
+  /// written to options.output, scratch models beside it removed. InputError when the scene is
+  /// beyond the dense route (no exact model to size against).
+  struct SizedPrecompute
+  {
+    std::vector<SizeTried> tried;   // ascending; the last is the one written
+    unsigned               size = 0; // modes (0: every mode, the exact model) or length
+  };
+  SizedPrecompute
+  precompute_within_tolerance(const std::string &scene_file, PrecomputeSize what, double tolerance,
+                              const fem::PrecomputeOptions &options, std::ostream &log);
 
   /// The state-space orders tried: 25, 50, 75, 100, 150, 200, 300, 400, 500, 600, 800, 1000,
   /// 1200, 1600, 2000, 2500, 3000, 4000, up to the largest allowed.
