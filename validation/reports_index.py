@@ -149,6 +149,13 @@ def calculix_headline(folder):
             f"against ours with the consistent mass: H {' and '.join(mass)} (the mass rule)")
 
 
+def sizing_headline(folder):
+    table = markdown_table(os.path.join(folder, "README.md"))
+    return (f"the press's closed loop with the lowest {table[0]['lowest modes']} to "
+            f"{table[-1]['lowest modes']} modes (and residual modes): force {table[0]['force']} "
+            f"to {table[-1]['force']} off the every-mode model")
+
+
 def benchmarks_headline(folder):
     table = markdown_table(os.path.join(folder, "benchmarks.md"))
     return f"{len(table)} runtime kernels timed, with their ratios to the direct convolution"
@@ -211,6 +218,10 @@ STUDIES = [
     ("A second FEM as a source of models: CalculiX against ours", "calculix/README.md", None,
      calculix_headline, ["reference_fem", "irdm/src/response_exchange.cc",
                          "validation/src/model_sizing.cc"]),
+    ("A model no larger than the scene needs: the precompute sized by a tolerance",
+     "sizing/README.md", None, sizing_headline,
+     ["reference_fem/src/impulse_response.cc", "reference_fem/src/sparse_modes.cc",
+      "validation/src/model_sizing.cc"]),
     ("Runtime kernels (Google Benchmark)", "quick/benchmarks.md", None, benchmarks_headline,
      RUNTIME + ["benchmarks"]),
 ]
