@@ -431,26 +431,81 @@ namespace irdm::play
         seen->gap_us.resize(seen->count);
     }
 
-    /// The same probes offline with every mode in the force loop: the exact model (the modal
-    /// realization with all modes reproduces H and the FEM, tests/test_irdm.cc). Relative L2
-    /// of the real-time forces against it.
+    /// The probe's forces over the trajectory, replayed offline (no clock) on a modal model.
+    std::vector<Vec3>
+    offline_forces(Setup &s, const ModalModel &model)
+    {
+      ModalInteraction  runtime(model);
+      std::vector<Vec3> f(static_cast<size_t>(s.n_steps));
+      for (long n = 0; n < s.n_steps; ++n)
+        {
+          runtime.step(s.couple(n, runtime.probe_displacement(0)), 1);
+          f[n] = runtime.force(0);
+        }
+      return f;
+    }
+
     double
-    offline_force_error(Setup &s, const Records &r)
+    relative_l2(const std::vector<Vec3> &f, const std::vector<Vec3> &exact)
+    {
+      double diff = 0, norm = 0;
+      for (size_t n = 0; n < exact.size(); ++n)
+        for (int d = 0; d < 3; ++d)
+          diff += std::pow(f[n][d] - exact[n][d], 2), norm += exact[n][d] * exact[n][d];
+      return norm > 0 ? std::sqrt(diff / norm) : std::sqrt(diff);
+    }
+
+    /// The every-mode model (the modal realization with all modes reproduces H and the FEM,
+    /// tests/test_irdm.cc).
+    ModalModel
+    every_mode(const Setup &s)
     {
       ModalModelOptions all = s.mo;
       all.force_modes       = 0;
-      const ModalModel exact_model = s.mo.force_modes == 0 ? ModalModel{} : make_modal_model(s.model, all);
-      ModalInteraction exact(s.mo.force_modes == 0 ? s.modal : exact_model);
-      double           diff = 0, norm = 0;
-      for (long n = 0; n < s.n_steps; ++n)
+      return make_modal_model(s.model, all);
+    }
+
+    /// --force-tolerance: the fewest force-loop modes of the grid whose offline forces over the
+    /// trajectory are within the tolerance of every mode's (the rest quasi-static, as in the
+    /// run); every mode when none is. Sets s.mo.force_modes and s.modal.
+    void
+    size_force_modes(Setup &s, const double tolerance, std::ostream &out, const bool quiet)
+    {
+      const auto exact = offline_forces(s, every_mode(s));
+      for (const unsigned k : {25u, 50u, 100u, 200u, 400u, 800u, 1600u, 3200u, 6400u})
         {
-          exact.step(s.couple(n, exact.probe_displacement(0)), 1);
-          const auto &f  = exact.force(0);
-          const Vec3  fr = {r.force_x[n], r.force_y[n], r.force_z[n]};
-          for (int d = 0; d < 3; ++d)
-            diff += std::pow(fr[d] - f[d], 2), norm += f[d] * f[d];
+          if (k >= s.model.modes.n_modes)
+            break;
+          ModalModelOptions o = s.mo;
+          o.force_modes       = std::max(k, s.mo.surface_modes);
+          ModalModel   m      = make_modal_model(s.model, o);
+          const double e      = relative_l2(offline_forces(s, m), exact);
+          if (!quiet)
+            out << "force-loop modes " << o.force_modes << ": force " << fmt(e)
+                << " (relative L2 over the trajectory, against every mode)\n";
+          if (e <= tolerance)
+            {
+              s.mo    = o;
+              s.modal = std::move(m);
+              return;
+            }
         }
-      return norm > 0 ? std::sqrt(diff / norm) : std::sqrt(diff);
+      if (!quiet)
+        out << "force-loop modes: every mode (no fewer of the grid within " << fmt(tolerance) << ")\n";
+      s.mo.force_modes = 0;
+      s.modal          = make_modal_model(s.model, s.mo);
+    }
+
+    /// The same probes offline with every mode in the force loop; relative L2 of the real-time
+    /// forces against it.
+    double
+    offline_force_error(Setup &s, const Records &r)
+    {
+      const auto exact = offline_forces(s, s.mo.force_modes == 0 ? s.modal : every_mode(s));
+      std::vector<Vec3> real_time(exact.size());
+      for (size_t n = 0; n < exact.size(); ++n)
+        real_time[n] = {r.force_x[n], r.force_y[n], r.force_z[n]};
+      return relative_l2(real_time, exact);
     }
   } // namespace
 
@@ -548,7 +603,8 @@ namespace irdm::play
                  "warm_us", "surface_warm_p50_us", "surface_warm_p99_us", "warm_step",
                  "display_interruptions_per_s", "display_interruption_p50_us",
                  "display_interruption_max_us", "force_interruptions_per_s",
-                 "force_interruption_p50_us", "force_interruption_max_us", "keep_warm"},
+                 "force_interruption_p50_us", "force_interruption_max_us", "keep_warm",
+                 "force_modes"},
                 {one(s.rate), one(r.spin_us), one(static_cast<double>(s.n_steps)),
                  one(static_cast<double>(r.missed)), one(static_cast<double>(m.missed_overrun)),
                  one(static_cast<double>(r.missed - m.missed_overrun)),
@@ -566,7 +622,8 @@ namespace irdm::play
                  one(o.warm_step ? 1 : 0), one(r.display_seen.per_second()),
                  one(percentile(r.display_seen.gap_us, 0.5)), one(percentile(r.display_seen.gap_us, 1.0)),
                  one(r.force_seen.per_second()), one(percentile(r.force_seen.gap_us, 0.5)),
-                 one(percentile(r.force_seen.gap_us, 1.0)), one(o.keep_warm ? 1 : 0)});
+                 one(percentile(r.force_seen.gap_us, 1.0)), one(o.keep_warm ? 1 : 0),
+                 one(static_cast<double>(s.modal.force_modes))});
     }
 
     /// "p50 | p99 | p99.9 | max" of a latency table's row.
@@ -666,7 +723,12 @@ namespace irdm::play
     {
       const h5::Reader file(o.model); // InputError for a missing or non-HDF5 file
       if (file.has_attribute("/", "format") && file.string_attribute("/", "format") == "irdm-reduced-model")
-        return run_reduced_play(o, out);
+        {
+          if (o.force_tolerance > 0 || o.force_modes > 0)
+            throw InputError("--force-modes and --force-tolerance are for a linear model's modes; "
+                             "a reduced nonlinear model's force loop has no modes to choose");
+          return run_reduced_play(o, out);
+        }
     }
     check_output_folder("--out", o.out_dir);
     const fs::path dir(o.out_dir);
@@ -676,6 +738,8 @@ namespace irdm::play
     OutputLock lock((dir / "play").string());
     Setup      s;
     prepare(s, o, out);
+    if (o.force_tolerance > 0)
+      size_force_modes(s, o.force_tolerance, out, o.quiet);
     Records r(s, o);
     if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 && !o.quiet)
       out << "note: memory not locked (mlockall refused); page faults may add latency\n";

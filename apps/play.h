@@ -15,6 +15,9 @@ namespace irdm::play
     double      display_hz = 100; // deformation loop
     unsigned    surface_modes = 100;
     unsigned    force_modes   = 0; // force-loop modes; 0: all (the exact model)
+    // > 0: force_modes chosen before the run, the fewest of 25, 50, 100, ... whose force over
+    // this trajectory, replayed offline, is within this fraction (relative L2) of every mode's.
+    double      force_tolerance = 0;
     long        vertex        = -1; // probed output vertex; -1: nearest the first sample
     unsigned    max_frames    = 100; // VTU frames kept (evenly spaced over the run)
     bool        check         = true; // replay offline with every mode (the exact model)

@@ -490,6 +490,39 @@ TEST(Cli, PlayRunsBothLoopsAndMatchesTheOfflineReplay)
   EXPECT_EQ(status(play + "_missing --trajectory " + tmp("no_such.csv")), 2);
 }
 
+// irdm play --force-tolerance: the force loop's modes chosen before the run, the fewest of the
+// grid whose offline forces over the trajectory are within the tolerance of every mode's; the
+// real-time run then meets it against the exact replay (the loop is deterministic).
+TEST(Cli, PlayChoosesTheFewestForceLoopModesWithinATolerance)
+{
+  const fem::Scene scene = fem::parse_scene(beam_scene(""), ".");
+  const auto       model = make_model(scene, "cli_play_tol.h5");
+  const std::string trajectory = tmp("cli_play_tol_device.csv");
+  std::ofstream(trajectory) << "time_s,x_m,y_m,z_m\n0,0.255,0,0.01\n0.1,0.245,0,0.01\n0.2,0.255,0,0.01\n";
+  const auto run = [&](const double tolerance, const std::string &dir) {
+    fs::remove_all(dir);
+    const int s = status(std::string(IRDM_CLI) + " play " + tmp("cli_play_tol.h5") +
+                         " --rate-hz 2000 --display-hz 200 --frames 2 --surface-modes 5 --quiet"
+                         " --no-baseline --force-tolerance " + std::to_string(tolerance) +
+                         " --trajectory " + trajectory + " --out " + dir);
+    EXPECT_TRUE(s == 0 || s == 3) << s;
+    return play_summary(dir);
+  };
+  // A rigid probe at the free end: the modes left quasi-static cost much in force.
+  auto loose = run(0.5, tmp("loose")), tight = run(0.2, tmp("tight"));
+  ASSERT_FALSE(loose.empty());
+  ASSERT_FALSE(tight.empty());
+  EXPECT_GE(loose["force_modes"], 25);
+  EXPECT_LT(loose["force_modes"], model.modes.n_modes);
+  EXPECT_LE(loose["force_error"], 0.5);
+  EXPECT_GT(tight["force_modes"], loose["force_modes"]);
+  EXPECT_LE(tight["force_error"], 0.2);
+  EXPECT_LT(tight["force_modes"], model.modes.n_modes);
+  EXPECT_EQ(status(std::string(IRDM_CLI) + " play " + tmp("cli_play_tol.h5") + " --trajectory " +
+                   trajectory + " --force-tolerance 0.05 --force-modes 30 --out " + tmp("both")),
+            2); // one or the other
+}
+
 // irdm play with a reduced nonlinear model: the seed's split runs (the force loop on the local
 // compliance, the deformation loop taking the Newton step), writes the files other programs
 // read with their columns, and offline the split follows the coupling solved inside the step.

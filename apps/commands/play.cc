@@ -46,6 +46,12 @@ namespace irdm::cli
                      "modes in the force loop's history (default: all, the exact model; fewer: "
                      "faster, the rest quasi-static)")
       ->check(CLI::Range(1u, 1000000u));
+    play->add_option("--force-tolerance", po->force_tolerance,
+                     "choose --force-modes before the run: the fewest of 25, 50, 100, ... whose "
+                     "force over this trajectory, replayed offline, is within this fraction "
+                     "(relative L2) of every mode's")
+      ->check(CLI::Range(1e-12, 0.999))
+      ->excludes("--force-modes");
     play->add_option("--vertex", po->vertex, "probed model vertex (default: the input vertex nearest the first sample)")
       ->check(CLI::Range(0L, 100000000L));
     play->add_option("--frames", po->max_frames, "VTU frames written, at most")
