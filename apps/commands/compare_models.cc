@@ -1,11 +1,11 @@
 // irdm compare-models: how far a model's H is from a reference model's.
 #include "../command.h"
 
-#include <irdm/irdm.h>
 #include <irdm/model.h>
 #include <irdm/state_space_model.h>
 #include <validation/model_sizing.h>
 #include <irdm_common/error.h>
+#include <irdm_common/h5.h>
 
 #include <algorithm>
 #include <cmath>
@@ -38,7 +38,12 @@ namespace irdm::cli
                        const std::string &scene)
     {
       const auto ref = irdm::load_model(reference_path);
-      if (irdm::Model::load(model_path).kind() == "state_space")
+      const bool state_space = [&] {
+        const irdm::h5::Reader f(model_path);
+        return f.has_attribute("/", "format") &&
+               f.string_attribute("/", "format") == "irdm-state-space-model";
+      }();
+      if (state_space)
         {
           // A realization has no H to compare entry by entry: its closed loop is the measure.
           if (scene.empty())
