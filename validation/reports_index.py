@@ -156,6 +156,13 @@ def sizing_headline(folder):
             f"to {table[-1]['force']} off the every-mode model")
 
 
+def identification_headline(folder):
+    table = markdown_table(os.path.join(folder, "README.md"))
+    noisy = [r for r in table if r["noise"] == "1e-3"]
+    return (f"ERA from H with noise of 1e-3 of its peak, 5 seeds: force {noisy[0]['force']} "
+            f"under a rigid probe, {noisy[1]['force']} through a virtual coupling (passive)")
+
+
 def benchmarks_headline(folder):
     table = markdown_table(os.path.join(folder, "benchmarks.md"))
     return f"{len(table)} runtime kernels timed, with their ratios to the direct convolution"
@@ -222,6 +229,10 @@ STUDIES = [
      "sizing/README.md", None, sizing_headline,
      ["reference_fem/src/impulse_response.cc", "reference_fem/src/sparse_modes.cc",
       "validation/src/model_sizing.cc"]),
+    ("Identification from noisy responses; passivity on a virtual coupling",
+     "identification/README.md", None, identification_headline,
+     ["irdm/src/state_space_model.cc", "irdm/src/balanced_truncation.cc",
+      "irdm/src/state_space_interaction.cc", "apps/commands/compress.cc"]),
     ("Runtime kernels (Google Benchmark)", "quick/benchmarks.md", None, benchmarks_headline,
      RUNTIME + ["benchmarks"]),
 ]
