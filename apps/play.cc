@@ -471,7 +471,8 @@ namespace irdm::play
     void
     size_force_modes(Setup &s, const double tolerance, std::ostream &out, const bool quiet)
     {
-      const auto exact = offline_forces(s, every_mode(s));
+      // --force-tolerance excludes --force-modes: s.modal has every mode in its force loop.
+      const auto exact = offline_forces(s, s.mo.force_modes == 0 ? s.modal : every_mode(s));
       for (const unsigned k : {25u, 50u, 100u, 200u, 400u, 800u, 1600u, 3200u, 6400u})
         {
           if (k >= s.model.modes.n_modes)

@@ -105,18 +105,31 @@ TEST(Calculix, RefusesWhatItCannotReproduce)
   o.responses = tmp("r.h5");
   o.work_dir  = tmp("work");
   o.length    = 5;
-  const auto refuse = [&](const std::string &json, const std::string &ccx = "ccx") {
+  // Refused with a message naming `about`, nothing written, the work folder gone (or kept, with
+  // CalculiX's own output, when CalculiX itself failed).
+  const auto refuse = [&](const std::string &json, const std::string &about,
+                          const std::string &ccx = "ccx", const bool kept = false) {
     o.ccx = ccx;
-    EXPECT_THROW(fem::calculix_responses(fem::parse_scene(json, "."), o, {}), InputError) << json;
+    try
+      {
+        fem::calculix_responses(fem::parse_scene(json, "."), o, {});
+        ADD_FAILURE() << "not refused: " << about;
+      }
+    catch (const InputError &e)
+      {
+        EXPECT_NE(std::string(e.what()).find(about), std::string::npos) << e.what();
+      }
     EXPECT_FALSE(std::filesystem::exists(o.responses));
+    EXPECT_EQ(std::filesystem::exists(o.work_dir), kept) << about;
     std::filesystem::remove_all(o.work_dir);
   };
   const std::string hht   = R"("integrator": {"type": "generalized_alpha", "rho_inf": 0.5})";
   const std::string ready = calculix_beam(hht);
-  refuse(beam_scene(""));                                                // rho_inf 0.8: not HHT
-  refuse(replaced(ready, R"("fe_degree": 1)", R"("fe_degree": 2)"));      // P2: not C3D4
-  refuse(replaced(ready, R"("fixed_surfaces": ["clamp"])", R"("fixed_surfaces": [])")); // free
-  refuse(ready, "/nonexistent/ccx");                                     // no CalculiX
+  refuse(beam_scene(""), "rho_inf");
+  refuse(replaced(ready, R"("fe_degree": 1)", R"("fe_degree": 2)"), "C3D4");
+  refuse(replaced(ready, R"("fixed_surfaces": ["clamp"])", R"("fixed_surfaces": [])"), "free body");
+  refuse(ready, "cannot run '/nonexistent/ccx'", "/nonexistent/ccx");
+  refuse(ready, "CalculiX failed", "/bin/false", true); // a program that fails: its output kept
   std::filesystem::create_directories(o.work_dir); // a work folder that exists
   o.ccx = "ccx";
   EXPECT_THROW(fem::calculix_responses(fem::parse_scene(ready, "."), o, {}), InputError);

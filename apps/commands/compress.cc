@@ -59,7 +59,7 @@ namespace irdm::cli
         x = static_cast<float>(x + gauss(rng));
       return "H with Gaussian noise of standard deviation " + irdm::fmt(fraction) +
              " of its largest entry (" + irdm::fmt(fraction * peak) + " m/N), seed " +
-             std::to_string(seed);
+             std::to_string(seed) + " (std::mt19937_64, libstdc++'s normal distribution)";
     }
 
     /// The sizes a --tolerance search tried, and the one it took (InputError when none).

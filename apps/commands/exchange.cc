@@ -145,8 +145,9 @@ namespace irdm::cli
                 std::string path;
                 ~Scratch()
                 {
+                  std::error_code ec;
                   if (!path.empty())
-                    std::filesystem::remove(path);
+                    std::filesystem::remove(path, ec);
                 }
               } scratch{a->responses.empty() ? responses : std::string()};
               const auto s = irdm::import_responses(responses, a->out);

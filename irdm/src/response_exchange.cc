@@ -419,8 +419,14 @@ namespace irdm
         }
       if (!d.triangle_surface.empty())
         {
-          const long long n_names =
-            1 + std::count(d.surface_names.begin(), d.surface_names.end(), ',');
+          // Counted as the model loader splits them (a trailing empty name would be lost).
+          if (d.surface_names.empty() || d.surface_names.back() == ',')
+            fail("surface_names must list at least one name and not end with a comma ('" +
+                 d.surface_names + "')");
+          long long          n_names = 0;
+          std::istringstream names(d.surface_names);
+          for (std::string name; std::getline(names, name, ',');)
+            ++n_names;
           for (const long long t : d.triangle_surface)
             if (t < 0 || t >= n_names)
               fail("surface/triangle_surface refers to a name that surface_names does not list");

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <exception>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -177,17 +178,28 @@ namespace irdm::fem
     run_ccx(const std::string &ccx, const std::string &dir, const bool version = false)
     {
       // Everything the child needs is made before fork: it only calls async-signal-safe
-      // functions (chdir, open, dup2, execve).
+      // functions (open, chdir, dup2, execve). The environment is this process's with
+      // CalculiX held to one thread; a program given by a relative path is made absolute
+      // (the child changes folder first).
       const std::string log = dir + "/ccx.log";
-      std::vector<std::string> env_text = {"OMP_NUM_THREADS=1", "CCX_NPROC_EQUATION_SOLVER=1",
-                                           "CCX_NPROC_STIFFNESS=1", "CCX_NPROC_RESULTS=1",
-                                           std::string("PATH=") +
-                                             (std::getenv("PATH") ? std::getenv("PATH") : "/usr/bin:/bin")};
+      const std::vector<std::string> one_thread = {"OMP_NUM_THREADS=1", "CCX_NPROC_EQUATION_SOLVER=1",
+                                                   "CCX_NPROC_STIFFNESS=1", "CCX_NPROC_RESULTS=1"};
+      std::vector<std::string> env_text = one_thread;
+      for (char **e = environ; *e != nullptr; ++e)
+        {
+          const std::string v = *e;
+          bool overridden = false;
+          for (const auto &o : one_thread)
+            overridden = overridden || v.compare(0, o.find('=') + 1, o, 0, o.find('=') + 1) == 0;
+          if (!overridden)
+            env_text.push_back(v);
+        }
       std::vector<char *> env;
       for (auto &e : env_text)
         env.push_back(e.data());
       env.push_back(nullptr);
-      std::string a0 = ccx, a1 = version ? "-v" : "-i", a2 = "job";
+      std::string a0 = ccx.find('/') == std::string::npos ? ccx : fs::absolute(ccx).string();
+      std::string a1 = version ? "-v" : "-i", a2 = "job";
       char       *argv[] = {a0.data(), a1.data(), version ? nullptr : a2.data(), nullptr};
       const pid_t pid    = fork();
       if (pid < 0)
@@ -279,8 +291,10 @@ namespace irdm::fem
         o << "*DAMPING,ALPHA=" << field(s.rayleigh_alpha) << ",BETA=" << field(s.rayleigh_beta) << "\n";
       const double tau = s.time_step;
       // One force sample of 1 N: the HHT step reads the load at t_{n+1} and t_n linearly.
-      o << "*AMPLITUDE,NAME=SAMPLE\n0,0," << field(tau) << ",1," << field(2 * tau) << ",0,"
-        << field((T + 1) * tau) << ",0\n";
+      o << "*AMPLITUDE,NAME=SAMPLE\n0,0," << field(tau) << ",1," << field(2 * tau) << ",0";
+      if (T > 1)
+        o << "," << field((T + 1) * tau) << ",0";
+      o << "\n";
       write_text_file(path, o.str());
     }
   } // namespace
@@ -329,6 +343,19 @@ namespace irdm::fem
       }
 
     fs::create_directories(options.work_dir);
+    // The work folder goes when done, and on an error too unless CalculiX's own output tells
+    // why (or --keep-work).
+    struct WorkFolder
+    {
+      std::string path;
+      bool        keep;
+      ~WorkFolder()
+      {
+        std::error_code ec;
+        if (!keep)
+          fs::remove_all(path, ec);
+      }
+    } work{options.work_dir, options.keep_work};
     rep.ccx_version = ccx_version(options.ccx, options.work_dir);
     write_model_deck(options.work_dir + "/body.inp", scene, mesh, out_tags, T);
 
@@ -349,28 +376,57 @@ namespace irdm::fem
     std::atomic<unsigned> next{0}, done{0};
     std::mutex            m;
     std::string           failure;
+    std::exception_ptr    thrown; // the first error in a worker, raised after the join
     auto worker = [&] {
-      for (unsigned j; (j = next++) < n_jobs;)
+      try
         {
-          const int status = run_ccx(options.ccx, job_dir(j));
+          for (unsigned j; (j = next++) < n_jobs;)
+            {
+              const int status = run_ccx(options.ccx, job_dir(j));
+              std::lock_guard<std::mutex> lock(m);
+              if ((status != 0 || !fs::exists(job_dir(j) + "/job.dat")) && failure.empty())
+                failure = "input DoF " + std::to_string(j) + " (" + job_dir(j) + "): exit status " +
+                          std::to_string(status) + ": " + ccx_error(job_dir(j));
+              const unsigned d = ++done;
+              if (log && (d % 10 == 0 || d == n_jobs))
+                log("calculix: " + std::to_string(d) + " of " + std::to_string(n_jobs) +
+                    " input DoFs run");
+            }
+        }
+      catch (...)
+        {
           std::lock_guard<std::mutex> lock(m);
-          if ((status != 0 || !fs::exists(job_dir(j) + "/job.dat")) && failure.empty())
-            failure = "input DoF " + std::to_string(j) + " (" + job_dir(j) + "): exit status " +
-                      std::to_string(status) + ": " + ccx_error(job_dir(j));
-          const unsigned d = ++done;
-          if (log && (d % 10 == 0 || d == n_jobs))
-            log("calculix: " + std::to_string(d) + " of " + std::to_string(n_jobs) +
-                " input DoFs run");
+          if (!thrown)
+            thrown = std::current_exception();
+          next = n_jobs; // the others stop at their next job
         }
     };
-    std::vector<std::thread> pool;
-    for (unsigned w = 0; w < std::max(1u, std::min(options.jobs, n_jobs)); ++w)
-      pool.emplace_back(worker);
-    for (auto &t : pool)
-      t.join();
+    {
+      std::vector<std::thread> pool;
+      try
+        {
+          for (unsigned w = 0; w < std::max(1u, std::min(options.jobs, n_jobs)); ++w)
+            pool.emplace_back(worker);
+        }
+      catch (...)
+        {
+          std::lock_guard<std::mutex> lock(m);
+          if (!thrown)
+            thrown = std::current_exception();
+          next = n_jobs;
+        }
+      for (auto &t : pool)
+        t.join();
+    }
+    if (thrown)
+      std::rethrow_exception(thrown);
     rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!failure.empty())
-      throw InputError("calculix: CalculiX failed on " + failure);
+      {
+        work.keep = true; // CalculiX's own output says why
+        throw InputError("calculix: CalculiX failed on " + failure + " (its decks and output are "
+                         "kept in '" + options.work_dir + "')");
+      }
 
     // The exchange file: the responses per input DoF as CalculiX printed them.
     h5::Writer f(options.responses);
@@ -428,12 +484,20 @@ namespace irdm::fem
     f.create_dataset("/responses", {n_jobs, T, 3ull * nout}, true, 1);
     for (unsigned j = 0; j < n_jobs; ++j)
       {
-        const auto u = read_dat(job_dir(j) + "/job.dat", output_of_tag, T, scene.time_step);
+        std::vector<double> u;
+        try
+          {
+            u = read_dat(job_dir(j) + "/job.dat", output_of_tag, T, scene.time_step);
+          }
+        catch (const InputError &e)
+          {
+            work.keep = true;
+            throw InputError(std::string(e.what()) + "; CalculiX said: " + ccx_error(job_dir(j)) +
+                             " (its output is kept in '" + options.work_dir + "')");
+          }
         f.write_rows("/responses", j, 1, u.data());
       }
     f.commit();
-    if (!options.keep_work)
-      fs::remove_all(options.work_dir);
     return rep;
   }
 } // namespace irdm::fem

@@ -2,6 +2,7 @@
 #include <irdm/representative_interaction.h>
 #include <irdm/state_space_interaction.h>
 #include <irdm_common/error.h>
+#include <irdm_common/files.h>
 #include <irdm_common/format.h>
 #include <reference_fem/scene.h>
 #include <validation/model_sizing.h>
@@ -199,8 +200,11 @@ namespace irdm::validation
       {
         std::error_code ec;
         fs::remove(path, ec);
+        fs::remove(path + ".part", ec); // a precompute that failed keeps its part to resume
       }
     } exact_file{options.output + ".exact.h5"}, try_file{options.output + ".try.h5"};
+    // The chosen model takes the output's name (fsync, rename, fsync the folder).
+    const auto keep = [&](const std::string &from) { commit_part_file(from, options.output); };
     const auto precompute = [&](fem::PrecomputeOptions o, const std::string &path) {
       o.output  = path;
       o.restart = true;
@@ -242,14 +246,14 @@ namespace irdm::validation
         if (try_size<PointInteraction>(e, m, size, what == PrecomputeSize::modes ? "modes" : "T",
                                        tolerance, out.tried, log))
           {
-            fs::rename(try_file.path, options.output);
+            keep(try_file.path);
             out.size = size;
             return out;
           }
       }
     // None smaller: the exact model itself.
     out.tried.push_back({double(what == PrecomputeSize::modes ? 0 : exact_model.length), 0, 0, true});
-    fs::rename(exact_file.path, options.output);
+    keep(exact_file.path);
     out.size = what == PrecomputeSize::modes ? 0 : exact_model.length;
     return out;
   }
