@@ -297,6 +297,98 @@ namespace irdm::fem
       o << "\n";
       write_text_file(path, o.str());
     }
+
+    /// The surface triangles among the outputs (out_of_boundary: each boundary vertex's output,
+    /// -1 if none), each with its physical surface's name: probes pick their triangles by it.
+    void
+    write_output_surface(h5::Writer &f, const SurfaceMesh &b, const std::vector<int> &out_of_boundary)
+    {
+      std::vector<int>         tri, tri_surface;
+      std::vector<std::string> names;
+      for (std::size_t t = 0; t < b.triangles.size(); ++t)
+        {
+          const auto &v = b.triangles[t];
+          if (out_of_boundary[v[0]] < 0 || out_of_boundary[v[1]] < 0 || out_of_boundary[v[2]] < 0)
+            continue;
+          for (const unsigned x : v)
+            tri.push_back(out_of_boundary[x]);
+          // A triangle on no named surface gets a name: an empty last name would not survive
+          // the comma-separated list.
+          const std::string name = b.triangle_surface[t].empty() ? "unnamed" : b.triangle_surface[t];
+          const auto        at   = std::find(names.begin(), names.end(), name);
+          tri_surface.push_back(static_cast<int>(at - names.begin()));
+          if (at == names.end())
+            names.push_back(name);
+        }
+      if (!tri.empty())
+        {
+          std::string joined;
+          for (const auto &n : names)
+            joined += (joined.empty() ? "" : ",") + n;
+          f.create_group("/surface");
+          f.write("/surface/triangles", {tri.size() / 3, 3}, tri.data());
+          f.write("/surface/triangle_surface", {tri_surface.size()}, tri_surface.data());
+          f.attribute("/surface", "surface_names", joined);
+        }
+    }
+
+    /// Runs CalculiX on decks 0 .. n_jobs - 1 (job_dir(j)/job.inp), `jobs` at a time, one
+    /// thread each. The first CalculiX failure in words ("" if none); any other error in a
+    /// worker is raised after every thread has joined.
+    std::string
+    run_decks(const CalculixOptions &options, const unsigned n_jobs,
+              const std::function<std::string(unsigned)> &job_dir,
+              const std::function<void(const std::string &)> &log)
+    {
+      std::atomic<unsigned> next{0}, done{0};
+      std::mutex            m;
+      std::string           failure;
+      std::exception_ptr    thrown; // the first error in a worker, raised after the join
+      auto worker = [&] {
+        try
+          {
+            for (unsigned j; (j = next++) < n_jobs;)
+              {
+                const int status = run_ccx(options.ccx, job_dir(j));
+                std::lock_guard<std::mutex> lock(m);
+                if ((status != 0 || !fs::exists(job_dir(j) + "/job.dat")) && failure.empty())
+                  failure = "input DoF " + std::to_string(j) + " (" + job_dir(j) + "): exit status " +
+                            std::to_string(status) + ": " + ccx_error(job_dir(j));
+                const unsigned d = ++done;
+                if (log && (d % 10 == 0 || d == n_jobs))
+                  log("calculix: " + std::to_string(d) + " of " + std::to_string(n_jobs) +
+                      " input DoFs run");
+              }
+          }
+        catch (...)
+          {
+            std::lock_guard<std::mutex> lock(m);
+            if (!thrown)
+              thrown = std::current_exception();
+            next = n_jobs; // the others stop at their next job
+          }
+      };
+      {
+        std::vector<std::thread> pool;
+        try
+          {
+            for (unsigned w = 0; w < std::max(1u, std::min(options.jobs, n_jobs)); ++w)
+              pool.emplace_back(worker);
+          }
+        catch (...)
+          {
+            std::lock_guard<std::mutex> lock(m);
+            if (!thrown)
+              thrown = std::current_exception();
+            next = n_jobs;
+          }
+        for (auto &t : pool)
+          t.join();
+      }
+      if (thrown)
+        std::rethrow_exception(thrown);
+      return failure;
+    }
   } // namespace
 
   CalculixReport
@@ -372,54 +464,8 @@ namespace irdm::fem
           << ",1.0\n*NODE PRINT,NSET=OUT\nU\n*END STEP\n";
         write_text_file(job_dir(j) + "/job.inp", o.str());
       }
-    const auto            t0 = std::chrono::steady_clock::now();
-    std::atomic<unsigned> next{0}, done{0};
-    std::mutex            m;
-    std::string           failure;
-    std::exception_ptr    thrown; // the first error in a worker, raised after the join
-    auto worker = [&] {
-      try
-        {
-          for (unsigned j; (j = next++) < n_jobs;)
-            {
-              const int status = run_ccx(options.ccx, job_dir(j));
-              std::lock_guard<std::mutex> lock(m);
-              if ((status != 0 || !fs::exists(job_dir(j) + "/job.dat")) && failure.empty())
-                failure = "input DoF " + std::to_string(j) + " (" + job_dir(j) + "): exit status " +
-                          std::to_string(status) + ": " + ccx_error(job_dir(j));
-              const unsigned d = ++done;
-              if (log && (d % 10 == 0 || d == n_jobs))
-                log("calculix: " + std::to_string(d) + " of " + std::to_string(n_jobs) +
-                    " input DoFs run");
-            }
-        }
-      catch (...)
-        {
-          std::lock_guard<std::mutex> lock(m);
-          if (!thrown)
-            thrown = std::current_exception();
-          next = n_jobs; // the others stop at their next job
-        }
-    };
-    {
-      std::vector<std::thread> pool;
-      try
-        {
-          for (unsigned w = 0; w < std::max(1u, std::min(options.jobs, n_jobs)); ++w)
-            pool.emplace_back(worker);
-        }
-      catch (...)
-        {
-          std::lock_guard<std::mutex> lock(m);
-          if (!thrown)
-            thrown = std::current_exception();
-          next = n_jobs;
-        }
-      for (auto &t : pool)
-        t.join();
-    }
-    if (thrown)
-      std::rethrow_exception(thrown);
+    const auto        t0      = std::chrono::steady_clock::now();
+    const std::string failure = run_decks(options, n_jobs, job_dir, log);
     rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!failure.empty())
       {
@@ -455,32 +501,7 @@ namespace irdm::fem
       xyz.insert(xyz.end(), b.coordinates[v].begin(), b.coordinates[v].end());
     f.write("/inputs/coordinates", {nin, 3}, xyz.data());
     f.write("/inputs/output_index", {nin}, input_output.data());
-    // The surface triangles among the outputs, each with its physical surface's name (probes
-    // pick their triangles by it).
-    std::vector<int>         tri, tri_surface;
-    std::vector<std::string> names;
-    for (std::size_t t = 0; t < b.triangles.size(); ++t)
-      {
-        const auto &v = b.triangles[t];
-        if (out_of_boundary[v[0]] < 0 || out_of_boundary[v[1]] < 0 || out_of_boundary[v[2]] < 0)
-          continue;
-        for (const unsigned x : v)
-          tri.push_back(out_of_boundary[x]);
-        const auto at = std::find(names.begin(), names.end(), b.triangle_surface[t]);
-        tri_surface.push_back(static_cast<int>(at - names.begin()));
-        if (at == names.end())
-          names.push_back(b.triangle_surface[t]);
-      }
-    if (!tri.empty())
-      {
-        std::string joined;
-        for (const auto &n : names)
-          joined += (joined.empty() ? "" : ",") + n;
-        f.create_group("/surface");
-        f.write("/surface/triangles", {tri.size() / 3, 3}, tri.data());
-        f.write("/surface/triangle_surface", {tri_surface.size()}, tri_surface.data());
-        f.attribute("/surface", "surface_names", joined);
-      }
+    write_output_surface(f, b, out_of_boundary);
     f.create_dataset("/responses", {n_jobs, T, 3ull * nout}, true, 1);
     for (unsigned j = 0; j < n_jobs; ++j)
       {
