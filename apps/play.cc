@@ -445,16 +445,6 @@ namespace irdm::play
       return f;
     }
 
-    double
-    relative_l2(const std::vector<Vec3> &f, const std::vector<Vec3> &exact)
-    {
-      double diff = 0, norm = 0;
-      for (size_t n = 0; n < exact.size(); ++n)
-        for (int d = 0; d < 3; ++d)
-          diff += std::pow(f[n][d] - exact[n][d], 2), norm += exact[n][d] * exact[n][d];
-      return norm > 0 ? std::sqrt(diff / norm) : std::sqrt(diff);
-    }
-
     /// The every-mode model (the modal realization with all modes reproduces H and the FEM,
     /// tests/test_irdm.cc).
     ModalModel

@@ -246,6 +246,17 @@ namespace irdm::play
     return t;
   }
 
+  /// Relative L2 of a force history a against b over the run (the absolute L2 where b is 0).
+  inline double
+  relative_l2(const std::vector<Vec3> &a, const std::vector<Vec3> &b)
+  {
+    double diff = 0, norm = 0;
+    for (size_t k = 0; k < a.size(); ++k)
+      for (int d = 0; d < 3; ++d)
+        diff += std::pow(a[k][d] - b[k][d], 2), norm += b[k][d] * b[k][d];
+    return norm > 0 ? std::sqrt(diff / norm) : std::sqrt(diff);
+  }
+
   inline Vec3
   tip_at(const Trajectory &t, const double time)
   {

@@ -283,17 +283,6 @@ namespace irdm::play
       return f;
     }
 
-    /// Relative L2 of a against b over the run.
-    double
-    relative_l2(const std::vector<Vec3> &a, const std::vector<Vec3> &b)
-    {
-      double diff = 0, norm = 0;
-      for (size_t k = 0; k < a.size(); ++k)
-        for (int d = 0; d < 3; ++d)
-          diff += std::pow(a[k][d] - b[k][d], 2), norm += b[k][d] * b[k][d];
-      return norm > 0 ? std::sqrt(diff / norm) : std::sqrt(diff);
-    }
-
     std::vector<double>
     component(const std::vector<Vec3> &x, const int d)
     {
