@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "probe_step.h"
+#include "surface_product.h"
 #include "vertex_contact_step.h"
 
 namespace irdm
@@ -155,20 +156,14 @@ namespace irdm
         out.setZero();
         return;
       }
-    // y = c x (every direction), then u = basis y: float rows, double sums.
+    // y = c x (every direction), then u = basis y: float rows through the modal surface
+    // update's kernel (vectorized; its rounding is of the order of the rows' float storage).
+    // The force loop's contact rows (history) keep their double sums.
     const unsigned ro = model_.output_dimension;
     double        *y  = model_.output_basis.empty() ? u : y_.data();
-    for (unsigned dir = 0; dir < ro; ++dir)
-      y[dir] = direction_of(model_, dir, x_last_);
+    detail::surface_product(model_.c.data(), model_.order, ro, x_last_.data(), y);
     if (!model_.output_basis.empty())
-      for (unsigned j = 0; j < nout; ++j)
-        {
-          const float *row = &model_.output_basis[static_cast<size_t>(j) * ro];
-          double       sum = 0;
-          for (unsigned dir = 0; dir < ro; ++dir)
-            sum += static_cast<double>(row[dir]) * y[dir];
-          u[j] = sum;
-        }
+      detail::surface_product(model_.output_basis.data(), ro, nout, y, u);
     for (unsigned q = 0; q < n_pushed_last_; ++q)
       {
         const unsigned k = pushed_last_[q];
