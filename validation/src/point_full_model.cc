@@ -1,5 +1,6 @@
 // The full cat model of the point validation (point_runs.h): the seed's Table 1 by
-// representative waveforms, and every compressor in closed loop on the first scene.
+// representative waveforms, and every compressor in closed loop on the first scene (ERA and
+// balanced truncation among them).
 #include "point_runs.h"
 
 #include <irdm/modal_model.h>
@@ -91,6 +92,10 @@ namespace irdm::validation::points
       }
     for (auto &r : era_rows(s, full_model, fem_full, {300, 600, 1000}, log))
       run.rows.push_back(r);
+    // ERA's peer where the modes are known: balanced truncation of the modal realization.
+    if (full_model.modes.n_modes > 0)
+      for (auto &r : balanced_rows(s, full_model, fem_full, {300, 600, 1000}, log))
+        run.rows.push_back(r);
     return run;
   }
 } // namespace irdm::validation::points

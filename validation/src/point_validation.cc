@@ -75,6 +75,19 @@ namespace irdm::validation
     if (o.full_model)
       full = run_full_model(all.front(), o, log);
     write_validation_summary(o, scenes_table, compression, full);
+    if (full && !o.plot_script.empty())
+      {
+        // The full model's speed and memory charts, drawn as each scene's are.
+        const fs::path    report = o.report_dir;
+        const std::string script =
+          (fs::path(o.plot_script).parent_path() / "plot_compression.py").string();
+        const std::string cmd = "/usr/bin/python3 '" + script + "' '" +
+                                (report / "full_model_compression.csv").string() + "' '" +
+                                (report / "full_model_speed_accuracy.png").string() + "' '" +
+                                (report / "full_model_memory_accuracy.png").string() + "'";
+        if (std::system(cmd.c_str()) != 0)
+          log << "  note: the full model's charts not drawn (python3-matplotlib missing?)\n";
+      }
     log << "report: " << (fs::path(o.report_dir) / "validation.md").string() << "\n";
     return all_exact;
   }
