@@ -87,6 +87,10 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
             2);
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-degree 1"), 2);
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-cases press_top_3mm"), 2);
+  // --cases: a name that is neither a case nor a kind; a converged case the choice leaves out.
+  EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --cases press_top_3mm"), 2);
+  EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --cases slide_side"), 2);
+  EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --reduced-model " + tmp("none.h5")), 2);
   // validate-nonlinear: its families, its lists and its converged cases, refused before any
   // model is made; nothing to redraw is refused rather than drawn empty.
   const std::string press_scene = IRDM_MESH_DIR "/../validation/scenes/press.json";

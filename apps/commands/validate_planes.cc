@@ -93,6 +93,13 @@ namespace irdm::cli
     validate_planes->add_option("--converged-cases", vp->converged_cases,
                                 "the cases of --converged-degree")
       ->capture_default_str();
+    validate_planes->add_option("--reduced-model", vp->reduced_models,
+                                "reduced nonlinear models of the scene's body (irdm precompute "
+                                "--reduced), each a method reduced_<file stem> on every case")
+      ->check(CLI::ExistingFile);
+    validate_planes->add_option("--cases", vp->cases,
+                                "only these cases, each a case name (press_top_5mm) or a kind "
+                                "(press_top_and_side, slide_side); default: every case");
     validate_planes->add_flag("--quick", vp->quick,
                               "15 of the 22 cases: every kind and the sweep's cases, at fewer "
                               "depths and speeds (the main job's default)");

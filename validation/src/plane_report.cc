@@ -71,6 +71,21 @@ namespace irdm::validation::planes
       write_csv(dir, "stiffness.csv", csv);
     }
 
+    /// Every method that ran on the case, by name: the table's methods, then the reduced
+    /// nonlinear models.
+    std::vector<std::pair<std::string, const MethodResult *>>
+    ran_methods(const Row &r)
+    {
+      std::vector<std::pair<std::string, const MethodResult *>> out;
+      for (size_t m = 0; m < method_names.size(); ++m)
+        if (r.method[m].ran)
+          out.emplace_back(method_names[m], &r.method[m]);
+      for (const auto &[name, x] : r.reduced)
+        if (x.ran)
+          out.emplace_back(name, &x);
+      return out;
+    }
+
     void
     write_planes_csv(const std::string &dir, const std::vector<Row> &rows)
     {
@@ -78,17 +93,14 @@ namespace irdm::validation::planes
       csv << "case,method,force_error,impulse_error,displacement_error,contact_vertices_max,"
              "force_us_per_step,surface_us_per_step,fem_ms_per_step,stable\n";
       for (const auto &r : rows)
-        for (size_t m = 0; m < method_names.size(); ++m)
+        for (const auto &[name, x] : ran_methods(r))
           {
-            const MethodResult &x = r.method[m];
-            if (!x.ran)
-              continue;
-            csv << r.c.name << "," << method_names[m] << "," << x.force_error << ","
-                << x.impulse_error << "," << x.displacement_error << ",";
-            if (x.contact_vertices_max >= 0)
-              csv << x.contact_vertices_max;
-            csv << "," << x.force_us << "," << x.surface_us << "," << r.fem_ms_per_step << ","
-                << (x.stable ? 1 : 0) << "\n";
+            csv << r.c.name << "," << name << "," << x->force_error << "," << x->impulse_error
+                << "," << x->displacement_error << ",";
+            if (x->contact_vertices_max >= 0)
+              csv << x->contact_vertices_max;
+            csv << "," << x->force_us << "," << x->surface_us << "," << r.fem_ms_per_step << ","
+                << (x->stable ? 1 : 0) << "\n";
           }
       write_csv(dir, "planes.csv", csv);
     }
@@ -301,22 +313,23 @@ namespace irdm::validation::planes
       std::ostringstream md;
       md.precision(3);
       for (const auto &r : rows)
-        for (size_t m = 0; m < method_names.size(); ++m)
-          {
-            const MethodResult &x = r.method[m];
-            if (!x.ran)
-              continue;
-            md << "| " << (m == 0 ? r.c.name : "") << " | "
-               << (m == 0 ? std::to_string(r.fem_peak_force).substr(0, 6) : "") << " | "
-               << (m == 0 ? std::to_string(1e3 * r.fem_max_penetration).substr(0, 6) : "")
-               << " | " << method_names[m] << " | " << figure(x.force_error, x.force_range)
-               << " | " << figure(x.impulse_error, x.impulse_range) << " | "
-               << figure(x.displacement_error, x.displacement_range) << " | "
-               << optional_count(x.contact_vertices_max) << " | "
-               << optional_count(x.candidates_max) << " | " << optional_count(x.rounds_max)
-               << " | " << x.force_us << " | " << x.surface_us << " | "
-               << (x.stable ? "yes" : "**no**") << " |\n";
-          }
+        {
+          bool first = true;
+          for (const auto &[name, x] : ran_methods(r))
+            {
+              md << "| " << (first ? r.c.name : "") << " | "
+                 << (first ? std::to_string(r.fem_peak_force).substr(0, 6) : "") << " | "
+                 << (first ? std::to_string(1e3 * r.fem_max_penetration).substr(0, 6) : "")
+                 << " | " << name << " | " << figure(x->force_error, x->force_range) << " | "
+                 << figure(x->impulse_error, x->impulse_range) << " | "
+                 << figure(x->displacement_error, x->displacement_range) << " | "
+                 << optional_count(x->contact_vertices_max) << " | "
+                 << optional_count(x->candidates_max) << " | " << optional_count(x->rounds_max)
+                 << " | " << x->force_us << " | " << x->surface_us << " | "
+                 << (x->stable ? "yes" : "**no**") << " |\n";
+              first = false;
+            }
+        }
       return md.str();
     }
 
@@ -442,6 +455,40 @@ namespace irdm::validation::planes
       return md.str();
     }
 
+    std::string
+    join(const std::vector<std::string> &items, const std::string &separator)
+    {
+      std::string out;
+      for (const auto &item : items)
+        out += (out.empty() ? "" : separator) + item;
+      return out;
+    }
+
+    /// One line per reduced nonlinear model: its basis, cubature and file, and each case's
+    /// Newton steps cut back or not converged.
+    std::string
+    reduced_prose(const PlaneStudy &s)
+    {
+      std::ostringstream md;
+      for (size_t k = 0; k < s.models.reduced.size(); ++k)
+        {
+          const ReducedNonlinearModel &m = s.models.reduced[k];
+          md << "- `" << s.models.reduced_names[k] << "`: a reduced nonlinear model (`"
+             << m.path << "`: r = " << m.size << " (" << m.lowest_modes << " lowest modes, "
+             << m.residual_modes << " residual modes, "
+             << static_cast<long>(m.size) - m.lowest_modes - m.residual_modes << " directions of "
+             << m.modal_derivatives << " modal derivatives), "
+             << (m.every_element ? "every element" : std::to_string(m.cubature_elements.size()) +
+                                                       " cubature elements")
+             << "), the truth's penalty walls; Newton steps cut back / not converged:";
+          for (const Row &r : s.rows)
+            md << " " << r.c.name << " " << r.reduced_cut_failed[k][0] << " / "
+               << r.reduced_cut_failed[k][1] << ";";
+          md << "\n";
+        }
+      return md.str();
+    }
+
     /// The figures the prose of planes.md names.
     TemplateValues
     prose_values(const PlaneStudy &s)
@@ -460,6 +507,8 @@ namespace irdm::validation::planes
         {"fe_degree", std::to_string(s.body.fe_degree)},
         {"mesh", fs::path(s.body.mesh_file).filename().string()},
         {"quick", o.quick ? "1" : ""},
+        {"chosen_cases", join(o.cases, ", ")},
+        {"reduced", reduced_prose(s)},
         {"n_cases", std::to_string(s.rows.size())},
         {"n_orientations", std::to_string(m.vdof.n_orientations)},
         {"subdivisions", std::to_string(o.subdivisions)},

@@ -57,6 +57,9 @@ namespace irdm::validation
     // Reduced nonlinear models (irdm precompute --reduced) of this scene's body, each run on
     // every case beside the other methods as the method reduced_<its file's stem>.
     std::vector<std::string> reduced_models;
+    // Only these cases (each a case name, such as press_top_5mm, or a kind, such as
+    // press_top_and_side or slide_side); empty: every case of the run.
+    std::vector<std::string> cases;
     std::string plot_script;        // python script for the charts; "" skips charts
     // Fewer depths and speeds (every kind of case and the sweep's cases kept): the main job's
     // default, within its 10-minute budget.
