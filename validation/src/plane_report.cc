@@ -276,18 +276,24 @@ namespace irdm::validation::planes
       csv << "case,time_s,penetration_m,fem_force_N";
       for (const auto *m : method_names)
         csv << "," << m << "_force_N";
+      if (!rows.empty()) // the reduced models, the same on every case
+        for (const auto &named : rows.front().reduced)
+          csv << "," << named.first << "_force_N";
       csv << "\n";
       for (const auto &r : rows)
         for (std::size_t k = 1; k < r.F_fem.size(); ++k)
           {
             csv << r.c.name << "," << k * tau << "," << interp(r.c.times, r.c.penetration, k * tau)
                 << "," << r.F_fem[k];
+            const auto cell = [&](const MethodResult &m) {
+              csv << ",";
+              if (m.ran)
+                csv << m.F[k - 1];
+            };
             for (const auto &m : r.method)
-              {
-                csv << ",";
-                if (m.ran)
-                  csv << m.F[k - 1];
-              }
+              cell(m);
+            for (const auto &named : r.reduced)
+              cell(named.second);
             csv << "\n";
           }
       write_csv(dir, "forces.csv", csv);
