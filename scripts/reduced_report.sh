@@ -33,3 +33,16 @@ done
 $irdm validate-nonlinear --families planes --model out/models/quick/cat_vdof.h5 --subdivisions 1 \
   --vertex-model out/models/quick/cat_vertex.h5 --converged-cases none \
   --reduced-model $models/cat_top.h5 $models/cat_top_r222.h5 --out "$out"
+# Two walls at once and a sliding wall (validate-planes' press_top_and_side and slide_side
+# cases): models whose inputs are the skin those walls can reach (scene files made by
+# scripts/contact_region_scene.py), every element, against the P1 truth.
+for s in cat_top_and_side cat_slide; do
+  n=$(grep -c center_m validation/scenes/reduced/$s.json)
+  [ -f $models/$s.h5 ] ||
+    $irdm precompute validation/scenes/reduced/$s.json --reduced --modes 100 --derivative-modes 60 \
+      --basis $((100 + 3 * n + 80)) --cubature-tolerance 0 --out $models/$s.h5
+done
+$irdm validate-planes --cases press_top_and_side slide_side --model out/models/quick/cat_vdof.h5 \
+  --subdivisions 1 --vertex-model out/models/quick/cat_vertex.h5 --no-direct --no-corotational \
+  --converged-degree 0 --perturbations 0 --stiffness-sweep 0 \
+  --reduced-model $models/cat_top_and_side.h5 $models/cat_slide.h5 --out "$out"
