@@ -65,6 +65,18 @@ def planes_headline(folder):
             f"DOFs (nearest) impulse {span(of('vdof_nearest', 'impulse_error'))}")
 
 
+def reduced_planes_headline(folder):
+    data = [r for r in rows(os.path.join(folder, "planes.csv")) if r["method"].startswith("reduced")]
+    best = {}
+    for r in data:  # each case's most accurate reduced model, in shape
+        if r["case"] not in best or float(r["displacement_error"]) < float(best[r["case"]]["displacement_error"]):
+            best[r["case"]] = r
+    of = lambda key: [float(r[key]) for r in best.values()]  # noqa: E731
+    return (f"{len(best)} cases, each case's best reduced model against the nonlinear FEM: shape "
+            f"{span(of('displacement_error'))}, impulse {span(of('impulse_error'))}, force "
+            f"{span(of('force_error'))}")
+
+
 def free_headline(folder):
     first = [r for r in rows(os.path.join(folder, "first_contact.csv")) if r["material"] == "50kPa"]
     lin = [r for r in rows(os.path.join(folder, "linearization.csv"))
@@ -190,6 +202,10 @@ STUDIES = [
     ("Plane contact against the nonlinear FEM (full study)", "planes/planes.md",
      "planes/planes.png", planes_headline,
      PLANES),
+    ("Reduced nonlinear models: two walls at once and a sliding wall", "reduced/planes/planes.md",
+     "reduced/planes/planes.png", reduced_planes_headline,
+     PLANES + ["irdm/src/reduced_nonlinear.cc", "irdm/src/cubature.cc",
+               "reference_fem/src/reduced*", "scripts/reduced_report.sh"]),
     ("Free bodies against the nonlinear FEM", "free/report.md", "free/impact.png", free_headline,
      RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/impulse_response*",
                 "validation/src/free_body_*", "validation/src/metrics.h",
