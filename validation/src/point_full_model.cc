@@ -1,6 +1,6 @@
 // The full cat model of the point validation (point_runs.h): the seed's Table 1 by
-// representative waveforms, and every compressor in closed loop on the first scene (ERA and
-// balanced truncation among them).
+// representative waveforms, and every compressor in closed loop on the first scene
+// (representatives plain and interpolated, modal, ERA, balanced truncation).
 #include "point_runs.h"
 
 #include <irdm/modal_model.h>
@@ -81,6 +81,19 @@ namespace irdm::validation::points
         RepresentativeInteraction irdm(c);
         run.rows.push_back(row_of("representatives", "theta " + fmt(theta, "%.2f"), c.bytes(),
                                   c.compression_seconds, run_irdm(s, c, irdm, true, bound)));
+        run.rows.back().rep_percent = 100.0 * c.n_representative() / run.waveforms;
+      }
+    // The interpolated variant (each substituted waveform a blend of three representatives).
+    for (const double theta : {0.80, 0.85, 0.90, 0.95})
+      {
+        CompressionOptions co;
+        co.theta = theta;
+        co.blend = 3;
+        co.log   = [&](const std::string &l) { log << "  theta " << theta << ", blend 3: " << l << "\n"; };
+        const RepresentativeModel c = compress(full_model, co);
+        RepresentativeInteraction irdm(c);
+        run.rows.push_back(row_of("interpolated", "theta " + fmt(theta, "%.2f") + ", blend 3",
+                                  c.bytes(), c.compression_seconds, run_irdm(s, c, irdm, true, bound)));
         run.rows.back().rep_percent = 100.0 * c.n_representative() / run.waveforms;
       }
     for (const unsigned M : {50u, 100u, 200u})
