@@ -21,12 +21,12 @@ import sys
 def read_msh(path):
     """Node coordinates by tag, and each physical surface's node tags by name."""
     with open(path) as fh:
-        lines = fh.read().split("\n")
+        lines = fh.read().splitlines()
     i = 0
     names, nodes, surfaces = {}, {}, {}
     while i < len(lines):
         line = lines[i].strip()
-        if line == "$MeshFormat" and not lines[i + 1].startswith("2.2"):
+        if line == "$MeshFormat" and lines[i + 1].split()[:2] != ["2.2", "0"]:
             sys.exit(f"{path}: gmsh 2.2 ASCII expected")
         if line == "$PhysicalNames":
             for k in range(int(lines[i + 1])):
@@ -42,7 +42,7 @@ def read_msh(path):
             for k in range(n):
                 f = [int(v) for v in lines[i + 2 + k].split()]
                 kind, n_tags = f[1], f[2]
-                if kind != 2:  # 3-node triangles carry the surfaces
+                if kind != 2 or n_tags < 1:  # 3-node triangles with a physical tag: the surfaces
                     continue
                 name = names.get((2, f[3]))
                 if name:
@@ -82,13 +82,15 @@ def main():
     free = sorted(surfaces["skin"] - fixed)
     directions = [tuple(w) for w in a.wall]
     for x, y, z, lo, hi in a.turning_wall:
-        steps = max(1, int(round(hi - lo)))
+        steps = max(1, int(round(abs(hi - lo))))
         directions += [turned((x, y, z), lo + (hi - lo) * k / steps) for k in range(steps + 1)]
     if not directions:
         sys.exit("give at least one --wall or --turning-wall")
     chosen = set()
     for d in directions:
         n = math.sqrt(sum(c * c for c in d))
+        if not n > 0:
+            sys.exit("a wall direction must not be zero")
         d = tuple(c / n for c in d)
         h = {t: sum(c * x for c, x in zip(d, nodes[t])) for t in free}
         top = max(h.values())
@@ -98,10 +100,11 @@ def main():
         f"Model inputs: the {len(chosen)} free skin vertices within {a.depth * 1e3:g} + "
         f"{a.margin * 1e3:g} mm of the outermost free point along each wall direction "
         f"(scripts/contact_region_scene.py).")
-    scene["model"] = {"length": scene.get("model", {}).get("length", 10),
-                      "inputs": {"surfaces": ["skin"],
-                                 "within": [{"center_m": list(nodes[t]), "radius_m": 0.0005}
-                                            for t in sorted(chosen)]}}
+    # The mesh path is relative to the scene file; the output may live elsewhere.
+    scene["mesh"]["file"] = os.path.relpath(mesh, os.path.dirname(os.path.abspath(a.out)))
+    scene.setdefault("model", {})["inputs"] = {
+        "surfaces": ["skin"],
+        "within": [{"center_m": list(nodes[t]), "radius_m": 0.0005} for t in sorted(chosen)]}
     with open(a.out + ".part", "w") as fh:
         json.dump(scene, fh, indent=1)
         fh.write("\n")

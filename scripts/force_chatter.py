@@ -27,6 +27,8 @@ def main():
         sys.exit(__doc__)
     with open(sys.argv[1]) as fh:
         rows = list(csv.DictReader(fh))
+    if not rows:
+        sys.exit(f"{sys.argv[1]}: no rows")
     methods = [c[:-len("_force_N")] for c in rows[0] if c.endswith("_force_N") and c != "fem_force_N"]
     cases = sys.argv[2:] or list(dict.fromkeys(r["case"] for r in rows))
     print("case,method,force_error," + ",".join(f"force_error_avg{w}" for w in WINDOWS) + ",truth_chatter")

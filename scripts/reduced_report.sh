@@ -46,3 +46,5 @@ $irdm validate-planes --cases press_top_and_side slide_side --model out/models/q
   --subdivisions 1 --vertex-model out/models/quick/cat_vertex.h5 --no-direct --no-corotational \
   --converged-degree 0 --perturbations 0 --stiffness-sweep 0 \
   --reduced-model $models/cat_top_and_side.h5 $models/cat_slide.h5 --out "$out"
+/usr/bin/python3 scripts/force_chatter.py "$out/planes/forces.csv" > "$out/planes/chatter.csv.part"
+mv "$out/planes/chatter.csv.part" "$out/planes/chatter.csv"

@@ -75,8 +75,8 @@ fig.tight_layout()
 save_figure(fig, d + "/planes.png", dpi=110)
 
 # Compliant walls: error against the wall stiffness (stiffness.csv), rigid at the right.
-if os.path.exists(d + "/stiffness.csv"):
-    sweep = list(csv.DictReader(open(d + "/stiffness.csv")))
+sweep = list(csv.DictReader(open(d + "/stiffness.csv"))) if os.path.exists(d + "/stiffness.csv") else []
+if sweep:  # a run with --cases may hold no case of the sweep
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
     names = sorted({x["case"] for x in sweep})
     k_max = max(float(x["stiffness_N_m"]) for x in sweep)

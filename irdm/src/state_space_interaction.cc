@@ -157,8 +157,9 @@ namespace irdm
         return;
       }
     // y = c x (every direction), then u = basis y: float rows through the modal surface
-    // update's kernel (vectorized; its rounding is of the order of the rows' float storage).
-    // The force loop's contact rows (history) keep their double sums.
+    // update's kernel (vectorized, summing in float where the CPU has AVX2: where c x cancels,
+    // its rounding is relative to the terms, not the sum). The force loop's contact rows
+    // (history) keep their double sums, so the surface there differs from them by that rounding.
     const unsigned ro = model_.output_dimension;
     double        *y  = model_.output_basis.empty() ? u : y_.data();
     detail::surface_product(model_.c.data(), model_.order, ro, x_last_.data(), y);

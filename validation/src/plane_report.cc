@@ -480,10 +480,9 @@ namespace irdm::validation::planes
         {
           const ReducedNonlinearModel &m = s.models.reduced[k];
           md << "- `" << s.models.reduced_names[k] << "`: a reduced nonlinear model (`"
-             << m.path << "`: r = " << m.size << " (" << m.lowest_modes << " lowest modes, "
-             << m.residual_modes << " residual modes, "
-             << static_cast<long>(m.size) - m.lowest_modes - m.residual_modes << " directions of "
-             << m.modal_derivatives << " modal derivatives), "
+             << m.path << "`: r = " << m.size << " from " << m.lowest_modes << " lowest modes, "
+             << m.residual_modes << " residual modes and " << m.modal_derivatives
+             << " modal derivatives, "
              << (m.every_element ? "every element" : std::to_string(m.cubature_elements.size()) +
                                                        " cubature elements")
              << "), the truth's penalty walls; Newton steps cut back / not converged:";
@@ -560,6 +559,7 @@ namespace irdm::validation::planes
     v["methods_table"] = methods_table(s.rows);
     reference_tables(s.rows, v);
     v["sweep_table"]   = sweep_table(s.sweep);
+    v["sweep"]         = s.sweep.empty() ? "" : "1";
     v["best_table"]    = best_table(s.rows);
     v["perturbations"] = s.options.perturbations > 0 ? std::to_string(s.options.perturbations) : "";
     v["corotational"]  = s.options.corotational ? "1" : "";

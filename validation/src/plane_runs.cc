@@ -763,13 +763,18 @@ namespace irdm::validation::planes
       throw InputError("--converged-degree 1 on the scene's own mesh is the truth itself: give "
                        "--converged-mesh, or degree 2");
     PlaneModels m;
-    prepare_virtual_dofs(body, o, m, log);
-    prepare_vertex_model(body, o, m, log);
+    // The reduced models first: a bad file is refused before the long precomputes.
     for (const auto &file : o.reduced_models)
       {
+        const std::string name = "reduced_" + fs::path(file).stem().string();
+        if (std::find(m.reduced_names.begin(), m.reduced_names.end(), name) != m.reduced_names.end())
+          throw InputError("--reduced-model: two files named '" + fs::path(file).stem().string() +
+                           "' would be one method, " + name + "; rename one");
         m.reduced.push_back(load_reduced_nonlinear_model(file, body.time_step));
-        m.reduced_names.push_back("reduced_" + fs::path(file).stem().string());
+        m.reduced_names.push_back(name);
       }
+    prepare_virtual_dofs(body, o, m, log);
+    prepare_vertex_model(body, o, m, log);
     m.contact.margin         = o.margin;
     m.contact.max_candidates = o.max_candidates;
     // The FEM penalty's per-vertex equivalent needs the mean lumped area of the free vertices.

@@ -53,7 +53,8 @@ namespace irdm::validation
       if (std::none_of(names.begin(), names.end(), [&](const Case &c) { return c.name == name; }))
         throw InputError("validate-planes: --converged-cases names '" + name +
                          "', which is not a case of this run" + (o.quick ? " (--quick)" : "") +
-                         (o.cases.empty() ? "" : " (--cases)"));
+                         (o.cases.empty() ? "" : " (--cases): give --converged-cases among "
+                                                 "the chosen cases, or --converged-degree 0"));
     const PlaneModels models = prepare_models(body, o, log);
     PlaneStudy        study{o, body, models, case_directions(models.vdof), {}, {}, {}, {}};
     std::vector<unsigned> fem_order;
