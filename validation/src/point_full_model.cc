@@ -106,7 +106,7 @@ namespace irdm::validation::points
     for (auto &r : era_rows(s, full_model, fem_full, {300, 600, 1000}, log))
       run.rows.push_back(r);
     // ERA's peer where the modes are known: balanced truncation of the modal realization.
-    if (full_model.modes.n_modes > 0)
+    if (full_model.modes.n_modes > 0 && !full_model.free_body)
       for (auto &r : balanced_rows(s, full_model, fem_full, {300, 600, 1000}, log))
         run.rows.push_back(r);
     return run;
