@@ -141,6 +141,10 @@ namespace irdm::fem
     vertex_dofs(unsigned vertex) const;
     unsigned
     select_vertex(const VertexSelector &sel, const std::string &what) const;
+    /// The scene's loads, prescribed displacements, probes and outputs on the mesh (setup's
+    /// last part: after the surface and the constraints, which they are checked against).
+    void
+    place_scene_on_mesh();
 
     Scene   scene;
     TetMesh mesh;

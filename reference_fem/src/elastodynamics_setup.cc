@@ -228,7 +228,12 @@ namespace irdm::fem
     sparsity.copy_from(dsp);
     stiffness.reinit(sparsity);
     mass.reinit(sparsity);
+    place_scene_on_mesh();
+  }
 
+  void
+  ElasticDynamics::Impl::place_scene_on_mesh()
+  {
     for (const auto &f : scene.vertex_forces)
       {
         const unsigned v = select_vertex(f.vertex, "load '" + f.name + "'");
