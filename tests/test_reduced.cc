@@ -208,6 +208,43 @@ namespace
       e.add(test[k], reference[k + offset]);
     return e.value();
   }
+
+  // The every-element reduced model of the scene with 9 fields, and the same model with
+  // every mode of (K_0, M) from the dense matrices on the free DoFs as its basis.
+  struct FullBasis
+  {
+    ReducedNonlinearModel small, full;
+  };
+
+  FullBasis
+  full_basis_model(const fem::Scene &s, const std::string &file)
+  {
+    fem::ReducedModelOptions o;
+    o.output           = irdm_test::tmp(file);
+    o.modes            = 6;
+    o.derivative_modes = 2;
+    o.residual_modes   = false;
+    o.basis_size       = 9;
+    fem::precompute_reduced_model(s, o);
+    FullBasis out{load_reduced_nonlinear_model(o.output, s.time_step), {}};
+    EXPECT_EQ(out.small.elements.size(), out.small.cubature_elements.size()) << "no cubature: every element";
+    const fem::ElasticDynamics linear(s);
+    const fem::DenseSystem     ds = linear.dense_free_system();
+    const auto                 n  = static_cast<Eigen::Index>(ds.n_free);
+    const Eigen::MatrixXd K = Eigen::Map<const Eigen::MatrixXd>(ds.stiffness.data(), n, n);
+    const Eigen::MatrixXd M = Eigen::Map<const Eigen::MatrixXd>(ds.mass.data(), n, n);
+    const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> eig(K, M);
+    EXPECT_EQ(eig.info(), Eigen::Success);
+    out.full      = out.small;
+    auto &m       = out.full;
+    m.size        = ds.n_free;
+    m.basis.assign(3ull * m.n_vertices * m.size, 0.0);
+    for (size_t row = 0; row < ds.vertex_dof_to_free.size(); ++row)
+      if (ds.vertex_dof_to_free[row] >= 0)
+        for (unsigned k = 0; k < m.size; ++k)
+          m.basis[row * m.size + k] = eig.eigenvectors()(ds.vertex_dof_to_free[row], k);
+    return out;
+  }
 } // namespace
 
 // Every element and a basis of every mode of (K_0, M): the reduced model spans the FEM's whole
@@ -218,30 +255,7 @@ TEST(ReducedModel, WithTheFullBasisItIsTheNonlinearFemRun)
 {
   const fem::Scene s   = pressed_beam(0.01, 0.02, 0.024);
   const auto       fem = fem::NonlinearElasticity(s).run();
-  fem::ReducedModelOptions o;
-  o.output           = irdm_test::tmp("reduced_full.h5");
-  o.modes            = 6;
-  o.derivative_modes = 2;
-  o.residual_modes   = false;
-  o.basis_size       = 9;
-  fem::precompute_reduced_model(s, o);
-  ReducedNonlinearModel m = load_reduced_nonlinear_model(o.output, s.time_step);
-  ASSERT_EQ(m.elements.size(), m.cubature_elements.size()) << "no cubature: every element";
-
-  // Every mode, from the dense K and M on the free DoFs.
-  const fem::ElasticDynamics linear(s);
-  const fem::DenseSystem     ds = linear.dense_free_system();
-  const auto                 n  = static_cast<Eigen::Index>(ds.n_free);
-  const Eigen::MatrixXd K = Eigen::Map<const Eigen::MatrixXd>(ds.stiffness.data(), n, n);
-  const Eigen::MatrixXd M = Eigen::Map<const Eigen::MatrixXd>(ds.mass.data(), n, n);
-  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> eig(K, M);
-  ASSERT_EQ(eig.info(), Eigen::Success);
-  m.size = ds.n_free;
-  m.basis.assign(3ull * m.n_vertices * m.size, 0.0);
-  for (size_t row = 0; row < ds.vertex_dof_to_free.size(); ++row)
-    if (ds.vertex_dof_to_free[row] >= 0)
-      for (unsigned k = 0; k < m.size; ++k)
-        m.basis[row * m.size + k] = eig.eigenvectors()(ds.vertex_dof_to_free[row], k);
+  const ReducedNonlinearModel m = full_basis_model(s, "reduced_full.h5").full;
 
   const ReducedRun reduced = run_reduced(m, s);
   EXPECT_EQ(reduced.failed, 0u);
@@ -258,6 +272,51 @@ TEST(ReducedModel, WithTheFullBasisItIsTheNonlinearFemRun)
             << ", largest displacement " << bend << " m\n";
 }
 
+
+// The cubature's FEM training states (fem_training_states) are the FEM's snapshots projected
+// on the basis, q = U^T M u. With every mode as the basis the reduced model is the FEM (the
+// test above), so they are the reduced model's own training states on the same presses, and
+// the basis misses nothing; with 9 fields it misses part of each snapshot and says so.
+TEST(ReducedModel, FemTrainingStatesAreTheReducedModelsOwnWithTheFullBasis)
+{
+  const fem::Scene s = pressed_beam(0.01, 0.02, 0.024);
+  const FullBasis  b = full_basis_model(s, "reduced_fem_training.h5");
+  TrainingOptions  t;
+  t.presses    = 2;
+  t.max_depth  = 0.006;
+  t.ramp_steps = 6;
+  t.every      = 3;
+  const TrainingSet reduced = training_states(b.full, t);
+  ASSERT_EQ(reduced.failed_steps, 0u);
+  std::vector<fem::TrainingPress> presses;
+  for (size_t p = 0; p < reduced.depths.size(); ++p)
+    presses.push_back({reduced.directions[p], reduced.supports[p], reduced.depths[p]});
+  fem::FemTrainingOptions o;
+  o.ramp_steps = t.ramp_steps;
+  o.every      = t.every;
+  const auto fem = fem::fem_training_states(s, b.full.basis, b.full.size, presses, o);
+  EXPECT_EQ(fem.failed_presses, 0u);
+  ASSERT_EQ(fem.states.size(), reduced.states.size());
+  ASSERT_EQ(fem.states.size(), 8u) << "2 presses of 12 steps, a state every 3";
+  double largest = 0, difference = 0;
+  for (size_t k = 0; k < fem.states.size(); ++k)
+    {
+      const Eigen::Map<const Eigen::VectorXd> q(fem.states[k].data(), b.full.size);
+      largest    = std::max(largest, reduced.states[k].norm());
+      difference = std::max(difference, (q - reduced.states[k]).norm());
+    }
+  EXPECT_GT(largest, 0);
+  EXPECT_LT(difference, 1e-6 * largest);
+  EXPECT_LT(fem.largest_projection_error, 1e-6);
+
+  const auto few = fem::fem_training_states(s, b.small.basis, b.small.size, presses, o);
+  EXPECT_EQ(few.states.size(), fem.states.size());
+  EXPECT_GT(few.largest_projection_error, 1e-3) << "9 fields do not hold a press's local dent";
+  EXPECT_LT(few.largest_projection_error, 1);
+  std::cout << "FEM training states against the reduced model's: " << difference / largest
+            << "; the basis misses " << fem.largest_projection_error << " (every mode), "
+            << few.largest_projection_error << " (9 fields)\n";
+}
 
 // A large bend is not a sum of linear modes: the beam's end also moves back along its axis
 // (by the square of the bend), and its section turns. At the same basis size, modal

@@ -33,10 +33,37 @@ namespace irdm::cli
       bool     reduced = false, no_residual_modes = false;
       unsigned derivative_modes = 8, derivative_residual = 0, basis = 40, training_presses = 12;
       double   cubature_tolerance = 0.01, training_depth = 0.02;
+      std::string training_source = "reduced";
       // --tolerance: the smallest model within it on the scene's own probes.
       double      tolerance = 0;
       std::string size_by   = "modes";
     };
+
+    // The cubature's training states from the neo-Hookean FEM: the reduced model's own
+    // presses (the same draws) run on the FEM, each snapshot projected on the basis.
+    irdm::TrainingSet
+    fem_training(const irdm::fem::Scene &scene, const irdm::ReducedNonlinearModel &every,
+                 const irdm::TrainingOptions &t)
+    {
+      irdm::TrainingSet                       out = irdm::training_presses(every, t);
+      std::vector<irdm::fem::TrainingPress> presses;
+      for (size_t p = 0; p < out.depths.size(); ++p)
+        presses.push_back({out.directions[p], out.supports[p], out.depths[p]});
+      irdm::fem::FemTrainingOptions o;
+      o.ramp_steps = t.ramp_steps;
+      o.every      = t.every;
+      o.log        = t.log;
+      const auto fem = irdm::fem::fem_training_states(scene, every.basis, every.size, presses, o);
+      for (const auto &q : fem.states)
+        out.states.push_back(Eigen::Map<const Eigen::VectorXd>(q.data(), static_cast<Eigen::Index>(q.size())));
+      out.source       = "fem";
+      out.failed_steps = fem.failed_presses;
+      std::printf("FEM training: %zu snapshots of %zu presses (%u failed, %u steps cut back), the "
+                  "basis missing at most %.3g of a snapshot's M-norm, %.1f s\n",
+                  fem.states.size(), presses.size(), fem.failed_presses, fem.cut_steps,
+                  fem.largest_projection_error, fem.seconds);
+      return out;
+    }
 
     // The reduced model: the every-element file from the FEM, then (unless the tolerance is 0)
     // its cubature trained on the every-element model's presses, written to --out.
@@ -86,16 +113,19 @@ namespace irdm::cli
       t.presses   = a.training_presses;
       t.max_depth = a.training_depth;
       t.log       = log;
-      const irdm::TrainingSet training = irdm::training_states(every, t);
+      const irdm::TrainingSet training = a.training_source == "fem"
+                                           ? fem_training(scene, every, t)
+                                           : irdm::training_states(every, t);
       irdm::CubatureOptions   c;
       c.tolerance            = a.cubature_tolerance;
       c.log                  = log;
       const irdm::Cubature rule = irdm::train_cubature(every, training.states, c);
       irdm::write_cubature_model(o.output, a.out, rule, training);
       std::printf("model %s: cubature of %zu of %u elements, training residual %.3g over %u "
-                  "states of %u presses (up to %.3g m; %lu steps failed), %.2f s\n",
+                  "states of %u presses of the %s (up to %.3g m; %lu steps failed), %.2f s\n",
                   a.out.c_str(), rule.elements.size(), r.n_elements, rule.training_error,
-                  rule.n_states, t.presses, t.max_depth, training.failed_steps, rule.seconds);
+                  rule.n_states, t.presses, training.source == "fem" ? "FEM" : "reduced model",
+                  t.max_depth, training.failed_steps, rule.seconds);
       return 0;
     }
 
@@ -283,6 +313,11 @@ namespace irdm::cli
     precompute->add_option("--training-depth", pre->training_depth,
                            "--reduced: the presses' largest depth (m; each is drawn between 0.2 and 1 times it)")
       ->check(CLI::PositiveNumber)->capture_default_str()->needs(reduced);
+    precompute->add_option("--training-source", pre->training_source,
+                           "--reduced: what runs the training presses: the every-element reduced "
+                           "model itself (reduced) or the neo-Hookean FEM, each snapshot projected "
+                           "on the basis (fem)")
+      ->check(CLI::IsMember({"reduced", "fem"}))->capture_default_str()->needs(reduced);
     for (const char *other : {"--length", "--storage", "--chunk", "--free-route", "--fit-weights",
                               "--inertial-modes", "--restart", "--allow-large",
                               "--every-mode-every-step", "--modal-only"})

@@ -84,10 +84,8 @@ namespace irdm
   }
 
   TrainingSet
-  training_states(const ReducedNonlinearModel &m, const TrainingOptions &o)
+  training_presses(const ReducedNonlinearModel &m, const TrainingOptions &o)
   {
-    if (!m.every_element)
-      throw InputError("training states come from a reduced model with every element");
     if (o.presses == 0 || o.ramp_steps == 0 || o.every == 0 || !(o.max_depth > 0))
       throw InputError("training needs at least one press, a positive depth and ramp");
     TrainingSet                            out;
@@ -98,30 +96,44 @@ namespace irdm
       {
         Eigen::Vector3d d(normal(rng), normal(rng), normal(rng));
         d.normalize();
-        const double depth = o.max_depth * uniform(rng);
-        double       support = -INFINITY; // of the vertices with a free DoF
+        double support = -INFINITY; // of the vertices with a free DoF
         for (size_t s = 0; s < m.coordinates.size(); ++s)
           if (m.free_dof[s][0] || m.free_dof[s][1] || m.free_dof[s][2])
             support = std::max(support, d.dot(Eigen::Vector3d(m.coordinates[s][0], m.coordinates[s][1],
                                                               m.coordinates[s][2])));
-        ReducedNonlinearBody body(m);
-        ReducedPlane         plane;
+        out.directions.push_back({d(0), d(1), d(2)});
+        out.supports.push_back(support);
+        out.depths.push_back(o.max_depth * uniform(rng));
+      }
+    return out;
+  }
+
+  TrainingSet
+  training_states(const ReducedNonlinearModel &m, const TrainingOptions &o)
+  {
+    if (!m.every_element)
+      throw InputError("training states come from a reduced model with every element");
+    TrainingSet out = training_presses(m, o);
+    out.source      = "reduced_model";
+    for (size_t p = 0; p < out.depths.size(); ++p)
+      {
+        const Eigen::Vector3d d(out.directions[p][0], out.directions[p][1], out.directions[p][2]);
+        ReducedNonlinearBody  body(m);
+        ReducedPlane          plane;
         plane.normal = {-d(0), -d(1), -d(2)};
         for (unsigned k = 1; k <= 2 * o.ramp_steps; ++k)
           {
-            const double in = depth * std::min(1.0, double(k) / o.ramp_steps);
+            const double in = out.depths[p] * std::min(1.0, double(k) / o.ramp_steps);
             for (int i = 0; i < 3; ++i)
-              plane.point[i] = (support - in) * d(i);
+              plane.point[i] = (out.supports[p] - in) * d(i);
             body.step(&plane, 1);
             if (k % o.every == 0)
               out.states.push_back(body.coordinates());
           }
         out.failed_steps += body.failed_steps();
-        out.directions.push_back({d(0), d(1), d(2)});
-        out.depths.push_back(depth);
         if (o.log)
-          o.log("training press " + std::to_string(p + 1) + " of " + std::to_string(o.presses) +
-                ": " + std::to_string(1e3 * depth) + " mm");
+          o.log("training press " + std::to_string(p + 1) + " of " + std::to_string(out.depths.size()) +
+                ": " + std::to_string(1e3 * out.depths[p]) + " mm");
       }
     return out;
   }
@@ -248,6 +260,7 @@ namespace irdm
     f.attribute("/cubature", "training_states", static_cast<long long>(c.n_states));
     f.attribute("/cubature", "training_presses", static_cast<long long>(training.depths.size()));
     f.attribute("/cubature", "training_failed_steps", static_cast<long long>(training.failed_steps));
+    f.attribute("/cubature", "training_source", training.source);
     if (!training.depths.empty())
       {
         std::vector<double> dirs;

@@ -79,6 +79,7 @@ namespace irdm::fem
     r.largest_strain.clear();
     r.strained_volume_fraction.clear();
     r.surface_displacement.clear();
+    r.field_displacement.clear();
   }
 
   unsigned

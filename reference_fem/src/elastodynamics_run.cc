@@ -108,6 +108,14 @@ namespace irdm::fem
             s[3 * i + d] = u[dofs_of_vertex[surface_vertices[i]][d]];
         out.surface_displacement.push_back(std::move(s));
       }
+    if (scene.outputs.field)
+      {
+        std::vector<double> s(3 * dofs_of_vertex.size());
+        for (unsigned i = 0; i < dofs_of_vertex.size(); ++i)
+          for (unsigned d = 0; d < 3; ++d)
+            s[3 * i + d] = u[dofs_of_vertex[i][d]];
+        out.field_displacement.push_back(std::move(s));
+      }
   }
 } // namespace irdm::fem
 

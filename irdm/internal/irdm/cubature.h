@@ -10,6 +10,7 @@
 
 #include <Eigen/Dense>
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -20,9 +21,9 @@ namespace irdm
   Eigen::VectorXd
   non_negative_least_squares(const Eigen::MatrixXd &A, const Eigen::VectorXd &b);
 
-  /// Training states: the every-element model pressed by rigid planes from directions drawn
-  /// at random (fixed seed), each moved into the body to a depth drawn up to max_depth over
-  /// ramp_steps and held for as many, the state kept every `every` steps.
+  /// Training presses: rigid planes from directions drawn at random (fixed seed), each moved
+  /// into the body from its outermost free point to a depth drawn between 0.2 and 1 times
+  /// max_depth over ramp_steps and held for as many, the state kept every `every` steps.
   struct TrainingOptions
   {
     unsigned presses    = 12;
@@ -35,12 +36,19 @@ namespace irdm
 
   struct TrainingSet
   {
-    std::vector<Eigen::VectorXd>       states;
+    std::vector<Eigen::VectorXd>       states;     // reduced coordinates q
     std::vector<std::array<double, 3>> directions; // of the presses (unit, into the body)
+    std::vector<double>                supports;   // m, the outermost free point's d . x
     std::vector<double>                depths;     // m
-    unsigned long                      failed_steps = 0;
+    std::string   source = "reduced_model"; // what made the states ("reduced_model", "fem")
+    unsigned long failed_steps = 0;         // steps the source could not solve
   };
 
+  /// The presses alone (no states): the same draws whatever runs them.
+  TrainingSet
+  training_presses(const ReducedNonlinearModel &model, const TrainingOptions &options);
+
+  /// The presses run on the every-element reduced model itself.
   TrainingSet
   training_states(const ReducedNonlinearModel &every_element, const TrainingOptions &options);
 

@@ -129,6 +129,8 @@ namespace irdm::fem
     double energy_rise = 0, energy_scale = 0;
     SurfaceMesh                              surface;             // filled if outputs.surface
     std::vector<std::vector<double>>         surface_displacement; // per sample: 3 * n_vertices, m
+    std::vector<std::vector<double>>         field_displacement;   // per sample, outputs.field:
+                                                                   // [3 v + d] at every mesh vertex, m
 
     // Cost, s (wall clock).
     double setup_seconds = 0, factorization_seconds = 0, stepping_seconds = 0;

@@ -50,6 +50,42 @@ namespace irdm::fem
     double seconds_modes = 0, seconds_derivatives = 0, seconds_total = 0;
   };
 
+  /// A press that trains a reduced model's cubature: a rigid plane of normal -direction (unit
+  /// `direction` points from the body toward the plane) that touches the body where
+  /// direction . x = support, moved `depth` into it over the ramp and held as long.
+  struct TrainingPress
+  {
+    Vec3   direction;
+    double support = 0, depth = 0; // m
+  };
+
+  struct FemTrainingOptions
+  {
+    unsigned ramp_steps = 40; // steps of the scene's tau; held as many
+    unsigned every      = 4;  // a snapshot every this many steps
+    std::function<void(const std::string &)> log;
+  };
+
+  struct FemTrainingStates
+  {
+    std::vector<std::vector<double>> states; // reduced coordinates q = U^T M u, one per snapshot
+    unsigned failed_presses = 0; // Newton failed: the states before the failure are kept
+    unsigned cut_steps      = 0; // steps solved again in parts
+    // Of the snapshots, the largest share of the displacement's M-norm the basis misses,
+    // ||u - U q||_M / ||u||_M: how far the FEM's states are from the basis.
+    double largest_projection_error = 0;
+    double seconds                  = 0;
+  };
+
+  /// The neo-Hookean FEM on the scene's body (its law, plane penalty and integrator; the
+  /// scene's own loads, probes and planes left out) pressed by each plane in turn from rest,
+  /// every `every`-th step's displacement projected on the basis U (M-orthonormal, row-major
+  /// [3 v + d][k], r columns): q = U^T M u, the mass-weighted best fit. These are the FEM
+  /// snapshots an ECSW cubature trains on (Farhat et al. 2014), not states of the reduced model.
+  FemTrainingStates
+  fem_training_states(const Scene &scene, const std::vector<double> &basis, unsigned r,
+                      const std::vector<TrainingPress> &presses, const FemTrainingOptions &options);
+
   /// Computes the basis and writes the every-element model atomically (InputError for a free
   /// body, elements other than P1, a basis smaller than the lowest and residual modes, or
   /// larger than they and the derivatives can make).

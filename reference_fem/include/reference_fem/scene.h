@@ -236,6 +236,9 @@ namespace irdm::fem
       std::string                 directory; // resolved; empty: no files written
       std::vector<ObservedVertex> vertices;
       bool                        surface    = false; // all surface vertices
+      // Every mesh vertex's displacement, kept in memory (RunResult::field_displacement) for
+      // a caller that projects it (a reduced model's training); not a scene-file key.
+      bool                        field      = false;
       unsigned                    every      = 1;     // keep every k-th step
       unsigned                    vtu_every  = 0;     // 0: no VTU output
       bool                        hdf5       = true;
