@@ -62,40 +62,35 @@ namespace irdm::validation::points
       run.rows.push_back(row_of("IRDM direct", "float, T = 500", full_model.bytes(), 0,
                                 run_irdm(s, full_model, direct, true, bound)));
     }
-    // Table 1: one row per quantity, one column per theta.
+    // Representatives plain (blend 1, also the seed's Table 1: one row per quantity, one
+    // column per theta), then interpolated (each substituted waveform a blend of three).
     run.table1.assign(7, {});
-    for (const double theta : {0.80, 0.85, 0.90, 0.95})
-      {
-        CompressionOptions co;
-        co.theta = theta;
-        co.log   = [&](const std::string &l) { log << "  theta " << theta << ": " << l << "\n"; };
-        const RepresentativeModel c = compress(full_model, co);
-        auto &t = run.table1;
-        t[0].push_back(std::to_string(c.n_representative()));
-        t[1].push_back(std::to_string(c.n_substituted));
-        t[2].push_back(fmt(100.0 * c.n_representative() / run.waveforms, "%.1f%%"));
-        t[3].push_back(fmt(c.representative_bytes() / 1e9, "%.3f"));
-        t[4].push_back(fmt(c.bytes() / 1e9, "%.3f") + " (" + fmt(100 * c.bytes() / run.h_bytes, "%.1f%%") + ")");
-        t[5].push_back(fmt(c.compression_seconds, "%.1f"));
-        t[6].push_back(fmt(c.mean_fit, "%.3f") + " / " + fmt(c.mean_delay, "%.1f"));
-        RepresentativeInteraction irdm(c);
-        run.rows.push_back(row_of("representatives", "theta " + fmt(theta, "%.2f"), c.bytes(),
-                                  c.compression_seconds, run_irdm(s, c, irdm, true, bound)));
-        run.rows.back().rep_percent = 100.0 * c.n_representative() / run.waveforms;
-      }
-    // The interpolated variant (each substituted waveform a blend of three representatives).
-    for (const double theta : {0.80, 0.85, 0.90, 0.95})
-      {
-        CompressionOptions co;
-        co.theta = theta;
-        co.blend = 3;
-        co.log   = [&](const std::string &l) { log << "  theta " << theta << ", blend 3: " << l << "\n"; };
-        const RepresentativeModel c = compress(full_model, co);
-        RepresentativeInteraction irdm(c);
-        run.rows.push_back(row_of("interpolated", "theta " + fmt(theta, "%.2f") + ", blend 3",
-                                  c.bytes(), c.compression_seconds, run_irdm(s, c, irdm, true, bound)));
-        run.rows.back().rep_percent = 100.0 * c.n_representative() / run.waveforms;
-      }
+    for (const unsigned blend : {1u, 3u})
+      for (const double theta : {0.80, 0.85, 0.90, 0.95})
+        {
+          CompressionOptions co;
+          co.theta = theta;
+          co.blend = blend;
+          const std::string setting =
+            "theta " + fmt(theta, "%.2f") + (blend > 1 ? ", blend " + std::to_string(blend) : "");
+          co.log = [&](const std::string &l) { log << "  " << setting << ": " << l << "\n"; };
+          const RepresentativeModel c = compress(full_model, co);
+          if (blend == 1)
+            {
+              auto &t = run.table1;
+              t[0].push_back(std::to_string(c.n_representative()));
+              t[1].push_back(std::to_string(c.n_substituted));
+              t[2].push_back(fmt(100.0 * c.n_representative() / run.waveforms, "%.1f%%"));
+              t[3].push_back(fmt(c.representative_bytes() / 1e9, "%.3f"));
+              t[4].push_back(fmt(c.bytes() / 1e9, "%.3f") + " (" + fmt(100 * c.bytes() / run.h_bytes, "%.1f%%") + ")");
+              t[5].push_back(fmt(c.compression_seconds, "%.1f"));
+              t[6].push_back(fmt(c.mean_fit, "%.3f") + " / " + fmt(c.mean_delay, "%.1f"));
+            }
+          RepresentativeInteraction irdm(c);
+          run.rows.push_back(row_of(blend > 1 ? "interpolated" : "representatives", setting, c.bytes(),
+                                    c.compression_seconds, run_irdm(s, c, irdm, true, bound)));
+          run.rows.back().rep_percent = 100.0 * c.n_representative() / run.waveforms;
+        }
     for (const unsigned M : {50u, 100u, 200u})
       {
         const ModalModel mm = make_modal_model(full_model, {M});
