@@ -6,11 +6,12 @@ turning about z is sampled every degree over its angles. The inputs are listed o
 (`within` spheres of 0.5 mm about the vertex), so the scene says exactly which they are.
 
     /usr/bin/python3 scripts/contact_region_scene.py BASE_SCENE OUT_SCENE --name NAME
-        --depth 0.01 --margin 0.003 --wall 0 0 1 --turning-wall 0 1 0 -25 25 [--comment TEXT]
+        --depth 0.01 --margin 0.003 --wall 0 0 1 --turning-wall 0 1 0 -25 25
+        [--surfaces skin base] [--comment TEXT]
 
 BASE_SCENE gives the body (mesh, material, damping, integrator, step); only its name, comment
-and model inputs change. The mesh is gmsh 2.2 ASCII with physical surfaces `skin` and the
-fixed ones the scene names. Units: m, degrees."""
+and model inputs change. The mesh is gmsh 2.2 ASCII with the physical surfaces --surfaces names
+(default `skin`) and the fixed ones the scene names. Units: m, degrees."""
 import argparse
 import json
 import math
@@ -66,6 +67,8 @@ def main():
     p.add_argument("--wall", type=float, nargs=3, action="append", default=[], metavar=("X", "Y", "Z"))
     p.add_argument("--turning-wall", type=float, nargs=5, action="append", default=[],
                    metavar=("X", "Y", "Z", "FROM_DEG", "TO_DEG"), help="turning about z")
+    p.add_argument("--surfaces", nargs="+", default=["skin"],
+                   help="the physical surfaces the walls may touch (a free body's 'base' too)")
     p.add_argument("--comment", default="")
     a = p.parse_args()
     if os.path.exists(a.out):
@@ -74,12 +77,15 @@ def main():
         scene = json.load(fh)
     mesh = os.path.join(os.path.dirname(a.base), scene["mesh"]["file"])
     nodes, surfaces = read_msh(mesh)
-    if "skin" not in surfaces:
-        sys.exit(f"{mesh}: no physical surface 'skin'")
+    touched = set()
+    for name in a.surfaces:
+        if name not in surfaces:
+            sys.exit(f"{mesh}: no physical surface '{name}'")
+        touched |= surfaces[name]
     fixed = set()
     for s in scene.get("fixed_surfaces", []):
         fixed |= surfaces.get(s, set())
-    free = sorted(surfaces["skin"] - fixed)
+    free = sorted(touched - fixed)
     directions = [tuple(w) for w in a.wall]
     for x, y, z, lo, hi in a.turning_wall:
         steps = max(1, int(round(abs(hi - lo))))
@@ -97,13 +103,13 @@ def main():
         chosen |= {t for t in free if h[t] >= top - a.depth - a.margin}
     scene["name"] = a.name
     scene["comment"] = (a.comment + " " if a.comment else "") + (
-        f"Model inputs: the {len(chosen)} free skin vertices within {a.depth * 1e3:g} + "
+        f"Model inputs: the {len(chosen)} free {' and '.join(a.surfaces)} vertices within {a.depth * 1e3:g} + "
         f"{a.margin * 1e3:g} mm of the outermost free point along each wall direction "
         f"(scripts/contact_region_scene.py).")
     # The mesh path is relative to the scene file; the output may live elsewhere.
     scene["mesh"]["file"] = os.path.relpath(mesh, os.path.dirname(os.path.abspath(a.out)))
     scene.setdefault("model", {})["inputs"] = {
-        "surfaces": ["skin"],
+        "surfaces": a.surfaces,
         "within": [{"center_m": list(nodes[t]), "radius_m": 0.0005} for t in sorted(chosen)]}
     with open(a.out + ".part", "w") as fh:
         json.dump(scene, fh, indent=1)

@@ -97,11 +97,11 @@ namespace irdm::cli
         }
       } scratch{cubature ? o.output : std::string()};
       const auto r = irdm::fem::precompute_reduced_model(scene, o);
-      std::printf("reduced basis: %u fields = %u lowest modes (%.3g to %.3g Hz) + %u residual "
-                  "modes + %u directions of %u modal derivatives (mass-PCA share kept %.4f); %u "
-                  "elements, %u surface vertices; %.2f s\n",
-                  r.basis_size, r.n_modes, r.lowest_frequency_hz, r.highest_frequency_hz,
-                  r.n_residual, r.basis_size - r.n_modes - r.n_residual, r.n_derivatives,
+      std::printf("reduced basis: %u fields = %u rigid modes + %u lowest modes (%.3g to %.3g Hz) + "
+                  "%u residual modes + %u directions of %u modal derivatives (mass-PCA share kept "
+                  "%.4f); %u elements, %u surface vertices; %.2f s\n",
+                  r.basis_size, r.n_rigid, r.n_modes, r.lowest_frequency_hz, r.highest_frequency_hz,
+                  r.n_residual, r.basis_size - r.n_rigid - r.n_modes - r.n_residual, r.n_derivatives,
                   r.kept_share, r.n_elements, r.n_surface, r.seconds_total);
       if (!cubature)
         {
@@ -291,7 +291,7 @@ namespace irdm::cli
       "of the lowest --modes (default 20) eigenmodes and the residual modes at the scene's model "
       "inputs, then the leading mass-PCA directions of the modal derivatives of the lowest "
       "--derivative-modes, --basis fields in all; internal force by a cubature trained on "
-      "presses from random directions (P1, grounded bodies)");
+      "presses from random directions (P1; a free body's basis has its six rigid modes first)");
     precompute->add_option("--derivative-modes", pre->derivative_modes,
                            "--reduced: modal derivatives of the lowest this many modes (d (d + 1) / 2)")
       ->check(CLI::Range(0u, 100u))->capture_default_str()->needs(reduced);

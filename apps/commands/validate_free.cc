@@ -136,6 +136,11 @@ namespace irdm::cli
       ->delimiter(',')
       ->check(CLI::IsMember({"drop_2cm", "drop_5cm", "drop_10cm", "spin_roll", "wall_throw",
                              "tilted_5cm", "probe_push", "impact"}));
+    validate_free->add_option("--reduced-model", vfb->reduced_models,
+                              "reduced nonlinear models of the free body (irdm precompute --reduced "
+                              "on its scene at a material's Young's modulus), each a method "
+                              "reduced_<file stem> on that material's cases")
+      ->check(CLI::ExistingFile);
     validate_free->add_option("--impact-speeds", vfb->impact_speeds,
                               "the impact study's speeds (m/s): the upright cat 1 mm above the "
                               "floor moving onto it, gravity off, 0.3 s (impact.csv)")

@@ -66,8 +66,9 @@ namespace irdm::cli
         ->capture_default_str();
       app.add_flag("!--no-direct", p.direct, "skip vertex_contact_direct (its H needs GBs of memory)");
       app.add_option("--reduced-model", p.reduced_models,
-                     "reduced nonlinear models of the scene's body (irdm precompute --reduced), "
-                     "each a method reduced_<file stem> on every grounded case")
+                     "reduced nonlinear models (irdm precompute --reduced), each a method "
+                     "reduced_<file stem>: a grounded body's on every grounded case, a free "
+                     "body's on the free cases of its material")
         ->check(CLI::ExistingFile);
       list_or_none(app, "--press-directions", o.press_directions, "the presses' directions")
         ->check(CLI::IsMember({"top", "side", "between", "oblique", "none"}));

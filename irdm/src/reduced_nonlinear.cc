@@ -96,6 +96,22 @@ namespace irdm
       m.lowest_modes      = static_cast<unsigned>(r.count_attribute("/basis", "lowest_modes", 0, m.size));
       m.residual_modes    = static_cast<unsigned>(r.count_attribute("/basis", "residual_modes", 0, 100000000));
       m.modal_derivatives = static_cast<unsigned>(r.count_attribute("/basis", "modal_derivatives", 0, 100000000));
+      // Version 2: the rigid modes (a free body's) and the rigid fields' loads.
+      if (r.exists("/basis/rigid_loads"))
+        {
+          m.rigid_modes = static_cast<unsigned>(r.count_attribute("/basis", "rigid_modes", 0, 6));
+          if (m.rigid_modes != 0 && m.rigid_modes != 6)
+            c.fail("/basis: rigid_modes must be 0 or 6");
+          c.rows("/basis/rigid_loads", {6}, "/basis/shapes (columns)", m.size);
+          m.rigid_loads = r.read_double("/basis/rigid_loads", {m.size, 6});
+          m.mass        = r.double_attribute("/basis", "mass_kg");
+          if (r.shape("/basis/center_of_mass_m") != std::vector<hsize_t>{3})
+            c.fail("/basis/center_of_mass_m must hold 3 values");
+          const auto com = r.read_double("/basis/center_of_mass_m", {3});
+          if (!all_finite(m.rigid_loads) || !all_finite(com) || !(std::isfinite(m.mass) && m.mass > 0))
+            c.fail("/basis: rigid_loads, mass_kg and center_of_mass_m must be finite, the mass positive");
+          m.center_of_mass = {com[0], com[1], com[2]};
+        }
 
       const size_t E     = c.rows("/mesh/tetrahedra", {4});
       c.rows("/mesh/gradients", {4, 3}, "/mesh/tetrahedra", E);
@@ -209,8 +225,9 @@ namespace irdm
     const Checked    c{r, path};
     if (!r.has_attribute("/", "format") || r.string_attribute("/", "format") != "irdm-reduced-model")
       c.fail("not a reduced nonlinear model (attribute 'format' is missing or different)");
-    if (r.count_attribute("/", "format_version", 0, 1000) != 1)
-      c.fail("format_version is not 1 (this program reads version 1)");
+    const long long version = r.count_attribute("/", "format_version", 0, 1000);
+    if (version != 1 && version != 2)
+      c.fail("format_version is not 1 or 2 (this program reads versions 1 and 2)");
     if (r.string_attribute("/", "law") != "neo_hookean")
       c.fail("law '" + r.string_attribute("/", "law") + "' is not one this runtime knows (neo_hookean)");
     ReducedNonlinearModel m;
@@ -259,7 +276,7 @@ namespace irdm
         surface_index_.push_back(s);
       }
     for (Vector *x : {&q_, &v_, &a_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
-                      &r_trial_, &dq_, &g_c_trial_, &best_, &g_int_, &Un_, &g_f_, &g_f_new_, &g_f_end_, &q0_, &v0_, &a0_, &g_c0_, &g_f0_})
+                      &r_trial_, &dq_, &g_c_trial_, &best_, &g_int_, &Un_, &g_f_, &g_f_new_, &g_f_end_, &body_force_, &q0_, &v0_, &a0_, &g_c0_, &g_f0_})
       x->setZero(r_);
     KU_.setZero(r_, 12);
     for (Matrix *T : {&body_tangent_, &contact_tangent_, &tangent_})
@@ -268,6 +285,27 @@ namespace irdm
       B.setZero(3, r_);
     point_basis_.setZero(3, r_);
     point_solve_.setZero(r_, 3);
+  }
+
+  bool
+  ReducedNonlinearBody::start(const std::array<double, 3> &gravity, const std::array<double, 3> &velocity,
+                              const std::array<double, 3> &spin)
+  {
+    const bool moving = velocity != std::array<double, 3>{} || spin != std::array<double, 3>{};
+    if (stepped_ || m_.rigid_loads.size() != 6 * size_t(r_) || (moving && m_.rigid_modes == 0))
+      return false;
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(gravity[d]) || !std::isfinite(velocity[d]) || !std::isfinite(spin[d]))
+        return false;
+    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> G(m_.rigid_loads.data(), r_, 6);
+    const Eigen::Vector3d g(gravity[0], gravity[1], gravity[2]);
+    Eigen::Matrix<double, 6, 1> vw;
+    vw << velocity[0], velocity[1], velocity[2], spin[0], spin[1], spin[2];
+    body_force_ = G.leftCols<3>() * g;
+    g_f_        = body_force_;
+    v_          = G * vw;
+    a_          = body_force_ - m_.rayleigh_alpha * v_;
+    return true;
   }
 
   bool
@@ -447,7 +485,8 @@ namespace irdm
         probes_[p] = pr;
       }
     n_probes_ = n_probes;
-    g_f_end_.setZero();
+    stepped_  = true;
+    g_f_end_  = body_force_;
     for (int i = 0; i < n_forces; ++i)
       {
         const unsigned s = forces[i].vertex;

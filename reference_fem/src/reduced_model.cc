@@ -180,8 +180,6 @@ namespace irdm::fem
     if (scene.fe_degree != 1)
       throw InputError("a reduced model needs linear (P1) elements; the scene has fe_degree " +
                        std::to_string(scene.fe_degree));
-    if (scene.fixed_surfaces.empty())
-      throw InputError("a reduced model of a free body is not built yet: the scene fixes no surface");
     if (o.modes < 1 || o.basis_size < o.modes)
       throw InputError("a reduced model needs at least one mode and a basis of at least --modes fields");
     if (o.derivative_modes > o.modes)
@@ -213,11 +211,25 @@ namespace irdm::fem
     rep.n_residual           = n_kept - lm.n_lowest;
     rep.lowest_frequency_hz  = std::sqrt(lm.w2.front()) / (2 * M_PI);
     rep.highest_frequency_hz = std::sqrt(lm.w2[lm.n_lowest - 1]) / (2 * M_PI);
-    Fields shapes            = Fields::Zero(3 * n_vertices, n_kept);
+    // A free body: its six rigid modes first (exact translations; rotations linearized, so
+    // a large turn strains the reduced body), then the elastic and residual modes.
+    const NonlinearElasticity nl(scene);
+    const auto                rigid   = nl.rigid_fields();
+    const unsigned            n_rigid = scene.fixed_surfaces.empty() ? 6 : 0;
+    rep.n_rigid                       = n_rigid;
+    Fields shapes                     = Fields::Zero(3 * n_vertices, n_rigid + n_kept);
+    for (unsigned k = 0; k < n_rigid; ++k)
+      shapes.col(k) = Eigen::Map<const Eigen::VectorXd>(rigid.fields[k].data(), 3 * n_vertices);
+    if (n_rigid > 0)
+      {
+        Fields R = shapes.leftCols(n_rigid);
+        mass_orthonormalize(nl, R);
+        shapes.leftCols(n_rigid) = R;
+      }
     for (unsigned row = 0; row < 3 * n_vertices; ++row)
       if (vertex_dof_to_free[row] >= 0)
         for (unsigned k = 0; k < n_kept; ++k)
-          shapes(row, k) = lm.shapes[static_cast<size_t>(vertex_dof_to_free[row]) * n_kept + k];
+          shapes(row, n_rigid + k) = lm.shapes[static_cast<size_t>(vertex_dof_to_free[row]) * n_kept + k];
     rep.seconds_modes = since(t0);
     log("reduced model: " + std::to_string(rep.n_modes) + " lowest modes (" +
         std::to_string(rep.lowest_frequency_hz) + " to " + std::to_string(rep.highest_frequency_hz) +
@@ -225,13 +237,12 @@ namespace irdm::fem
         std::to_string(rep.seconds_modes) + " s");
 
     t0 = Clock::now();
-    const NonlinearElasticity nl(scene);
     std::vector<std::vector<double>> phi;
     for (unsigned k = 0; k < o.derivative_modes; ++k)
-      phi.emplace_back(shapes.col(k).data(), shapes.col(k).data() + shapes.rows());
+      phi.emplace_back(shapes.col(n_rigid + k).data(), shapes.col(n_rigid + k).data() + shapes.rows());
     for (unsigned k = 0; k < std::min(o.derivative_residual_modes, n_kept - lm.n_lowest); ++k)
       {
-        const auto col = shapes.col(lm.n_lowest + k);
+        const auto col = shapes.col(n_rigid + lm.n_lowest + k);
         phi.emplace_back(col.data(), col.data() + col.size());
       }
     const auto derivatives = nl.modal_derivatives(phi);
@@ -244,9 +255,9 @@ namespace irdm::fem
     // exact); the derivatives, M-orthogonal to them and of unit M-norm, fill the rest by
     // mass-weighted PCA.
     const unsigned m     = rep.n_modes;
-    const unsigned whole = n_kept;
+    const unsigned whole = n_rigid + n_kept;
     if (o.basis_size < whole)
-      throw InputError("reduced model: the lowest and residual modes alone are " +
+      throw InputError("reduced model: the rigid, lowest and residual modes alone are " +
                        std::to_string(whole) + " fields; ask for a --basis of at least that, or "
                        "a smaller input region");
     Fields basis(3 * n_vertices, o.basis_size);
@@ -264,7 +275,7 @@ namespace irdm::fem
     write_provenance(f, scene, IntegratorCoefficients::from_scene(scene));
     const double E = scene.youngs_modulus, nu = scene.poisson_ratio;
     f.attribute("/", "format", std::string("irdm-reduced-model"));
-    f.attribute("/", "format_version", 1LL);
+    f.attribute("/", "format_version", 2LL);
     f.attribute("/", "law", std::string("neo_hookean"));
     f.attribute("/", "lame_lambda_Pa", E * nu / ((1 + nu) * (1 - 2 * nu)));
     f.attribute("/", "lame_mu_Pa", E / (2 * (1 + nu)));
@@ -289,6 +300,18 @@ namespace irdm::fem
       f.attribute("/basis", "modal_derivatives", static_cast<long long>(rep.n_derivatives));
       f.attribute("/basis", "derivative_modes", static_cast<long long>(o.derivative_modes));
       f.attribute("/basis", "pool_share_kept", rep.kept_share);
+      f.attribute("/basis", "rigid_modes", static_cast<long long>(n_rigid));
+      // U^T M w for the six rigid velocity fields w (NonlinearElasticity::rigid_fields): a
+      // uniform acceleration g loads q by its first three columns times g (gravity), and a
+      // rigid start velocity v + w x (X - c) is q' = its columns times (v, w) where the basis
+      // holds the rigid modes.
+      Fields W(3 * n_vertices, 6);
+      for (unsigned k = 0; k < 6; ++k)
+        W.col(k) = Eigen::Map<const Eigen::VectorXd>(rigid.fields[k].data(), 3 * n_vertices);
+      const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> G = basis.transpose() * mass_times(nl, W);
+      f.write("/basis/rigid_loads", {o.basis_size, 6}, G.data());
+      f.attribute("/basis", "mass_kg", rigid.mass);
+      f.write("/basis/center_of_mass_m", {3}, rigid.center_of_mass.data());
     }
     write_mesh(f, tets);
     write_surface(f, boundary, vertex_dof_to_free);

@@ -615,6 +615,115 @@ namespace irdm::validation::free_body
                      << x[v](2) << '\n';
     }
 
+    /// One step of a run in series.csv (not for the impact study's cases).
+    void
+    series_row(FreeStudy &study, const Material &m, const CaseRun &c, const std::string &method,
+               const unsigned step, const Samples &run)
+    {
+      if (c.k.in_study())
+        return;
+      const RigidFit &ff = c.truth->fit[step], &fi = run.fit[step];
+      double          d2 = 0, dd2 = 0;
+      for (size_t v = 0; v < m.rest.size(); ++v)
+        d2 += ff.deformation[v].squaredNorm(), dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
+      study.series << c.k.name << ',' << material_name(m.E) << ',' << method << ',' << step * m.tau
+                   << ',' << c.truth->force[step].dot(c.k.up) << ',' << run.force[step].dot(c.k.up)
+                   << ',' << c.truth->com[step](2) << ',' << run.com[step](2) << ','
+                   << angle_deg(ff.rotation) << ',' << angle_deg(fi.rotation) << ','
+                   << std::sqrt(d2 / m.rest.size()) << ',' << std::sqrt(dd2 / m.rest.size()) << '\n';
+    }
+
+    /// A run's errors into its row: against the truth (whole run and first contact), the
+    /// converged truth where it ran, and the linear FEM (the method's own error).
+    void
+    score(Row &row, const Samples &run, const Material &m, const CaseRun &c, FreeStudy &study)
+    {
+      const RunErrors err = compare(*c.truth, run, m.c0, c.first_begin, c.first_end);
+      against_converged(m, c, row.method, run, study);
+      row.com_error = err.com, row.angle_error = err.angle, row.force_error = err.force;
+      row.impulse_error = err.impulse, row.deformation_error = err.deformation;
+      row.first_start       = (c.first_begin - 1) * m.tau;
+      row.first_end         = (std::min(c.first_end, c.n + 1) - 1) * m.tau;
+      row.first_force_error = err.window_force, row.first_impulse_error = err.window_impulse;
+      row.first_deformation_error = err.window_deformation;
+      if (c.small_strain)
+        {
+          LinearizationRow against = linearization_row(m, c, row.method, linear_fem_name(m.o));
+          against.errors           = compare(*c.small_strain, run, m.c0, c.first_begin, c.first_end);
+          row.method_force_error       = against.errors.force;
+          row.method_impulse_error     = against.errors.impulse;
+          row.method_deformation_error = against.errors.deformation;
+          study.linearization.push_back(against);
+        }
+    }
+
+    /// A reduced nonlinear model of the free body (its six rigid modes in the basis; irdm
+    /// precompute --reduced on the free scene): the truth's own law, penalty planes and
+    /// integrator on the basis, started with the case's velocity, spin and gravity, the probe's
+    /// force at its vertex, scored as the runtime's methods are (no energy watch: its stability
+    /// is Newton's, each failed step counted).
+    void
+    run_reduced(const Material &m, const size_t which, const CaseRun &c, FreeStudy &study, std::ostream &log)
+    {
+      const ReducedNonlinearModel &model = m.reduced[which].model;
+      const std::vector<unsigned> &order = m.reduced[which].order;
+      const Case                  &k     = c.k;
+      ReducedNonlinearBody         body(model);
+      if (!body.start(k.gravity ? arr(-9.81 * k.up) : fem::Vec3{0, 0, 0}, arr(k.velocity), arr(k.spin)))
+        throw std::logic_error("validate-free: the reduced model refused the case's start");
+      std::vector<ReducedPlane> planes(c.planes.size());
+      for (size_t p = 0; p < c.planes.size(); ++p)
+        {
+          planes[p].normal  = c.planes[p].normal;
+          planes[p].point   = c.planes[p].position.at(0);
+          planes[p].penalty = c.fem_r.plane_penalty.at(c.planes[p].name);
+        }
+      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> G(
+        model.rigid_loads.data(), model.size, 6);
+      Row row;
+      row.c = k.name, row.method = m.reduced[which].method, row.E = m.E;
+      row.impact_speed = k.impact_speed;
+      row.fem_ms       = 1e3 * c.fem_seconds / c.n;
+      Samples                      run(c.n);
+      std::vector<double>          u(3 * model.surface_vertex.size());
+      std::vector<Eigen::Vector3d> xi(m.rest.size());
+      double                       seconds = 0, peak_f = 0, peak_i = 0;
+      for (unsigned step = 1; step <= c.n; ++step)
+        {
+          const ReducedVertexForce probe{order[c.probe_vertex], c.probe_history.at(step * m.tau)};
+          const auto               t0 = Clock::now();
+          body.step(planes.data(), static_cast<int>(planes.size()), c.probed ? &probe : nullptr, c.probed);
+          seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+          body.surface_displacement(u.data());
+          for (size_t p = 0; p < planes.size(); ++p)
+            run.force[step] += vec(body.plane_force(static_cast<int>(p)));
+          run.impulse[step] = m.tau * run.force[step];
+          run.com[step]     = m.c0 + G.leftCols<3>().transpose() * body.coordinates() / model.mass;
+          for (size_t v = 0; v < m.rest.size(); ++v)
+            {
+              const unsigned j = order[v];
+              xi[v]            = m.rest[v] + Eigen::Vector3d(u[3 * j], u[3 * j + 1], u[3 * j + 2]);
+              row.stable       = row.stable && xi[v].allFinite();
+            }
+          run.fit[step] = best_rigid_fit(m.rest, xi);
+          series_row(study, m, c, row.method, step, run);
+          peak_f = std::max(peak_f, c.truth->force[step].norm()), peak_i = std::max(peak_i, run.force[step].norm());
+          if (is_frame(c, step))
+            write_frame(study, m, c, row.method.c_str(), step, xi);
+        }
+      score(row, run, m, c, study);
+      row.peak_ratio = peak_i / std::max(peak_f, 1e-300);
+      row.irdm_us    = 1e6 * seconds / c.n;
+      row.stable     = row.stable && body.failed_steps() == 0;
+      log << "  " << row.method << ": com " << row.com_error << ", angle " << row.angle_error
+          << " deg, force " << row.force_error << ", impulse " << row.impulse_error
+          << ", deformation " << row.deformation_error << "; first contact: force "
+          << row.first_force_error << ", impulse " << row.first_impulse_error << ", deformation "
+          << row.first_deformation_error << "; " << row.irdm_us << " us/step ("
+          << body.cut_steps() << " steps cut, " << body.failed_steps() << " not converged)" << std::endl;
+      study.rows.push_back(row);
+    }
+
     /// The runtime by one method, with the FEM's penalty as a per-vertex stiffness (each
     /// vertex weighed by its lumped area as the FEM's P1 contact weighs it; the virtual DOFs use
     /// their own wall), scored against the truth. `order[v]`: the runtime's index of the
@@ -665,22 +774,18 @@ namespace irdm::validation::free_body
           run.impulse[step] = tau * F_i;
           peak_f = std::max(peak_f, F_f.norm()), peak_i = std::max(peak_i, F_i.norm());
           peak_contact = std::max(peak_contact, F_f.norm());
-          const Eigen::Vector3d &c_f = truth.com[step];
-          const Eigen::Vector3d &c_i = run.com[step] = irdm.rigid().state().position;
+          run.com[step] = irdm.rigid().state().position;
           for (size_t v = 0; v < m.rest.size(); ++v)
             {
               const unsigned j = order[v];
               xi[v]            = Eigen::Vector3d(x[3 * j], x[3 * j + 1], x[3 * j + 2]);
               row.stable       = row.stable && xi[v].allFinite();
             }
-          const RigidFit &ff = truth.fit[step], &fi = run.fit[step] = best_rigid_fit(m.rest, xi);
+          run.fit[step]      = best_rigid_fit(m.rest, xi);
+          const RigidFit &ff = truth.fit[step];
           row.rotation_deg = std::max(row.rotation_deg, angle_deg(ff.rotation));
           row.turned_deg += angle_deg(ff.rotation * R_prev.transpose());
           R_prev         = ff.rotation;
-          double step_d2 = 0, step_dd2 = 0; // for series.csv
-          for (size_t v = 0; v < m.rest.size(); ++v)
-            step_d2 += ff.deformation[v].squaredNorm(),
-              step_dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
           const double w = irdm.rigid().angular_velocity().norm();
           centrifugal    = std::max(centrifugal, m.mass * w * w * m.r_gyration);
           if (c.probed)
@@ -694,32 +799,11 @@ namespace irdm::validation::free_body
               probe_prev = p;
             }
           row.energy_growth = std::max(row.energy_growth, watch.growth());
-          if (!k.in_study())
-            study.series << k.name << ',' << material_name(m.E) << ',' << method << ','
-                         << step * tau << ',' << F_f.dot(k.up) << ',' << F_i.dot(k.up) << ','
-                         << c_f(2) << ',' << c_i(2) << ',' << angle_deg(ff.rotation) << ','
-                         << angle_deg(fi.rotation) << ',' << std::sqrt(step_d2 / m.rest.size())
-                         << ',' << std::sqrt(step_dd2 / m.rest.size()) << '\n';
+          series_row(study, m, c, method, step, run);
           if (is_frame(c, step))
             write_frame(study, m, c, method, step, xi);
         }
-      const RunErrors err = compare(truth, run, m.c0, c.first_begin, c.first_end);
-      against_converged(m, c, method, run, study);
-      row.com_error = err.com, row.angle_error = err.angle, row.force_error = err.force;
-      row.impulse_error = err.impulse, row.deformation_error = err.deformation;
-      row.first_start       = (c.first_begin - 1) * tau;
-      row.first_end         = (std::min(c.first_end, n + 1) - 1) * tau;
-      row.first_force_error = err.window_force, row.first_impulse_error = err.window_impulse;
-      row.first_deformation_error = err.window_deformation;
-      if (c.small_strain)
-        {
-          LinearizationRow against = linearization_row(m, c, method, linear_fem_name(m.o));
-          against.errors           = compare(*c.small_strain, run, m.c0, c.first_begin, c.first_end);
-          row.method_force_error       = against.errors.force;
-          row.method_impulse_error     = against.errors.impulse;
-          row.method_deformation_error = against.errors.deformation;
-          study.linearization.push_back(against);
-        }
+      score(row, run, m, c, study);
       row.peak_ratio  = peak_i / std::max(peak_f, 1e-300);
       row.irdm_us     = 1e6 * step_seconds / n;
       row.centrifugal = centrifugal / peak_contact;
@@ -769,6 +853,39 @@ namespace irdm::validation::free_body
           FreeBodyVirtualDofs irdm(*m.vdof, vo);
           run_method(irdm, vdof_method, m.vdof_order, m, c, vo.gravity, study, log);
         }
+      for (size_t r = 0; r < m.reduced.size(); ++r)
+        run_reduced(m, r, c, study, log);
+    }
+
+    /// The reduced models of this material (each file's Young's modulus against it), each
+    /// comparison vertex found on the model's surface by its node tag at the same place.
+    void
+    prepare_reduced(Material &m, std::ostream &log)
+    {
+      for (const std::string &file : m.o.reduced_models)
+        {
+          ReducedModelOfBody r{"reduced_" + fs::path(file).stem().string(),
+                               load_reduced_nonlinear_model(file, m.tau), {}};
+          if (std::abs(young_modulus(r.model) - m.E) > 1e-6 * m.E)
+            continue;
+          std::map<long long, unsigned> at;
+          for (unsigned s = 0; s < r.model.node_tags.size(); ++s)
+            at[r.model.node_tags[s]] = s;
+          for (size_t v = 0; v < m.rest.size(); ++v)
+            {
+              const auto it = at.find(m.node_tags[v]);
+              if (it == at.end() ||
+                  (vec(r.model.coordinates[it->second]) - m.rest[v]).norm() > 1e-9 * (1 + m.rest[v].norm()))
+                throw InputError("--reduced-model '" + file + "' is not a model of this body: its "
+                                 "surface has no vertex of node tag " + std::to_string(m.node_tags[v]) +
+                                 " where the body has one");
+              r.order.push_back(it->second);
+            }
+          log << "validate-free: " << r.method << " (" << r.model.size << " fields, "
+              << r.model.cubature_elements.size() << " elements) on the " << material_name(m.E)
+              << " cases" << std::endl;
+          m.reduced.push_back(std::move(r));
+        }
     }
 
     /// The material's body, its models by both routes (and the virtual DOFs), and the
@@ -798,6 +915,7 @@ namespace irdm::validation::free_body
       m.r_gyration = std::sqrt(0.5 * (frame.inertia[0][0] + frame.inertia[1][1] + frame.inertia[2][2]) / m.mass);
       if (o.vdof_subdivisions >= 0)
         prepare_virtual_dofs(m, log);
+      prepare_reduced(m, log);
     }
   } // namespace
 
@@ -807,6 +925,12 @@ namespace irdm::validation::free_body
     , com(n + 1, Eigen::Vector3d::Zero())
     , fit(n + 1)
   {}
+
+  double
+  young_modulus(const ReducedNonlinearModel &model)
+  {
+    return model.mu * (3 * model.lambda + 2 * model.mu) / (model.lambda + model.mu);
+  }
 
   FreeStudy::FreeStudy()
   {

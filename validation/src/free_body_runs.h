@@ -6,6 +6,7 @@
 #include <irdm/free_body.h>
 #include <irdm/modal_model.h>
 #include <irdm/plane_interaction.h>
+#include <irdm/reduced_nonlinear.h>
 #include <irdm_common/rigid_fit.h>
 #include <reference_fem/scene.h>
 #include <validation/free_body_validation.h>
@@ -274,6 +275,19 @@ namespace irdm::validation::free_body
 
   constexpr const char *vdof_method = "vdof_rigid_fit"; // the seed's virtual DOFs, route 1
 
+  /// A reduced nonlinear model of the free body and its free.csv method name; order[v]: the
+  /// model's surface index of the comparison's vertex v.
+  struct ReducedModelOfBody
+  {
+    std::string           method;
+    ReducedNonlinearModel model;
+    std::vector<unsigned> order;
+  };
+
+  /// Young's modulus (Pa) of a reduced model's law, from its Lame constants.
+  double
+  young_modulus(const ReducedNonlinearModel &model);
+
   /// One material's body and models, shared by its cases.
   struct Material
   {
@@ -293,6 +307,7 @@ namespace irdm::validation::free_body
     std::optional<VirtualDofModel> vdof{};
     std::vector<unsigned>          vdof_order{}; // the virtual-DOF surface's index of each vertex
     double                         floor_penalty = 0; // Pa/m: the FEM's, from its runs
+    std::vector<ReducedModelOfBody> reduced{}; // --reduced-model files of this material
 
     const ModalModel &
     frame() const

@@ -57,6 +57,25 @@ namespace irdm::validation
     run_materials(const FreeBodyValidationOptions &o, const std::string &base_text, FreeStudy &study,
                   std::ostream &log)
     {
+      // The reduced models first: a file of no material, of a grounded body, or two of one
+      // name are refused before the long work.
+      std::vector<std::string> names;
+      for (const std::string &file : o.reduced_models)
+        {
+          const std::string name = fs::path(file).stem().string();
+          if (std::find(names.begin(), names.end(), name) != names.end())
+            throw InputError("--reduced-model: two files named '" + name + "' would be one method; rename one");
+          names.push_back(name);
+          const ReducedNonlinearModel model = load_reduced_nonlinear_model(file);
+          if (model.rigid_modes != 6)
+            throw InputError("--reduced-model '" + file + "' is a grounded body's model (no rigid "
+                             "modes in its basis): a free case needs one made from the free scene");
+          const double E = young_modulus(model);
+          if (std::none_of(o.materials.begin(), o.materials.end(),
+                           [&](const double m) { return std::abs(m - E) <= 1e-6 * m; }))
+            throw InputError("--reduced-model '" + file + "': its Young's modulus, " +
+                             std::to_string(E) + " Pa, is none of the run's materials");
+        }
       for (size_t m = 0; m < o.materials.size(); ++m)
         run_material(o, base_text, o.materials[m],
                      o.fem_divisions.size() == 1 ? o.fem_divisions[0] : o.fem_divisions[m], study, log);

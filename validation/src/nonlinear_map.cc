@@ -105,6 +105,18 @@ namespace irdm::validation::nonlinear
 
     /// The free study's row key: case and Young's modulus.
     using CaseKey = std::pair<std::string, double>;
+
+    /// The --reduced-model files of a free body (rigid modes in the basis) or of the
+    /// grounded one.
+    std::vector<std::string>
+    reduced_models_of(const std::vector<std::string> &files, const bool free_body)
+    {
+      std::vector<std::string> out;
+      for (const std::string &file : files)
+        if ((load_reduced_nonlinear_model(file).rigid_modes > 0) == free_body)
+          out.push_back(file);
+      return out;
+    }
   } // namespace
 
   bool
@@ -118,6 +130,7 @@ namespace irdm::validation::nonlinear
   {
     using namespace planes;
     PlaneValidationOptions po = o.planes;
+    po.reduced_models         = reduced_models_of(o.planes.reduced_models, false);
     po.perturbations          = 0;
     po.sweep_cases.clear();
     po.corotational = true;
@@ -149,6 +162,7 @@ namespace irdm::validation::nonlinear
   {
     using namespace free_body;
     FreeBodyValidationOptions fo = o.free;
+    fo.reduced_models            = reduced_models_of(o.planes.reduced_models, true);
     fo.only_cases                = o.drops;
     fo.only_cases.push_back("impact");
     fo.impact_speeds     = o.free_impact_speeds;

@@ -771,6 +771,9 @@ namespace irdm::validation::planes
           throw InputError("--reduced-model: two files named '" + fs::path(file).stem().string() +
                            "' would be one method, " + name + "; rename one");
         m.reduced.push_back(load_reduced_nonlinear_model(file, body.time_step));
+        if (m.reduced.back().rigid_modes > 0)
+          throw InputError("--reduced-model '" + file + "' is a free body's model (rigid modes in "
+                           "its basis): the free cases take it (validate-free, validate-nonlinear)");
         m.reduced_names.push_back(name);
       }
     prepare_virtual_dofs(body, o, m, log);

@@ -58,6 +58,15 @@ namespace irdm
     std::vector<double>                  lumped_area;
     std::vector<std::array<bool, 3>>     free_dof;
     unsigned lowest_modes = 0, residual_modes = 0, modal_derivatives = 0;
+    // A free body's six rigid modes, the basis's first columns (0: grounded). rigid_loads
+    // (r x 6, row-major; empty in a version 1 file): U^T M w for the unit rigid velocity
+    // fields w (translations along x, y, z, rotations about x, y, z through the centre of
+    // mass), so a uniform acceleration g loads q by the first three columns times g, and a
+    // rigid velocity (v, w) is q' = the columns times (v, w) where the basis holds it.
+    unsigned              rigid_modes = 0;
+    std::vector<double>   rigid_loads;
+    double                mass = 0;                 // kg
+    std::array<double, 3> center_of_mass{0, 0, 0}; // m, undeformed
     std::string mesh_hash;
   };
 
@@ -130,6 +139,17 @@ namespace irdm
     bool
     step(const ReducedPlane *planes, int n, const ReducedVertexForce *forces = nullptr,
          int n_forces = 0, const ReducedProbe *probes = nullptr, int n_probes = 0);
+
+    /// Before the first step: a uniform acceleration field on the body from now on (m/s^2,
+    /// model frame; gravity, the reduced load U^T M (1 (x) g)) and, for a free body's model
+    /// (its basis holding the rigid modes), a rigid start velocity v + w x (X - c) (m/s,
+    /// rad/s). The acceleration at the start is the balance's there, as the FEM's start
+    /// from rest: a rigid velocity strains nothing, so a = U^T M (1 (x) g) - alpha q'. False
+    /// (nothing set) after a step, for a model without rigid_loads (a version 1 file), for a
+    /// velocity on a grounded model, or for a value that is not finite.
+    bool
+    start(const std::array<double, 3> &gravity, const std::array<double, 3> &velocity = {},
+          const std::array<double, 3> &spin = {});
 
     /// Force of probe p's coupling on the body after the latest step (N), and the probed
     /// point's displacement (m).
@@ -231,6 +251,8 @@ namespace irdm
     Vector g_c_;                // reduced plane force of the latest step
     Vector g_f_, g_f_new_;      // reduced vertex forces of the latest step and of this one
     Vector g_f_end_;            // of this step's end (g_f_new_ is its part's)
+    Vector body_force_;         // the uniform acceleration's reduced load (start())
+    bool   stepped_ = false;    // a step has been taken
     Vector q0_, v0_, a0_, g_c0_, g_f0_; // the step's start, for a step cut into parts
     double h_ = 0;              // the length of the step or part being solved
     static constexpr unsigned max_parts = 16;

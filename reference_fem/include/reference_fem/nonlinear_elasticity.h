@@ -91,9 +91,23 @@ namespace irdm::fem
     /// i <= j (in the order (0,0), (0,1), (1,1), (0,2), ...),
     ///   K_0 psi_ij = -(dK/du [phi_j]) phi_i,
     /// the second derivative of the internal force taken by central differences of the
-    /// tangent at +-eps phi_j (eps phi_j's largest component 1e-5 of the body's size). P1 only.
+    /// tangent at +-eps phi_j (eps phi_j's largest component 1e-5 of the body's size). A free
+    /// body (no fixed surface): K_0^+ of the load less its rigid share (inertia relief), each
+    /// derivative M-orthogonal to the rigid modes. P1 only.
     std::vector<std::vector<double>>
     modal_derivatives(const std::vector<std::vector<double>> &phi) const;
+    /// The six rigid-body velocity fields at every mesh vertex: unit translations along x, y,
+    /// z (m/s per unit), then unit-rate rotations about x, y, z through the centre of mass
+    /// (e_a x (X - c), m/s per rad/s); the body's mass (kg) and centre of mass (m, from the
+    /// consistent mass). P1 only.
+    struct RigidFields
+    {
+      std::vector<std::vector<double>> fields;
+      double                           mass = 0;
+      Vec3                             center_of_mass{0, 0, 0};
+    };
+    RigidFields
+    rigid_fields() const;
     /// M x (consistent mass) of a field at every mesh vertex, same layout.
     std::vector<double>
     mass_product(const std::vector<double> &x) const;

@@ -16,7 +16,9 @@
 //     and James 2005), each of unit M-norm and M-orthogonal to the modes, and their leading
 //     directions by mass-weighted PCA (the eigenvectors of their M-Gram matrix), enough to make
 //     `basis_size` fields in all.
-// Grounded bodies and P1 elements only. Units SI.
+// A free body (no fixed surface) has its six rigid modes first, M-orthonormal: translations
+// exact, rotations linearized (a large turn strains the reduced body; the floating frame is the
+// remedy, not built here). P1 elements only. Units SI.
 #include <reference_fem/scene.h>
 
 #include <functional>
@@ -41,7 +43,7 @@ namespace irdm::fem
   struct ReducedModelReport
   {
     unsigned n_dofs = 0, n_free = 0, n_vertices = 0, n_elements = 0, n_surface = 0;
-    unsigned n_modes = 0, n_residual = 0, n_derivatives = 0, basis_size = 0;
+    unsigned n_rigid = 0, n_modes = 0, n_residual = 0, n_derivatives = 0, basis_size = 0;
     double   lowest_frequency_hz = 0, highest_frequency_hz = 0; // of the kept eigenmodes
     // The derivatives' mass-PCA values (their M-Gram matrix's eigenvalues, largest first, each
     // of unit M-norm), and the share of their sum the kept directions carry.

@@ -35,6 +35,9 @@ namespace irdm::validation
     double              stability_seconds = 60; // the runtime alone, rolling on the floor
     bool                quick = false; // the 5 cm drop and the tilt only
     std::vector<std::string> only_cases; // run just these cases (names as in free.csv)
+    // Reduced nonlinear models of the free body (irdm precompute --reduced on its scene at a
+    // material's Young's modulus), each a method reduced_<file stem> on that material's cases.
+    std::vector<std::string> reduced_models;
     // The seed's virtual DOFs of the free body (irdm precompute-vdof on it): icosahedron
     // subdivisions (2: 162 orientations), -1: not run; T samples per response.
     int      vdof_subdivisions = 2;
