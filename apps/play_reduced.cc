@@ -67,6 +67,9 @@ namespace irdm::play
       if (!o.quiet)
         out << "loading " << o.model << "\n" << std::flush;
       s.model = load_reduced_nonlinear_model(o.model);
+      if (s.model.rigid_modes > 0)
+        throw InputError("play: '" + o.model + "' is a free body's reduced model; play runs a "
+                         "grounded one (a free one runs in irdm validate-free)");
       s.tau   = s.model.time_step;
       s.rate  = o.rate_hz > 0 ? o.rate_hz : 1 / s.tau;
       if (s.rate > 100000)

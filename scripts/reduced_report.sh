@@ -3,8 +3,8 @@
 # models, the deformation step's benchmark (Newton beside the kept tangent), the two loops of
 # `irdm play` on a press of the head, the map's grounded family with the reduced models
 # against the P1 neo-Hookean truth, two walls and a sliding wall, the side presses with a model
-# of the side's reach, and the cubature trained on the FEM beside the reduced model's own. Run
-# on a quiet machine: the timings are the point.
+# of the side's reach, the free cat at 50 kPa, and the cubature trained on the FEM beside the
+# reduced model's own. Run on a quiet machine: the timings are the point.
 # Usage: scripts/reduced_report.sh [report dir]   (default reports/reduced)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -60,6 +60,23 @@ $irdm validate-nonlinear --families planes --model out/models/quick/cat_vdof.h5 
   --vertex-model out/models/quick/cat_vertex.h5 --press-directions side \
   --press-depths 0.0005 0.002 0.005 0.01 --impact-speeds none --converged-cases none --no-direct \
   --reduced-model $models/cat_side.h5 --out "$out/side"
+# A free body at 50 kPa (validate-free's floor and wall cases): a model whose inputs are the
+# skin and base the floor (upright and tilted) and the wall can reach, every element and with
+# a cubature trained on FEM snapshots, against the neo-Hookean truth.
+n=$(grep -c center_m validation/scenes/reduced/free_cat_floor_and_wall.json)
+basis=$((6 + 100 + 3 * n + 80))
+[ -f $models/free_cat_50kPa.h5 ] ||
+  $irdm precompute validation/scenes/reduced/free_cat_floor_and_wall.json --reduced --modes 100 \
+    --derivative-modes 60 --basis $basis --cubature-tolerance 0 --out $models/free_cat_50kPa.h5
+[ -f $models/free_cat_50kPa_cubature.h5 ] ||
+  $irdm precompute validation/scenes/reduced/free_cat_floor_and_wall.json --reduced --modes 100 \
+    --derivative-modes 60 --basis $basis --training-source fem --out $models/free_cat_50kPa_cubature.h5 \
+    > "$out/precompute_free_cat_50kPa_cubature.txt"
+$irdm validate-free --materials 50000 --fem-divisions 1 \
+  --cases drop_2cm,drop_5cm,drop_10cm,tilted_5cm,wall_throw,probe_push,spin_roll \
+  --vdof-subdivisions -1 --force-modes 0 --stability 0.002 --converged-degree 0 --no-corotational \
+  --reduced-model $models/free_cat_50kPa.h5 $models/free_cat_50kPa_cubature.h5 --out "$out" \
+  --model-dir out/models/free
 # The cubature trained on the reduced model's own presses beside one trained on the FEM's
 # (the same presses, each snapshot projected on the basis), both bases, the top presses.
 for m in cat_top cat_top_r222; do

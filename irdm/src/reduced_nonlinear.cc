@@ -81,7 +81,7 @@ namespace irdm
 
     // The basis and the P1 cells.
     void
-    read_basis_and_mesh(const Checked &c, ReducedNonlinearModel &m)
+    read_basis_and_mesh(const Checked &c, const long long version, ReducedNonlinearModel &m)
     {
       const h5::Reader &r    = c.r;
       const auto shape = r.shape("/basis/shapes");
@@ -97,11 +97,13 @@ namespace irdm
       m.residual_modes    = static_cast<unsigned>(r.count_attribute("/basis", "residual_modes", 0, 100000000));
       m.modal_derivatives = static_cast<unsigned>(r.count_attribute("/basis", "modal_derivatives", 0, 100000000));
       // Version 2: the rigid modes (a free body's) and the rigid fields' loads.
-      if (r.exists("/basis/rigid_loads"))
+      if (version >= 2)
         {
+          if (!r.exists("/basis/rigid_loads"))
+            c.fail("/basis/rigid_loads is missing (format version 2 has it)");
           m.rigid_modes = static_cast<unsigned>(r.count_attribute("/basis", "rigid_modes", 0, 6));
-          if (m.rigid_modes != 0 && m.rigid_modes != 6)
-            c.fail("/basis: rigid_modes must be 0 or 6");
+          if ((m.rigid_modes != 0 && m.rigid_modes != 6) || m.rigid_modes > m.size)
+            c.fail("/basis: rigid_modes must be 0 or 6, and at most the basis's fields");
           c.rows("/basis/rigid_loads", {6}, "/basis/shapes (columns)", m.size);
           m.rigid_loads = r.read_double("/basis/rigid_loads", {m.size, 6});
           m.mass        = r.double_attribute("/basis", "mass_kg");
@@ -235,7 +237,7 @@ namespace irdm
     read_coefficients(c, m);
     if (expected_time_step > 0 && std::abs(m.time_step - expected_time_step) > 1e-12 * expected_time_step)
       c.fail("its time step differs from the scene's");
-    read_basis_and_mesh(c, m);
+    read_basis_and_mesh(c, version, m);
     read_cubature(c, m);
     read_surface(c, m);
     return m;
@@ -288,11 +290,33 @@ namespace irdm
   }
 
   bool
+  ReducedNonlinearBody::vertex_load(const ReducedVertexForce *forces, const int n, Vector &g) const
+  {
+    g.setZero();
+    for (int i = 0; i < n; ++i)
+      {
+        const unsigned s = forces[i].vertex;
+        if (s >= m_.surface_vertex.size())
+          return false;
+        for (int d = 0; d < 3; ++d)
+          {
+            if (!std::isfinite(forces[i].force[d]))
+              return false;
+            if (m_.free_dof[s][d])
+              g += forces[i].force[d] * Eigen::Map<const Vector>(&m_.basis[(3 * size_t(m_.surface_vertex[s]) + d) * r_], r_);
+          }
+      }
+    return true;
+  }
+
+  bool
   ReducedNonlinearBody::start(const std::array<double, 3> &gravity, const std::array<double, 3> &velocity,
-                              const std::array<double, 3> &spin)
+                              const std::array<double, 3> &spin, const ReducedVertexForce *forces,
+                              const int n_forces)
   {
     const bool moving = velocity != std::array<double, 3>{} || spin != std::array<double, 3>{};
-    if (stepped_ || m_.rigid_loads.size() != 6 * size_t(r_) || (moving && m_.rigid_modes == 0))
+    if (stepped_ || m_.rigid_loads.size() != 6 * size_t(r_) || (moving && m_.rigid_modes == 0) ||
+        n_forces < 0 || (n_forces > 0 && !forces) || !vertex_load(forces, n_forces, g_f_end_))
       return false;
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(gravity[d]) || !std::isfinite(velocity[d]) || !std::isfinite(spin[d]))
@@ -302,7 +326,7 @@ namespace irdm
     Eigen::Matrix<double, 6, 1> vw;
     vw << velocity[0], velocity[1], velocity[2], spin[0], spin[1], spin[2];
     body_force_ = G.leftCols<3>() * g;
-    g_f_        = body_force_;
+    g_f_        = body_force_ + g_f_end_;
     v_          = G * vw;
     a_          = body_force_ - m_.rayleigh_alpha * v_;
     return true;
@@ -484,19 +508,11 @@ namespace irdm
             return false;
         probes_[p] = pr;
       }
+    if (!vertex_load(forces, n_forces, g_f_end_))
+      return false;
     n_probes_ = n_probes;
     stepped_  = true;
-    g_f_end_  = body_force_;
-    for (int i = 0; i < n_forces; ++i)
-      {
-        const unsigned s = forces[i].vertex;
-        if (s >= m_.surface_vertex.size())
-          return false;
-        for (int d = 0; d < 3; ++d)
-          if (m_.free_dof[s][d])
-            g_f_end_ += forces[i].force[d] *
-                        Eigen::Map<const Vector>(&m_.basis[(3 * size_t(m_.surface_vertex[s]) + d) * r_], r_);
-      }
+    g_f_end_ += body_force_;
     // The state at the step's start, to go back to if Newton fails at tau.
     q0_ = q_, v0_ = v_, a0_ = a_, g_c0_ = g_c_, g_f0_ = g_f_;
     bool converged = false;

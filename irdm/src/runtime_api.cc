@@ -123,6 +123,9 @@ namespace irdm
     else if (format == "irdm-reduced-model")
       {
         d->reduced = load_reduced_nonlinear_model(path);
+        if (d->reduced.rigid_modes > 0)
+          throw InputError("'" + path + "' is a free body's reduced model: the runtime API runs a "
+                           "grounded one (a free one runs in irdm validate-free)");
         const ReducedNonlinearModel &r = d->reduced;
         d->kind                        = "reduced_nonlinear";
         d->rest                        = &r.coordinates;

@@ -66,17 +66,20 @@ namespace irdm::fem
     for (size_t k = 0; k < presses.size(); ++k)
       {
         const NonlinearElasticity fem(press_scene(scene, presses[k], o));
+        if (static_cast<Eigen::Index>(fem.n_dofs()) != n)
+          throw InputError("FEM training: the basis has " + std::to_string(n) + " rows, the mesh " +
+                           std::to_string(fem.n_dofs()) + " DoFs");
         // Each snapshot as it comes (a batch of one), so that a press Newton gives up on
         // keeps the states before it.
         const SampleSink project = [&](const RunResult &batch) {
           for (size_t j = 0; j < batch.time.size(); ++j)
             {
-              if (!(batch.time[j] > 0)) // the rest state trains nothing
+              // The rest state trains nothing; the run's last step is recorded even off the
+              // snapshot interval, where the reduced model's training keeps none.
+              const long step = std::lround(batch.time[j] / scene.time_step);
+              if (step == 0 || step % o.every != 0)
                 continue;
               const std::vector<double> &u = batch.field_displacement[j];
-              if (static_cast<Eigen::Index>(u.size()) != n)
-                throw InputError("FEM training: the basis has " + std::to_string(n) +
-                                 " rows, the mesh " + std::to_string(u.size()) + " DoFs");
               const std::vector<double>   Mu_ = fem.mass_product(u);
               const Eigen::Map<const Eigen::VectorXd> uu(u.data(), n), Mu(Mu_.data(), n);
               const Eigen::VectorXd q = U.transpose() * Mu;

@@ -277,7 +277,7 @@ namespace irdm::validation::free_body
     }
 
     /// Every method the case runs (the virtual DOFs take no probe; the impact study is of the
-    /// modal routes).
+    /// modal routes; the reduced models run every case).
     std::vector<std::string>
     methods_of(const Material &m, const CaseRun &c)
     {
@@ -287,6 +287,8 @@ namespace irdm::validation::free_body
           methods.push_back(nm.method);
       if (m.vdof && !c.probed && !c.k.in_study())
         methods.push_back(vdof_method);
+      for (const ReducedModelOfBody &r : m.reduced)
+        methods.push_back(r.method);
       return methods;
     }
 
@@ -640,6 +642,15 @@ namespace irdm::validation::free_body
     {
       const RunErrors err = compare(*c.truth, run, m.c0, c.first_begin, c.first_end);
       against_converged(m, c, row.method, run, study);
+      // The truth's largest angle from its start, and how far it turned over the run.
+      Eigen::Matrix3d previous = Eigen::Matrix3d::Identity();
+      for (unsigned step = 1; step <= c.n; ++step)
+        {
+          const Eigen::Matrix3d &R = c.truth->fit[step].rotation;
+          row.rotation_deg         = std::max(row.rotation_deg, angle_deg(R));
+          row.turned_deg += angle_deg(R * previous.transpose());
+          previous = R;
+        }
       row.com_error = err.com, row.angle_error = err.angle, row.force_error = err.force;
       row.impulse_error = err.impulse, row.deformation_error = err.deformation;
       row.first_start       = (c.first_begin - 1) * m.tau;
@@ -669,7 +680,9 @@ namespace irdm::validation::free_body
       const std::vector<unsigned> &order = m.reduced[which].order;
       const Case                  &k     = c.k;
       ReducedNonlinearBody         body(model);
-      if (!body.start(k.gravity ? arr(-9.81 * k.up) : fem::Vec3{0, 0, 0}, arr(k.velocity), arr(k.spin)))
+      const ReducedVertexForce     probe0{order[c.probe_vertex], c.probe_history.at(0)};
+      if (!body.start(k.gravity ? arr(-9.81 * k.up) : fem::Vec3{0, 0, 0}, arr(k.velocity), arr(k.spin),
+                      c.probed ? &probe0 : nullptr, c.probed))
         throw std::logic_error("validate-free: the reduced model refused the case's start");
       std::vector<ReducedPlane> planes(c.planes.size());
       for (size_t p = 0; p < c.planes.size(); ++p)
@@ -757,7 +770,6 @@ namespace irdm::validation::free_body
       std::vector<Eigen::Vector3d> xi(m.rest.size());
       Samples                      run(n);
       double peak_f = 0, peak_i = 0, step_seconds = 0, centrifugal = 0, peak_contact = m.mass * 9.81;
-      Eigen::Matrix3d R_prev = Eigen::Matrix3d::Identity();
       for (unsigned step = 1; step <= n; ++step)
         {
           const auto       t0 = Clock::now();
@@ -781,11 +793,7 @@ namespace irdm::validation::free_body
               xi[v]            = Eigen::Vector3d(x[3 * j], x[3 * j + 1], x[3 * j + 2]);
               row.stable       = row.stable && xi[v].allFinite();
             }
-          run.fit[step]      = best_rigid_fit(m.rest, xi);
-          const RigidFit &ff = truth.fit[step];
-          row.rotation_deg = std::max(row.rotation_deg, angle_deg(ff.rotation));
-          row.turned_deg += angle_deg(ff.rotation * R_prev.transpose());
-          R_prev         = ff.rotation;
+          run.fit[step]  = best_rigid_fit(m.rest, xi);
           const double w = irdm.rigid().angular_velocity().norm();
           centrifugal    = std::max(centrifugal, m.mass * w * w * m.r_gyration);
           if (c.probed)
@@ -868,6 +876,17 @@ namespace irdm::validation::free_body
                                load_reduced_nonlinear_model(file, m.tau), {}};
           if (std::abs(young_modulus(r.model) - m.E) > 1e-6 * m.E)
             continue;
+          const double nu = m.body.poisson_ratio, mu = m.E / (2 * (1 + nu)),
+                       lambda = m.E * nu / ((1 + nu) * (1 - 2 * nu));
+          const auto differs = [](const double a, const double b) {
+            return std::abs(a - b) > 1e-6 * std::max(std::abs(a), std::abs(b));
+          };
+          if (differs(r.model.mu, mu) || differs(r.model.lambda, lambda) || differs(r.model.mass, m.mass) ||
+              differs(r.model.rayleigh_alpha, m.body.rayleigh_alpha) ||
+              differs(r.model.rayleigh_beta, m.body.rayleigh_beta))
+            throw InputError("--reduced-model '" + file + "' is not a model of this body: its Lame "
+                             "constants, mass or damping differ from the body's at " +
+                             material_name(m.E));
           std::map<long long, unsigned> at;
           for (unsigned s = 0; s < r.model.node_tags.size(); ++s)
             at[r.model.node_tags[s]] = s;

@@ -57,8 +57,9 @@ namespace irdm::validation
     run_materials(const FreeBodyValidationOptions &o, const std::string &base_text, FreeStudy &study,
                   std::ostream &log)
     {
-      // The reduced models first: a file of no material, of a grounded body, or two of one
-      // name are refused before the long work.
+      // The reduced models first: a file of no material, of a grounded body, of another time
+      // step, or two of one name are refused before the long work.
+      const double tau = fem::parse_scene(base_text, fs::path(o.scene).parent_path().string(), o.scene).time_step;
       std::vector<std::string> names;
       for (const std::string &file : o.reduced_models)
         {
@@ -66,7 +67,7 @@ namespace irdm::validation
           if (std::find(names.begin(), names.end(), name) != names.end())
             throw InputError("--reduced-model: two files named '" + name + "' would be one method; rename one");
           names.push_back(name);
-          const ReducedNonlinearModel model = load_reduced_nonlinear_model(file);
+          const ReducedNonlinearModel model = load_reduced_nonlinear_model(file, tau);
           if (model.rigid_modes != 6)
             throw InputError("--reduced-model '" + file + "' is a grounded body's model (no rigid "
                              "modes in its basis): a free case needs one made from the free scene");

@@ -141,15 +141,18 @@ namespace irdm
          int n_forces = 0, const ReducedProbe *probes = nullptr, int n_probes = 0);
 
     /// Before the first step: a uniform acceleration field on the body from now on (m/s^2,
-    /// model frame; gravity, the reduced load U^T M (1 (x) g)) and, for a free body's model
-    /// (its basis holding the rigid modes), a rigid start velocity v + w x (X - c) (m/s,
-    /// rad/s). The acceleration at the start is the balance's there, as the FEM's start
-    /// from rest: a rigid velocity strains nothing, so a = U^T M (1 (x) g) - alpha q'. False
-    /// (nothing set) after a step, for a model without rigid_loads (a version 1 file), for a
-    /// velocity on a grounded model, or for a value that is not finite.
+    /// model frame; gravity, the reduced load U^T M (1 (x) g)), the vertex forces at t = 0
+    /// (those a step's forces start from), and, for a free body's model (its basis holding
+    /// the rigid modes), a rigid start velocity v + w x (X - c) (m/s, rad/s). The
+    /// acceleration at the start is the balance's there, as the FEM's start from rest, with
+    /// no plane touching yet: a rigid velocity strains nothing, so a = (gravity's and the
+    /// forces' reduced load) - alpha q'. False (nothing set) after a step, for a model
+    /// without rigid_loads (a version 1 file), for a velocity on a grounded model, or for a
+    /// bad vertex or a value that is not finite.
     bool
     start(const std::array<double, 3> &gravity, const std::array<double, 3> &velocity = {},
-          const std::array<double, 3> &spin = {});
+          const std::array<double, 3> &spin = {}, const ReducedVertexForce *forces = nullptr,
+          int n_forces = 0);
 
     /// Force of probe p's coupling on the body after the latest step (N), and the probed
     /// point's displacement (m).
@@ -285,6 +288,10 @@ namespace irdm
     unsigned      last_iterations_ = 0;
     unsigned long failed_steps_ = 0, inverted_ = 0;
 
+    // The vertex forces' reduced load into g. False for a vertex out of range or a force
+    // that is not finite (g then partial).
+    bool
+    vertex_load(const ReducedVertexForce *forces, int n, Vector &g) const;
     // U_p of a patch into B (its fixed DoFs' rows zero). False for a bad patch.
     bool
     patch_basis(const unsigned *vertices, const double *weights, int n,

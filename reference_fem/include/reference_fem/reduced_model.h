@@ -88,8 +88,8 @@ namespace irdm::fem
   fem_training_states(const Scene &scene, const std::vector<double> &basis, unsigned r,
                       const std::vector<TrainingPress> &presses, const FemTrainingOptions &options);
 
-  /// Computes the basis and writes the every-element model atomically (InputError for a free
-  /// body, elements other than P1, a basis smaller than the lowest and residual modes, or
+  /// Computes the basis and writes the every-element model atomically (InputError for
+  /// elements other than P1, a basis smaller than the rigid, lowest and residual modes, or
   /// larger than they and the derivatives can make).
   ReducedModelReport
   precompute_reduced_model(const Scene &scene, const ReducedModelOptions &options);
