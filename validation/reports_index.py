@@ -77,6 +77,24 @@ def reduced_planes_headline(folder):
             f"{span(of('force_error'))}")
 
 
+def reduced_map_headline(folder):
+    data = [r for r in rows(os.path.join(folder, "nonlinear.csv")) if r["method"].startswith("reduced")]
+    parts = []
+    for method in sorted({r["method"] for r in data}):
+        of = lambda key: [float(r[key]) for r in data if r["method"] == method and r[key]]  # noqa: E731
+        parts.append(f"{method} shape {span(of('displacement_error'))}, force {span(of('force_error'))}")
+    return (f"{len({r['case'] for r in data})} cases against the nonlinear FEM: " + "; ".join(parts)
+            if parts else "no reduced rows")
+
+
+def reduced_free_headline(folder):
+    data = [r for r in rows(os.path.join(folder, "first_contact.csv")) if r["method"].startswith("reduced")]
+    of = lambda key: [float(r[key]) for r in data if r[key]]  # noqa: E731
+    return (f"first contact, {len({r['case'] for r in data})} cases ({', '.join(sorted({r['material'] for r in data}))}), "
+            f"reduced models against the nonlinear FEM: deformation {span(of('deformation_error'))}, "
+            f"impulse {span(of('impulse_error'))}" if data else "no reduced rows")
+
+
 def free_headline(folder):
     first = [r for r in rows(os.path.join(folder, "first_contact.csv")) if r["material"] == "50kPa"]
     lin = [r for r in rows(os.path.join(folder, "linearization.csv"))
@@ -206,6 +224,23 @@ STUDIES = [
      "reduced/planes/planes.png", reduced_planes_headline,
      PLANES + ["irdm/src/reduced_nonlinear.cc", "irdm/src/cubature.cc",
                "reference_fem/src/reduced*", "scripts/reduced_report.sh"]),
+    ("Reduced nonlinear models: the side presses with a model of the side's reach",
+     "reduced/side/nonlinear/nonlinear.md", "reduced/side/nonlinear/map_p1.png", reduced_map_headline,
+     PLANES + ["irdm/src/reduced_nonlinear.cc", "irdm/src/cubature.cc", "reference_fem/src/reduced*",
+               "validation/src/nonlinear_*", "scripts/reduced_report.sh"]),
+    ("Reduced nonlinear models: the cubature trained on FEM snapshots (top presses)",
+     "reduced/cubature/nonlinear/nonlinear.md", "reduced/cubature/nonlinear/speed_accuracy.png",
+     reduced_map_headline,
+     PLANES + ["irdm/src/reduced_nonlinear.cc", "irdm/src/cubature.cc", "reference_fem/src/reduced*",
+               "validation/src/nonlinear_*", "scripts/reduced_report.sh"]),
+    ("Reduced nonlinear models of the free cat (50 kPa)", "reduced/free/report.md",
+     None, reduced_free_headline,
+     RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/reduced*",
+                "validation/src/free_body_*", "scripts/reduced_report.sh"]),
+    ("Reduced nonlinear models of the free cat (2 kPa)", "reduced/free_2kPa/free/report.md",
+     None, reduced_free_headline,
+     RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/reduced*",
+                "validation/src/free_body_*"]),
     ("Free bodies against the nonlinear FEM", "free/report.md", "free/impact.png", free_headline,
      RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/impulse_response*",
                 "validation/src/free_body_*", "validation/src/metrics.h",
