@@ -98,10 +98,11 @@ namespace irdm::cli
       } scratch{cubature ? o.output : std::string()};
       const auto r = irdm::fem::precompute_reduced_model(scene, o);
       std::printf("reduced basis: %u fields = %u rigid modes + %u lowest modes (%.3g to %.3g Hz) + "
-                  "%u residual modes + %u directions of %u modal derivatives (mass-PCA share kept "
-                  "%.4f); %u elements, %u surface vertices; %.2f s\n",
+                  "%u residual modes + %u uniform strain fields + %u directions of %u modal "
+                  "derivatives (mass-PCA share kept %.4f); %u elements, %u surface vertices; %.2f s\n",
                   r.basis_size, r.n_rigid, r.n_modes, r.lowest_frequency_hz, r.highest_frequency_hz,
-                  r.n_residual, r.basis_size - r.n_rigid - r.n_modes - r.n_residual, r.n_derivatives,
+                  r.n_residual, r.n_strain, r.basis_size - r.n_rigid - r.n_modes - r.n_residual - r.n_strain,
+                  r.n_derivatives,
                   r.kept_share, r.n_elements, r.n_surface, r.seconds_total);
       if (!cubature)
         {

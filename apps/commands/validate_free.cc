@@ -141,6 +141,10 @@ namespace irdm::cli
                               "on its scene at a material's Young's modulus), each a method "
                               "reduced_<file stem> on that material's cases")
       ->check(CLI::ExistingFile);
+    validate_free->add_flag("--reduced-one-frame", vfb->reduced_one_frame,
+                            "run each reduced model also in one frame for the whole run (its "
+                            "rotations linearized), method reduced_<file stem>_one_frame, beside "
+                            "its floating frame");
     validate_free->add_option("--impact-speeds", vfb->impact_speeds,
                               "the impact study's speeds (m/s): the upright cat 1 mm above the "
                               "floor moving onto it, gravity off, 0.3 s (impact.csv)")

@@ -102,6 +102,9 @@ namespace irdm
           if (!r.exists("/basis/rigid_loads"))
             c.fail("/basis/rigid_loads is missing (format version 2 has it)");
           m.rigid_modes = static_cast<unsigned>(r.count_attribute("/basis", "rigid_modes", 0, 6));
+          if (r.has_attribute("/basis", "uniform_strain_fields"))
+            m.uniform_strain_fields =
+              static_cast<unsigned>(r.count_attribute("/basis", "uniform_strain_fields", 0, 6));
           if ((m.rigid_modes != 0 && m.rigid_modes != 6) || m.rigid_modes > m.size)
             c.fail("/basis: rigid_modes must be 0 or 6, and at most the basis's fields");
           c.rows("/basis/rigid_loads", {6}, "/basis/shapes (columns)", m.size);
@@ -287,10 +290,158 @@ namespace irdm
       B.setZero(3, r_);
     point_basis_.setZero(3, r_);
     point_solve_.setZero(r_, 3);
+    contact_vertex_.assign(surface_basis_.size() * max_planes, 0);
+    contact_force_.assign(surface_basis_.size() * max_planes, Eigen::Vector3d::Zero());
+    center0_      = Eigen::Vector3d(m_.center_of_mass[0], m_.center_of_mass[1], m_.center_of_mass[2]);
+    frame_origin_ = center0_;
+    floating_     = options_.floating_frame && m_.rigid_modes == 6;
+    if (floating_)
+      prepare_frame();
+  }
+
+  void
+  ReducedNonlinearBody::prepare_frame()
+  {
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    using Strided  = Eigen::Map<const RowMajor, 0, Eigen::OuterStride<>>;
+    const auto fail = [&](const std::string &what) {
+      throw InputError("reduced nonlinear model '" + m_.path + "': " + what +
+                       "; its body cannot move in a floating frame (ReducedBodyOptions::floating_frame)");
+    };
+    if (m_.uniform_strain_fields != 6)
+      fail("its basis does not hold the six uniform strain fields (a model made before them: make it "
+           "again), without which each step's turn leaves its arc out and the spin gains energy");
+    const Eigen::Index n = m_.n_vertices, r = r_;
+    double             volume = 0;
+    for (const auto &e : m_.elements)
+      volume += e.volume;
+    const double rho = m_.mass / volume;
+    // M_s U: the P1 consistent mass, rho V (1 + delta_ij) / 20 per element, on each vertex's
+    // three rows at once (M = M_s (x) I_3).
+    const Eigen::Map<const RowMajor> U(m_.basis.data(), 3 * n, r);
+    RowMajor                         MU = RowMajor::Zero(3 * n, r);
+    for (size_t e = 0; e < m_.elements.size(); ++e)
+      for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+          MU.middleRows(3 * Eigen::Index(m_.tetrahedra[e][i]), 3) +=
+            (rho * m_.elements[e].volume * (i == j ? 2 : 1) / 20) * U.middleRows(3 * Eigen::Index(m_.tetrahedra[e][j]), 3);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        {
+          const Strided Ua(m_.basis.data() + a * r, n, r, Eigen::OuterStride<>(3 * r));
+          const Strided MUb(MU.data() + b * r, n, r, Eigen::OuterStride<>(3 * r));
+          J_[3 * a + b] = Ua.transpose() * MUb;
+        }
+    const double orthonormal = (J_[0] + J_[4] + J_[8] - Matrix::Identity(r, r)).cwiseAbs().maxCoeff();
+    if (!(orthonormal <= 1e-6))
+      fail("its basis is not orthonormal in the consistent mass of its mesh at one density (U^T M U - I "
+           "reaches " + std::to_string(orthonormal) + ")");
+    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> G(m_.rigid_loads.data(), r, 6);
+    translation_loads_.resize(r, 3);
+    for (int a = 0; a < 3; ++a)
+      translation_loads_.col(a) =
+        Strided(MU.data() + a * r, n, r, Eigen::OuterStride<>(3 * r)).transpose() * Eigen::VectorXd::Ones(n);
+    if (!((translation_loads_ - G.leftCols<3>()).norm() <= 1e-6 * G.leftCols<3>().norm()))
+      fail("its rigid_loads are not U^T M 1 for its mesh's mass");
+    if (!(G.bottomRows(r - 6).norm() <= 1e-6 * G.topRows<6>().norm()))
+      fail("its fields after the first six are not M-orthogonal to the rigid ones");
+    const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(G.topRows<6>());
+    if (lu.rank() < 6)
+      fail("its first six fields do not span the rigid motions");
+    rigid_inverse_  = lu.inverse();
+    rotation_loads_ = G.rightCols<3>();
+    // [e_j]x has entries eps_ajb: U^T M (e_j x U c) = sum_ab eps_ajb J_ab c.
+    const auto eps = [](const int a, const int b, const int c) { return double((a - b) * (b - c) * (c - a)) / 2; };
+    turned_rotation_.setZero(r, 9);
+    for (int j = 0; j < 3; ++j)
+      {
+        Matrix Gj = Matrix::Zero(r, r);
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            if (eps(a, j, b) != 0)
+              Gj += eps(a, j, b) * J_[3 * a + b];
+        for (int i = 0; i < 3; ++i)
+          turned_rotation_.col(3 * i + j) = Gj * rotation_loads_.col(i);
+      }
+    for (const auto &x : surface_rest_)
+      size_ = std::max(size_, (x - center0_).norm());
+    P_.setZero(r, r);
+    carried_.setZero(r);
+  }
+
+  void
+  ReducedNonlinearBody::planes_to_body(ReducedPlane *planes, const int n) const
+  {
+    const Eigen::Matrix3d Rt = frame_rotation_.transpose();
+    for (int p = 0; p < n; ++p)
+      {
+        const Eigen::Vector3d normal = Rt * Eigen::Vector3d(planes[p].normal[0], planes[p].normal[1], planes[p].normal[2]);
+        const Eigen::Vector3d point =
+          center0_ + Rt * (Eigen::Vector3d(planes[p].point[0], planes[p].point[1], planes[p].point[2]) - frame_origin_);
+        for (int d = 0; d < 3; ++d)
+          planes[p].normal[d] = normal(d), planes[p].point[d] = point(d);
+      }
+  }
+
+  void
+  ReducedNonlinearBody::carry_into_new_frame(const ReducedVertexForce *forces, const int n_forces)
+  {
+    // The new frame in the step's: moved by ts and turned by Rs, so a point at y in the
+    // step's frame is at Q (y - ts) in the new one (about c0), Q = Rs^T. Its rigid
+    // coordinates in the new frame are made zero by a few corrections (the first finds the
+    // step's rigid motion, the next what is left of its second order).
+    Eigen::Matrix3d Rs = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d ts = Eigen::Vector3d::Zero();
+    carried_           = q_;
+    for (int it = 0; it < 4; ++it)
+      {
+        const Eigen::Matrix<double, 6, 1> d = rigid_inverse_ * carried_.head<6>();
+        const Eigen::Vector3d t = d.head<3>(), theta = d.tail<3>();
+        if (it > 0 && theta.norm() <= 1e-14 && t.norm() <= 1e-14 * size_)
+          break;
+        ts += Rs * t;
+        if (theta.norm() > 0)
+          Rs = Rs * Eigen::AngleAxisd(theta.norm(), theta.normalized()).toRotationMatrix();
+        const Eigen::Matrix3d Q = Rs.transpose();
+        // u' = Q (X~ + u - ts) - X~ on the basis: U^T M (Q u) = P(Q) q, and (Q - I) X~ =
+        // sin(phi) k x X~ + (1 - cos(phi)) k x (k x X~) for Q = exp(phi [k]x), both rotations
+        // of the rigid rotation field k x X~, which the basis holds.
+        P_.setZero();
+        for (int a = 0; a < 9; ++a)
+          P_ += Q(a / 3, a % 3) * J_[a];
+        const Eigen::AngleAxisd turn(Q);
+        const Eigen::Vector3d   k = turn.axis();
+        carried_.noalias() = P_ * q_;
+        carried_.noalias() += std::sin(turn.angle()) * (rotation_loads_ * k);
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            carried_ += ((1 - std::cos(turn.angle())) * k(i) * k(j)) * turned_rotation_.col(3 * i + j);
+        carried_.noalias() -= translation_loads_ * (Q * ts);
+      }
+    carried_.head<6>().setZero();
+    q_.swap(carried_);
+    // The velocity and the acceleration: the world's fields turned into the new frame (an
+    // inertial frame for the next step, as this one was for this step).
+    dq_.noalias() = P_ * v_;
+    v_.swap(dq_);
+    dq_.noalias() = P_ * a_;
+    a_.swap(dq_);
+    const Eigen::Matrix3d Q = Rs.transpose();
+    g_c_.setZero();
+    for (size_t c = 0; c < n_contacts_; ++c)
+      g_c_.noalias() += surface_basis_[contact_vertex_[c]].transpose() * (Q * contact_force_[c]);
+    frame_origin_ += frame_rotation_ * ts;
+    Eigen::Quaterniond turned(frame_rotation_ * Rs);
+    turned.normalize();
+    frame_rotation_ = turned.toRotationMatrix();
+    body_force_     = translation_loads_ * (frame_rotation_.transpose() * gravity_);
+    vertex_load(forces, n_forces, g_f_, frame_rotation_.transpose());
+    g_f_ += body_force_;
   }
 
   bool
-  ReducedNonlinearBody::vertex_load(const ReducedVertexForce *forces, const int n, Vector &g) const
+  ReducedNonlinearBody::vertex_load(const ReducedVertexForce *forces, const int n, Vector &g,
+                                    const Eigen::Matrix3d &to_body) const
   {
     g.setZero();
     for (int i = 0; i < n; ++i)
@@ -298,13 +449,12 @@ namespace irdm
         const unsigned s = forces[i].vertex;
         if (s >= m_.surface_vertex.size())
           return false;
+        const Eigen::Vector3d f = to_body * Eigen::Vector3d(forces[i].force[0], forces[i].force[1], forces[i].force[2]);
+        if (!f.allFinite())
+          return false;
         for (int d = 0; d < 3; ++d)
-          {
-            if (!std::isfinite(forces[i].force[d]))
-              return false;
-            if (m_.free_dof[s][d])
-              g += forces[i].force[d] * Eigen::Map<const Vector>(&m_.basis[(3 * size_t(m_.surface_vertex[s]) + d) * r_], r_);
-          }
+          if (m_.free_dof[s][d])
+            g += f(d) * Eigen::Map<const Vector>(&m_.basis[(3 * size_t(m_.surface_vertex[s]) + d) * r_], r_);
       }
     return true;
   }
@@ -325,6 +475,7 @@ namespace irdm
     const Eigen::Vector3d g(gravity[0], gravity[1], gravity[2]);
     Eigen::Matrix<double, 6, 1> vw;
     vw << velocity[0], velocity[1], velocity[2], spin[0], spin[1], spin[2];
+    gravity_    = g;
     body_force_ = G.leftCols<3>() * g;
     g_f_        = body_force_ + g_f_end_;
     v_          = G * vw;
@@ -435,6 +586,7 @@ namespace irdm
     g_c.setZero();
     if (C)
       C->setZero();
+    n_contacts_ = 0;
     for (int p = 0; p < n; ++p)
       {
         force[p]    = {0, 0, 0};
@@ -457,6 +609,8 @@ namespace irdm
               if (free[d])
                 force[p][d] += f(d);
             ++vertices[p];
+            contact_vertex_[n_contacts_]  = static_cast<unsigned>(s);
+            contact_force_[n_contacts_++] = f;
             g_c.noalias() += U.transpose() * f;
             if (C)
               {
@@ -495,7 +649,7 @@ namespace irdm
                              const ReducedProbe *probes, const int n_probes)
   {
     if (n < 0 || n > max_planes || (n > 0 && !planes) || n_forces < 0 || (n_forces > 0 && !forces) ||
-        n_probes < 0 || n_probes > max_probes || (n_probes > 0 && !probes))
+        n_probes < 0 || n_probes > max_probes || (n_probes > 0 && !probes) || (floating_ && n_probes > 0))
       return false;
     for (int p = 0; p < n_probes; ++p)
       {
@@ -508,10 +662,12 @@ namespace irdm
             return false;
         probes_[p] = pr;
       }
-    if (!vertex_load(forces, n_forces, g_f_end_))
+    if (!vertex_load(forces, n_forces, g_f_end_, frame_rotation_.transpose()))
       return false;
     n_probes_ = n_probes;
     stepped_  = true;
+    if (floating_)
+      body_force_ = translation_loads_ * (frame_rotation_.transpose() * gravity_);
     g_f_end_ += body_force_;
     // The state at the step's start, to go back to if Newton fails at tau.
     q0_ = q_, v0_ = v_, a0_ = a_, g_c0_ = g_c_, g_f0_ = g_f_;
@@ -544,6 +700,8 @@ namespace irdm
                 for (int d = 0; d < 3; ++d)
                   part_planes_[p].normal[d] /= norm;
               }
+            if (floating_)
+              planes_to_body(part_planes_.data(), n);
             for (int p = 0; p < n_probes; ++p)
               for (int d = 0; d < 3; ++d)
                 part_target_[p][d] = parts > 1 && last_target_known_[p]
@@ -559,6 +717,15 @@ namespace irdm
     h_ = m_.time_step;
     if (!converged)
       ++failed_steps_;
+    if (floating_)
+      {
+        for (int p = 0; p < n; ++p)
+          {
+            const Eigen::Vector3d f = frame_rotation_ * Eigen::Vector3d(plane_force_[p][0], plane_force_[p][1], plane_force_[p][2]);
+            plane_force_[p] = {f(0), f(1), f(2)};
+          }
+        carry_into_new_frame(forces, n_forces);
+      }
     for (int p = 0; p < n; ++p)
       last_planes_[p] = planes[p];
     last_n_ = n;
@@ -688,10 +855,20 @@ namespace irdm
     std::fill(u, u + 3 * S, 0.0);
     for (size_t k = 0; k < surface_basis_.size(); ++k)
       {
-        const Eigen::Vector3d us = surface_basis_[k] * q_;
+        const Eigen::Vector3d &X  = surface_rest_[k];
+        const Eigen::Vector3d  us = frame_origin_ + frame_rotation_ * (X - center0_ + surface_basis_[k] * q_) - X;
         for (int d = 0; d < 3; ++d)
           u[3 * surface_index_[k] + d] = us(d);
       }
+  }
+
+  Eigen::Vector3d
+  ReducedNonlinearBody::center_of_mass() const
+  {
+    if (m_.rigid_loads.size() != 6 * size_t(r_) || !(m_.mass > 0))
+      return frame_origin_;
+    const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> G(m_.rigid_loads.data(), r_, 6);
+    return frame_origin_ + frame_rotation_ * (G.leftCols<3>().transpose() * q_ / m_.mass);
   }
 
   double

@@ -59,6 +59,27 @@ namespace irdm::fem
         throw InputError("reduced model: the basis is not of full rank");
       U = U * eig.operatorInverseSqrt();
     }
+    // The six uniform strain fields e_a (X - c)_b + e_b (X - c)_a (a <= b), read off the rigid
+    // rotation fields (about x: (0, -z, y); about y: (z, 0, -x); about z: (-y, x, 0)).
+    Fields
+    uniform_strain_fields(const std::vector<std::vector<double>> &rigid, const unsigned n_vertices)
+    {
+      const auto X = [&](const size_t v, const int c) {
+        return c == 0 ? rigid[5][3 * v + 1] : c == 1 ? rigid[3][3 * v + 2] : rigid[4][3 * v];
+      };
+      constexpr int pairs[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+      Fields        S           = Fields::Zero(3 * n_vertices, 6);
+      for (int k = 0; k < 6; ++k)
+        for (size_t v = 0; v < n_vertices; ++v)
+          {
+            const int a = pairs[k][0], b = pairs[k][1];
+            S(3 * v + a, k) += X(v, b);
+            if (a != b)
+              S(3 * v + b, k) += X(v, a);
+          }
+      return S;
+    }
+
     // The derivatives' leading `wanted` directions by mass-weighted PCA, each derivative of
     // unit M-norm and M-orthogonal to Phi (the modes kept whole) first; their PCA values and
     // the share kept go into rep.
@@ -230,6 +251,22 @@ namespace irdm::fem
       if (vertex_dof_to_free[row] >= 0)
         for (unsigned k = 0; k < n_kept; ++k)
           shapes(row, n_rigid + k) = lm.shapes[static_cast<size_t>(vertex_dof_to_free[row]) * n_kept + k];
+    if (n_rigid > 0)
+      {
+        // A free body's six uniform strain fields after the modes: with the rigid ones they
+        // hold every finite rotation of the body, (Q - I)(X - c), so the floating frame's
+        // steps (docs/reduced-model.md) carry a turn's arc, and a spin's stretch.
+        const Fields strain = uniform_strain_fields(rigid.fields, n_vertices);
+        shapes.conservativeResize(Eigen::NoChange, shapes.cols() + 6);
+        shapes.rightCols(6) = strain;
+        for (int pass = 0; pass < 2; ++pass) // Gram-Schmidt against a block loses digits once
+          shapes.rightCols(6) -= shapes.leftCols(n_rigid + n_kept) *
+                                 (shapes.leftCols(n_rigid + n_kept).transpose() * mass_times(nl, shapes.rightCols(6)));
+        Fields S = shapes.rightCols(6);
+        mass_orthonormalize(nl, S);
+        shapes.rightCols(6) = S;
+        rep.n_strain = 6;
+      }
     rep.seconds_modes = since(t0);
     log("reduced model: " + std::to_string(rep.n_modes) + " lowest modes (" +
         std::to_string(rep.lowest_frequency_hz) + " to " + std::to_string(rep.highest_frequency_hz) +
@@ -255,9 +292,9 @@ namespace irdm::fem
     // exact); the derivatives, M-orthogonal to them and of unit M-norm, fill the rest by
     // mass-weighted PCA.
     const unsigned m     = rep.n_modes;
-    const unsigned whole = n_rigid + n_kept;
+    const unsigned whole = n_rigid + n_kept + rep.n_strain;
     if (o.basis_size < whole)
-      throw InputError("reduced model: the rigid, lowest and residual modes alone are " +
+      throw InputError("reduced model: the rigid, lowest and residual modes (and a free body's uniform strain fields) alone are " +
                        std::to_string(whole) + " fields; ask for a --basis of at least that, or "
                        "a smaller input region");
     Fields basis(3 * n_vertices, o.basis_size);
@@ -301,6 +338,7 @@ namespace irdm::fem
       f.attribute("/basis", "derivative_modes", static_cast<long long>(o.derivative_modes));
       f.attribute("/basis", "pool_share_kept", rep.kept_share);
       f.attribute("/basis", "rigid_modes", static_cast<long long>(n_rigid));
+      f.attribute("/basis", "uniform_strain_fields", static_cast<long long>(rep.n_strain));
       // U^T M w for the six rigid velocity fields w (NonlinearElasticity::rigid_fields): a
       // uniform acceleration g loads q by its first three columns times g (gravity), and a
       // rigid start velocity v + w x (X - c) is q' = its columns times (v, w) where the basis

@@ -679,7 +679,9 @@ namespace irdm::validation::free_body
       const ReducedNonlinearModel &model = m.reduced[which].model;
       const std::vector<unsigned> &order = m.reduced[which].order;
       const Case                  &k     = c.k;
-      ReducedNonlinearBody         body(model);
+      ReducedBodyOptions           options;
+      options.floating_frame = m.reduced[which].floating;
+      ReducedNonlinearBody         body(model, options);
       const ReducedVertexForce     probe0{order[c.probe_vertex], c.probe_history.at(0)};
       if (!body.start(k.gravity ? arr(-9.81 * k.up) : fem::Vec3{0, 0, 0}, arr(k.velocity), arr(k.spin),
                       c.probed ? &probe0 : nullptr, c.probed))
@@ -691,8 +693,6 @@ namespace irdm::validation::free_body
           planes[p].point   = c.planes[p].position.at(0);
           planes[p].penalty = c.fem_r.plane_penalty.at(c.planes[p].name);
         }
-      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> G(
-        model.rigid_loads.data(), model.size, 6);
       Row row;
       row.c = k.name, row.method = m.reduced[which].method, row.E = m.E;
       row.impact_speed = k.impact_speed;
@@ -711,7 +711,7 @@ namespace irdm::validation::free_body
           for (size_t p = 0; p < planes.size(); ++p)
             run.force[step] += vec(body.plane_force(static_cast<int>(p)));
           run.impulse[step] = m.tau * run.force[step];
-          run.com[step]     = m.c0 + G.leftCols<3>().transpose() * body.coordinates() / model.mass;
+          run.com[step]     = body.center_of_mass();
           for (size_t v = 0; v < m.rest.size(); ++v)
             {
               const unsigned j = order[v];
@@ -903,6 +903,16 @@ namespace irdm::validation::free_body
           log << "validate-free: " << r.method << " (" << r.model.size << " fields, "
               << r.model.cubature_elements.size() << " elements) on the " << material_name(m.E)
               << " cases" << std::endl;
+          {
+            const ReducedNonlinearBody check(r.model); // a floating frame's refusals, before the long work
+          }
+          if (m.o.reduced_one_frame)
+            {
+              ReducedModelOfBody one = r;
+              one.method += "_one_frame";
+              one.floating = false;
+              m.reduced.push_back(std::move(one));
+            }
           m.reduced.push_back(std::move(r));
         }
     }

@@ -282,6 +282,7 @@ namespace irdm::validation::free_body
     std::string           method;
     ReducedNonlinearModel model;
     std::vector<unsigned> order;
+    bool                  floating = true; // ReducedBodyOptions::floating_frame
   };
 
   /// Young's modulus (Pa) of a reduced model's law, from its Lame constants.

@@ -20,6 +20,16 @@
 // Newton does not converge is solved again in 2, 4, 8, 16 parts, as the FEM cuts back
 // (cut_steps()); if even 16 parts do not converge, their best iterates are taken and the step
 // counted (failed_steps()): a step is always taken. Allocation-free after construction.
+//
+// A free body (six rigid modes first in its basis) moves in a floating frame by default
+// (docs/reduced-model.md, "A free body"): each step is solved in the inertial frame where the
+// body frame stands at the step's start, in which the step's own turn is small and its
+// linearized rotation strains the body by its square only; at the step's end the frame is
+// moved onto the body (its rigid coordinates, U_r^T M u, made zero: the linearized Tisserand
+// frame of docs/free-body.md) and the state is carried into it exactly: u' = Q (X~ + u - t)
+// - X~, velocity and acceleration turned by Q, projected on the basis by the nine blocks
+// J_ab = U_a^T M_s U_b. The frame's turn is exact, so the body's strain does not grow with
+// it; every inertial force of the moving frame follows from the carried state.
 #include <irdm_common/neo_hookean_tet.h>
 
 #include <Eigen/Dense>
@@ -64,6 +74,10 @@ namespace irdm
     // mass), so a uniform acceleration g loads q by the first three columns times g, and a
     // rigid velocity (v, w) is q' = the columns times (v, w) where the basis holds it.
     unsigned              rigid_modes = 0;
+    // A free body's six uniform strain fields in the basis (attribute uniform_strain_fields):
+    // with the rigid modes they hold every finite rotation of the body, which the floating
+    // frame needs (0 in a file made before them).
+    unsigned              uniform_strain_fields = 0;
     std::vector<double>   rigid_loads;
     double                mass = 0;                 // kg
     std::array<double, 3> center_of_mass{0, 0, 0}; // m, undeformed
@@ -122,6 +136,9 @@ namespace irdm
     // Newton's stop: the residual's norm at most this fraction of the largest force in it
     // (the nonlinear FEM's), or an update of round-off size.
     double tolerance = 1e-8;
+    // A free body's model moves in a floating frame (above); false: in one frame for the
+    // whole run, its rotations linearized (a turn of theta strains it by about theta^2 / 2).
+    bool floating_frame = true;
   };
 
   class ReducedNonlinearBody
@@ -129,13 +146,19 @@ namespace irdm
   public:
     static constexpr int max_planes = 8, max_probes = 4;
 
-    /// Gathers the cubature elements' and the surface's rows of the basis (allocates).
+    /// Gathers the cubature elements' and the surface's rows of the basis (allocates); for a
+    /// floating frame, the blocks J_ab from the mesh's consistent mass at the model's uniform
+    /// density (mass_kg over the volume). InputError if the basis is not orthonormal in that
+    /// mass, its elastic fields are not orthogonal to its rigid ones, or it lacks the uniform
+    /// strain fields.
     explicit ReducedNonlinearBody(const ReducedNonlinearModel &model,
                                   const ReducedBodyOptions    &options = {});
 
     /// One step of tau with the planes where they are at its end, and the vertex forces at
-    /// its end. Returns true if Newton converged; false if it did not (the step is still
-    /// taken, counted in failed_steps()) or if the input is out of range (no step taken).
+    /// its end (both in the world frame, the model frame at the start). Returns true if Newton
+    /// converged; false if it did not (the step is still taken, counted in failed_steps()) or
+    /// if the input is out of range (no step taken). A body in a floating frame takes no
+    /// probes (their targets are displacements in the model frame).
     bool
     step(const ReducedPlane *planes, int n, const ReducedVertexForce *forces = nullptr,
          int n_forces = 0, const ReducedProbe *probes = nullptr, int n_probes = 0);
@@ -177,7 +200,7 @@ namespace irdm
     point_state(const unsigned *vertices, const double *weights, int n, double u[3],
                 double v[3], double a[3], double W[9]);
 
-    /// Force of plane a on the body after the latest step (N, model frame), and how many
+    /// Force of plane a on the body after the latest step (N, world frame), and how many
     /// surface vertices it pushes.
     const std::array<double, 3> &
     plane_force(int a) const
@@ -189,9 +212,30 @@ namespace irdm
     {
       return plane_vertices_[a];
     }
-    /// Surface displacement after the latest step, 3 per surface vertex (m, model frame).
+    /// Surface displacement after the latest step, 3 per surface vertex (m): the world
+    /// position less the rest position (the frame's motion included).
     void
     surface_displacement(double *u) const;
+    /// The centre of mass after the latest step (m, world frame).
+    Eigen::Vector3d
+    center_of_mass() const;
+    /// The floating frame: where the model's undeformed centre of mass is (m, world) and its
+    /// turn (model frame to world); the model's own position and the identity without one.
+    const Eigen::Vector3d &
+    frame_origin() const
+    {
+      return frame_origin_;
+    }
+    const Eigen::Matrix3d &
+    frame_rotation() const
+    {
+      return frame_rotation_;
+    }
+    bool
+    floating() const
+    {
+      return floating_;
+    }
     const Eigen::VectorXd &
     coordinates() const
     {
@@ -288,10 +332,42 @@ namespace irdm
     unsigned      last_iterations_ = 0;
     unsigned long failed_steps_ = 0, inverted_ = 0;
 
+    // The floating frame (a free body's; docs/reduced-model.md). R maps the body frame to the
+    // world; the body frame's point c0 (the undeformed centre of mass) is at frame_origin_.
+    bool            floating_ = false;
+    Eigen::Matrix3d frame_rotation_ = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d frame_origin_   = Eigen::Vector3d::Zero(), center0_ = Eigen::Vector3d::Zero();
+    Eigen::Vector3d gravity_        = Eigen::Vector3d::Zero(); // world, m/s^2
+    double          size_           = 1; // the body's largest distance from c0 (m)
+    std::array<Matrix, 9> J_;           // U_a^T M_s U_b, block 3a + b
+    Eigen::Matrix<double, Eigen::Dynamic, 3> translation_loads_; // U^T M 1_a
+    Eigen::Matrix<double, Eigen::Dynamic, 9> turned_rotation_;   // (U^T M [e_j]x U) c_i, col 3i + j
+    Eigen::Matrix<double, Eigen::Dynamic, 3> rotation_loads_;    // c_i = U^T M (e_i x X~)
+    Eigen::Matrix<double, 6, 6> rigid_inverse_;                  // (U_r^T M W)^-1
+    Matrix P_;                                                   // sum_ab Q_ab J_ab
+    Vector carried_;
+    // The planes' penalty forces of the latest residual, per contact (surface_basis_ index and
+    // force, body frame), to carry the step's end force into the next frame.
+    std::vector<unsigned>        contact_vertex_;
+    std::vector<Eigen::Vector3d> contact_force_;
+    size_t                       n_contacts_ = 0;
+
+    // The blocks J_ab and the rigid loads the frame needs (constructor).
+    void
+    prepare_frame();
+    // Moves the frame onto the body at a step's end and carries the state into it; the
+    // step's end vertex forces (world) give its force in the new frame.
+    void
+    carry_into_new_frame(const ReducedVertexForce *forces, int n_forces);
+    // Planes of the world in the body frame of the step.
+    void
+    planes_to_body(ReducedPlane *planes, int n) const;
+
     // The vertex forces' reduced load into g. False for a vertex out of range or a force
     // that is not finite (g then partial).
     bool
-    vertex_load(const ReducedVertexForce *forces, int n, Vector &g) const;
+    vertex_load(const ReducedVertexForce *forces, int n, Vector &g,
+                const Eigen::Matrix3d &to_body = Eigen::Matrix3d::Identity()) const;
     // U_p of a patch into B (its fixed DoFs' rows zero). False for a bad patch.
     bool
     patch_basis(const unsigned *vertices, const double *weights, int n,

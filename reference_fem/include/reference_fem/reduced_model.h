@@ -44,6 +44,7 @@ namespace irdm::fem
   {
     unsigned n_dofs = 0, n_free = 0, n_vertices = 0, n_elements = 0, n_surface = 0;
     unsigned n_rigid = 0, n_modes = 0, n_residual = 0, n_derivatives = 0, basis_size = 0;
+    unsigned n_strain = 0; // a free body's uniform strain fields (6), after the modes
     double   lowest_frequency_hz = 0, highest_frequency_hz = 0; // of the kept eigenmodes
     // The derivatives' mass-PCA values (their M-Gram matrix's eigenvalues, largest first, each
     // of unit M-norm), and the share of their sum the kept directions carry.

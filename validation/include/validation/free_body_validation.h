@@ -38,6 +38,9 @@ namespace irdm::validation
     // Reduced nonlinear models of the free body (irdm precompute --reduced on its scene at a
     // material's Young's modulus), each a method reduced_<file stem> on that material's cases.
     std::vector<std::string> reduced_models;
+    // Each reduced model also in one frame for the whole run (its rotations linearized; a
+    // method reduced_<stem>_one_frame), beside the floating frame.
+    bool reduced_one_frame = false;
     // The seed's virtual DOFs of the free body (irdm precompute-vdof on it): icosahedron
     // subdivisions (2: 162 orientations), -1: not run; T samples per response.
     int      vdof_subdivisions = 2;
