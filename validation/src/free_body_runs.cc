@@ -668,6 +668,37 @@ namespace irdm::validation::free_body
         }
     }
 
+    /// What the basis holds of the truth's deformation: its least-squares best over the
+    /// comparison's vertices (every field, the truth's best-fit frame), relative L2 over the
+    /// first contact and the run, as the deformation error is measured. A reduced run can do
+    /// no better on these vertices; what it misses beyond this is its dynamics'.
+    void
+    log_basis_reach(const ReducedNonlinearModel &model, const std::vector<unsigned> &order,
+                    const Material &m, const CaseRun &c, std::ostream &log)
+    {
+      const Eigen::Index V = static_cast<Eigen::Index>(m.rest.size()), r = model.size;
+      Eigen::MatrixXd    A(3 * V, r);
+      for (Eigen::Index v = 0; v < V; ++v)
+        for (int d = 0; d < 3; ++d)
+          A.row(3 * v + d) = Eigen::Map<const Eigen::RowVectorXd>(
+            &model.basis[(3 * size_t(model.surface_vertex[order[v]]) + d) * r], r);
+      const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+      RelativeL2                                        run, window;
+      Eigen::VectorXd                                   d(3 * V);
+      for (unsigned step = 1; step <= c.n; ++step)
+        {
+          for (Eigen::Index v = 0; v < V; ++v)
+            d.segment<3>(3 * v) = c.truth->fit[step].deformation[v];
+          const double miss2 = (A * qr.solve(d) - d).squaredNorm(), d2 = d.squaredNorm();
+          run.add_squared(miss2, d2);
+          if (step >= c.first_begin && step < c.first_end)
+            window.add_squared(miss2, d2);
+        }
+      log << "  the basis holds the truth's deformation on " << V << " vertices (" << 3 * V << " rows, "
+          << qr.rank() << " of " << r << " fields) to " << window.value() << " over the first contact, "
+          << run.value() << " over the run" << std::endl;
+    }
+
     /// A reduced nonlinear model of the free body (its six rigid modes in the basis; irdm
     /// precompute --reduced on the free scene): the truth's own law, penalty planes and
     /// integrator on the basis, started with the case's velocity, spin and gravity, the probe's
@@ -728,6 +759,7 @@ namespace irdm::validation::free_body
       row.peak_ratio = peak_i / std::max(peak_f, 1e-300);
       row.irdm_us    = 1e6 * seconds / c.n;
       row.stable     = row.stable && body.failed_steps() == 0;
+      log_basis_reach(model, order, m, c, log);
       log << "  " << row.method << ": com " << row.com_error << ", angle " << row.angle_error
           << " deg, force " << row.force_error << ", impulse " << row.impulse_error
           << ", deformation " << row.deformation_error << "; first contact: force "
