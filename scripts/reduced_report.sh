@@ -61,22 +61,31 @@ $irdm validate-nonlinear --families planes --model out/models/quick/cat_vdof.h5 
   --press-depths 0.0005 0.002 0.005 0.01 --impact-speeds none --converged-cases none --no-direct \
   --reduced-model $models/cat_side.h5 --out "$out/side"
 # A free body at 50 kPa (validate-free's floor and wall cases): a model whose inputs are the
-# skin and base the floor (upright and tilted) and the wall can reach, every element and with
-# a cubature trained on FEM snapshots, against the neo-Hookean truth.
+# skin and base the floor (upright and tilted) and the wall can reach, with the six uniform
+# strain fields (in their own folder: a model made before them is refused), every element and
+# with a cubature trained on FEM snapshots, against the neo-Hookean truth, in the floating
+# frame; and the cubature model in one frame beside it.
 n=$(grep -c center_m validation/scenes/reduced/free_cat_floor_and_wall.json)
-basis=$((6 + 100 + 3 * n + 80))
-[ -f $models/free_cat_50kPa.h5 ] ||
+basis=$((6 + 100 + 3 * n + 6 + 80))
+free_models=out/models/reduced_v3
+mkdir -p $free_models
+[ -f $free_models/free_cat_50kPa.h5 ] ||
   $irdm precompute validation/scenes/reduced/free_cat_floor_and_wall.json --reduced --modes 100 \
-    --derivative-modes 60 --basis $basis --cubature-tolerance 0 --out $models/free_cat_50kPa.h5
-[ -f $models/free_cat_50kPa_cubature.h5 ] ||
+    --derivative-modes 60 --basis $basis --cubature-tolerance 0 --out $free_models/free_cat_50kPa.h5
+[ -f $free_models/free_cat_50kPa_cubature.h5 ] ||
   $irdm precompute validation/scenes/reduced/free_cat_floor_and_wall.json --reduced --modes 100 \
-    --derivative-modes 60 --basis $basis --training-source fem --out $models/free_cat_50kPa_cubature.h5 \
+    --derivative-modes 60 --basis $basis --training-source fem --out $free_models/free_cat_50kPa_cubature.h5 \
     > "$out/precompute_free_cat_50kPa_cubature.txt"
-$irdm validate-free --materials 50000 --fem-divisions 1 \
-  --cases drop_2cm,drop_5cm,drop_10cm,tilted_5cm,wall_throw,probe_push,spin_roll \
-  --vdof-subdivisions -1 --force-modes 0 --stability 0.002 --converged-degree 0 --no-corotational \
-  --reduced-model $models/free_cat_50kPa.h5 $models/free_cat_50kPa_cubature.h5 --out "$out" \
-  --model-dir out/models/free
+free_cases="--materials 50000 --fem-divisions 1 --cases drop_2cm,drop_5cm,drop_10cm,tilted_5cm,wall_throw,probe_push,spin_roll
+  --vdof-subdivisions -1 --force-modes 0 --stability 0.002 --converged-degree 0 --no-corotational"
+$irdm validate-free $free_cases \
+  --reduced-model $free_models/free_cat_50kPa.h5 $free_models/free_cat_50kPa_cubature.h5 \
+  --out "$out/free_frame" --model-dir out/models/free
+$irdm validate-free $free_cases --reduced-model $free_models/free_cat_50kPa_cubature.h5 \
+  --reduced-one-frame --out "$out/free_one_frame" --model-dir out/models/free
+for d in free_frame free_one_frame; do # validate-free writes into <out>/free
+  mv "$out/$d/free/"* "$out/$d/" && rmdir "$out/$d/free"
+done
 # The cubature trained on the reduced model's own presses beside one trained on the FEM's
 # (the same presses, each snapshot projected on the basis), both bases, the top presses.
 for m in cat_top cat_top_r222; do

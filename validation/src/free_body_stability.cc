@@ -80,6 +80,63 @@ namespace irdm::validation::free_body
           << " deg, " << failed << " failed steps" << std::endl;
     }
 
+    /// A reduced nonlinear model rolling as roll_for_long's runtime does: its energy (kinetic,
+    /// strain, gravity's) against its start, traced into stability.csv. Newton's failures are
+    /// its failed steps (the steps cut back are in the log).
+    void
+    roll_reduced_for_long(const ReducedModelOfBody &r, const Material &m, FreeStudy &study, std::ostream &log)
+    {
+      const Case roll   = rolling_case();
+      double     lowest = 1e300;
+      for (const auto &X : m.rest)
+        lowest = std::min(lowest, X(2));
+      const Eigen::Vector3d g(0, 0, -9.81);
+      ReducedBodyOptions    options;
+      options.floating_frame = r.floating;
+      ReducedNonlinearBody body(r.model, options);
+      if (!body.start({g(0), g(1), g(2)}, {roll.velocity(0), roll.velocity(1), roll.velocity(2)},
+                      {roll.spin(0), roll.spin(1), roll.spin(2)}))
+        throw std::logic_error("validate-free: the reduced model refused the roll's start");
+      ReducedPlane floor;
+      floor.normal  = {0, 0, 1};
+      floor.point   = {0, 0, lowest - roll.height};
+      floor.penalty = m.floor_penalty;
+      const auto energy = [&] { return body.energy() - r.model.mass * g.dot(body.center_of_mass()); };
+      const double e0 = energy(), e_in = body.energy() + r.model.mass * g.norm() * roll.height;
+      const unsigned steps = static_cast<unsigned>(std::lround(m.o.stability_seconds / m.tau));
+      const unsigned trace_every = std::max(1u, static_cast<unsigned>(std::lround(0.1 / m.tau)));
+      double         growth = 0, turned = 0, seconds = 0, deepest = 0;
+      Eigen::Matrix3d R_prev = Eigen::Matrix3d::Identity();
+      const size_t        S = r.model.surface_vertex.size();
+      std::vector<double> u(3 * S);
+      for (unsigned step = 1; step <= steps; ++step)
+        {
+          const auto t0 = Clock::now();
+          body.step(&floor, 1);
+          seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+          growth = std::max(growth, (energy() - e0) / e_in);
+          turned += angle_deg(body.frame_rotation() * R_prev.transpose());
+          R_prev = body.frame_rotation();
+          if (step % trace_every != 0)
+            continue;
+          body.surface_displacement(u.data());
+          double below = 0;
+          for (size_t s = 0; s < S; ++s)
+            below = std::max(below, floor.point[2] - (r.model.coordinates[s][2] + u[3 * s + 2]));
+          deepest = std::max(deepest, below);
+          study.stability_csv << material_name(m.E) << ',' << r.method << ',' << step * m.tau << ','
+                              << (energy() - e0) / e_in << ',' << body.strain_energy() / e_in << ','
+                              << turned << ',' << body.plane_vertices(0) << ',' << below << '\n';
+        }
+      study.stability.push_back({"rolling, " + plain(m.o.stability_seconds) + " s", r.method, m.E, growth,
+                                 turned, (energy() - e0) / e_in, 1e3 * deepest, 1e6 * seconds / steps,
+                                 static_cast<unsigned>(body.failed_steps()), false, 0});
+      log << "validate-free: " << m.o.stability_seconds << " s rolling, " << r.method
+          << ": largest energy gain " << growth << " of the energy brought in, at the end "
+          << (energy() - e0) / e_in << ", turned " << turned << " deg (the frame's), "
+          << body.failed_steps() << " steps not converged, " << body.cut_steps() << " cut" << std::endl;
+    }
+
     /// Free flight: no plane, 10 s, spinning about an axis off the principal ones. Without the
     /// spin's coupling the deformation stays zero and the energy is the rigid integrator's;
     /// with the centrifugal force alone the spin stretches the body, whose strain energy is not
@@ -135,6 +192,8 @@ namespace irdm::validation::free_body
         FreeBodyVirtualDofs irdm(*m.vdof, FreeBodyOptions());
         roll_for_long(irdm, vdof_method, m, study, log);
       }
+    for (size_t r = 0; r < m.reduced.size() && m.floor_penalty > 0; ++r)
+      roll_reduced_for_long(m.reduced[r], m, study, log);
     for (const bool coupled : {false, true})
       if (!coupled || m.o.centrifugal || m.o.deformed_inertia || m.o.frame_forces ||
           m.o.deformation_momentum)

@@ -244,6 +244,11 @@ namespace irdm
     /// Kinetic (1/2 v^T v: U is M-orthonormal) and strain energy (J) of the latest state.
     double
     energy() const;
+    double
+    strain_energy() const
+    {
+      return strain_energy(q_);
+    }
     unsigned
     newton_iterations() const // over the latest step
     {
