@@ -434,7 +434,7 @@ namespace irdm
     Eigen::Quaterniond turned(frame_rotation_ * Rs);
     turned.normalize();
     frame_rotation_ = turned.toRotationMatrix();
-    body_force_     = translation_loads_ * (frame_rotation_.transpose() * gravity_);
+    body_force_.noalias() = translation_loads_ * (frame_rotation_.transpose() * gravity_);
     vertex_load(forces, n_forces, g_f_, frame_rotation_.transpose());
     g_f_ += body_force_;
   }
@@ -514,7 +514,7 @@ namespace irdm
   ReducedNonlinearBody::point_state(const unsigned *vertices, const double *weights, const int n,
                                     double u[3], double v[3], double a[3], double W[9])
   {
-    if (factorized_h_ != m_.time_step || !patch_basis(vertices, weights, n, point_basis_))
+    if (floating_ || factorized_h_ != m_.time_step || !patch_basis(vertices, weights, n, point_basis_))
       return false;
     point_solve_ = solver_.solve(point_basis_.transpose());
     const Eigen::Matrix3d C = (1 - m_.alpha_f) * (point_basis_ * point_solve_);
@@ -666,9 +666,7 @@ namespace irdm
       return false;
     n_probes_ = n_probes;
     stepped_  = true;
-    if (floating_)
-      body_force_ = translation_loads_ * (frame_rotation_.transpose() * gravity_);
-    g_f_end_ += body_force_;
+    g_f_end_ += body_force_; // a floating body's in its frame: start() and each carry set it
     // The state at the step's start, to go back to if Newton fails at tau.
     q0_ = q_, v0_ = v_, a0_ = a_, g_c0_ = g_c_, g_f0_ = g_f_;
     bool converged = false;
@@ -856,7 +854,8 @@ namespace irdm
     for (size_t k = 0; k < surface_basis_.size(); ++k)
       {
         const Eigen::Vector3d &X  = surface_rest_[k];
-        const Eigen::Vector3d  us = frame_origin_ + frame_rotation_ * (X - center0_ + surface_basis_[k] * q_) - X;
+        const Eigen::Vector3d  us = floating_ ? Eigen::Vector3d(frame_origin_ + frame_rotation_ * (X - center0_ + surface_basis_[k] * q_) - X)
+                                              : Eigen::Vector3d(surface_basis_[k] * q_);
         for (int d = 0; d < 3; ++d)
           u[3 * surface_index_[k] + d] = us(d);
       }

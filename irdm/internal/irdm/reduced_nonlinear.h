@@ -100,8 +100,8 @@ namespace irdm
   };
 
   /// A known force on a surface vertex (index into the model's surface) at the end of a step
-  /// (N, model frame): the FEM's load at t_{n+1}, taken at the alpha level with the previous
-  /// step's.
+  /// (N, world frame: the model frame for a grounded body): the FEM's load at t_{n+1}, taken
+  /// at the alpha level with the previous step's.
   struct ReducedVertexForce
   {
     unsigned              vertex = 0;
@@ -194,7 +194,8 @@ namespace irdm
     /// change of the point's displacement at the next step's end per unit change of a force
     /// held on it over that step, T the step's tangent as Newton last factorized it (the
     /// planes' contacts in it; a probe's coupling too if the step had one). False (nothing
-    /// written) for a bad patch or before the first factorization at the model's step.
+    /// written) for a bad patch, before the first factorization at the model's step, or for a
+    /// body in a floating frame (its state is the frame's).
     /// Allocates nothing.
     bool
     point_state(const unsigned *vertices, const double *weights, int n, double u[3],
@@ -343,7 +344,7 @@ namespace irdm
     Eigen::Matrix3d frame_rotation_ = Eigen::Matrix3d::Identity();
     Eigen::Vector3d frame_origin_   = Eigen::Vector3d::Zero(), center0_ = Eigen::Vector3d::Zero();
     Eigen::Vector3d gravity_        = Eigen::Vector3d::Zero(); // world, m/s^2
-    double          size_           = 1; // the body's largest distance from c0 (m)
+    double          size_           = 0; // the body's largest surface distance from c0 (m)
     std::array<Matrix, 9> J_;           // U_a^T M_s U_b, block 3a + b
     Eigen::Matrix<double, Eigen::Dynamic, 3> translation_loads_; // U^T M 1_a
     Eigen::Matrix<double, Eigen::Dynamic, 9> turned_rotation_;   // (U^T M [e_j]x U) c_i, col 3i + j
