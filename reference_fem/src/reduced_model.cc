@@ -80,6 +80,25 @@ namespace irdm::fem
       return S;
     }
 
+    // A free body's six uniform strain fields after its rigid and kept modes (M-orthonormal, so
+    // the Gram-Schmidt against them is a projection), themselves made M-orthonormal. With the
+    // rigid ones they hold every finite rotation of the body, (Q - I)(X - c), so the floating
+    // frame's steps (docs/reduced-model.md) carry a turn's arc, and a spin's stretch.
+    unsigned
+    append_uniform_strain_fields(const NonlinearElasticity &nl, const std::vector<std::vector<double>> &rigid,
+                                 const unsigned n_vertices, Fields &shapes)
+    {
+      const Eigen::Index kept = shapes.cols();
+      shapes.conservativeResize(Eigen::NoChange, kept + 6);
+      shapes.rightCols(6) = uniform_strain_fields(rigid, n_vertices);
+      for (int pass = 0; pass < 2; ++pass) // Gram-Schmidt against a block loses digits once
+        shapes.rightCols(6) -= shapes.leftCols(kept) * (shapes.leftCols(kept).transpose() * mass_times(nl, shapes.rightCols(6)));
+      Fields S = shapes.rightCols(6);
+      mass_orthonormalize(nl, S);
+      shapes.rightCols(6) = S;
+      return 6;
+    }
+
     // The derivatives' leading `wanted` directions by mass-weighted PCA, each derivative of
     // unit M-norm and M-orthogonal to Phi (the modes kept whole) first; their PCA values and
     // the share kept go into rep.
@@ -252,21 +271,7 @@ namespace irdm::fem
         for (unsigned k = 0; k < n_kept; ++k)
           shapes(row, n_rigid + k) = lm.shapes[static_cast<size_t>(vertex_dof_to_free[row]) * n_kept + k];
     if (n_rigid > 0)
-      {
-        // A free body's six uniform strain fields after the modes: with the rigid ones they
-        // hold every finite rotation of the body, (Q - I)(X - c), so the floating frame's
-        // steps (docs/reduced-model.md) carry a turn's arc, and a spin's stretch.
-        const Fields strain = uniform_strain_fields(rigid.fields, n_vertices);
-        shapes.conservativeResize(Eigen::NoChange, shapes.cols() + 6);
-        shapes.rightCols(6) = strain;
-        for (int pass = 0; pass < 2; ++pass) // Gram-Schmidt against a block loses digits once
-          shapes.rightCols(6) -= shapes.leftCols(n_rigid + n_kept) *
-                                 (shapes.leftCols(n_rigid + n_kept).transpose() * mass_times(nl, shapes.rightCols(6)));
-        Fields S = shapes.rightCols(6);
-        mass_orthonormalize(nl, S);
-        shapes.rightCols(6) = S;
-        rep.n_strain = 6;
-      }
+      rep.n_strain = append_uniform_strain_fields(nl, rigid.fields, n_vertices, shapes);
     rep.seconds_modes = since(t0);
     log("reduced model: " + std::to_string(rep.n_modes) + " lowest modes (" +
         std::to_string(rep.lowest_frequency_hz) + " to " + std::to_string(rep.highest_frequency_hz) +
