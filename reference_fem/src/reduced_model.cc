@@ -99,6 +99,23 @@ namespace irdm::fem
       return 6;
     }
 
+    // U^T M w for the six rigid velocity fields w (NonlinearElasticity::rigid_fields), the
+    // mass and the centre of mass, into /basis: a uniform acceleration g loads q by the first
+    // three columns times g (gravity), and a rigid start velocity v + w x (X - c) is q' = the
+    // columns times (v, w) where the basis holds the rigid modes.
+    void
+    write_rigid_loads(h5::Writer &f, const NonlinearElasticity &nl, const NonlinearElasticity::RigidFields &rigid,
+                      const Fields &basis)
+    {
+      Fields W(basis.rows(), 6);
+      for (unsigned k = 0; k < 6; ++k)
+        W.col(k) = Eigen::Map<const Eigen::VectorXd>(rigid.fields[k].data(), basis.rows());
+      const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> G = basis.transpose() * mass_times(nl, W);
+      f.write("/basis/rigid_loads", {static_cast<hsize_t>(basis.cols()), 6}, G.data());
+      f.attribute("/basis", "mass_kg", rigid.mass);
+      f.write("/basis/center_of_mass_m", {3}, rigid.center_of_mass.data());
+    }
+
     // The derivatives' leading `wanted` directions by mass-weighted PCA, each derivative of
     // unit M-norm and M-orthogonal to Phi (the modes kept whole) first; their PCA values and
     // the share kept go into rep.
@@ -344,17 +361,7 @@ namespace irdm::fem
       f.attribute("/basis", "pool_share_kept", rep.kept_share);
       f.attribute("/basis", "rigid_modes", static_cast<long long>(n_rigid));
       f.attribute("/basis", "uniform_strain_fields", static_cast<long long>(rep.n_strain));
-      // U^T M w for the six rigid velocity fields w (NonlinearElasticity::rigid_fields): a
-      // uniform acceleration g loads q by its first three columns times g (gravity), and a
-      // rigid start velocity v + w x (X - c) is q' = its columns times (v, w) where the basis
-      // holds the rigid modes.
-      Fields W(3 * n_vertices, 6);
-      for (unsigned k = 0; k < 6; ++k)
-        W.col(k) = Eigen::Map<const Eigen::VectorXd>(rigid.fields[k].data(), 3 * n_vertices);
-      const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor> G = basis.transpose() * mass_times(nl, W);
-      f.write("/basis/rigid_loads", {o.basis_size, 6}, G.data());
-      f.attribute("/basis", "mass_kg", rigid.mass);
-      f.write("/basis/center_of_mass_m", {3}, rigid.center_of_mass.data());
+      write_rigid_loads(f, nl, rigid, basis);
     }
     write_mesh(f, tets);
     write_surface(f, boundary, vertex_dof_to_free);
