@@ -1051,21 +1051,25 @@ TEST(RuntimeApi, RefusesWhatABodyDoesNotTakeAndSaysWhy)
 
 namespace
 {
-  // A small reduced model of the soft beam (6 modes and the derivatives of 3, r = 10, every
-  // element), damped as beam_scene or undamped; each made once per test binary.
+  // A small reduced model of the soft beam, every element, damped as beam_scene or undamped:
+  // clamped, 6 modes and 3 directions of the derivatives of 3 (r = 10); free (nothing fixed,
+  // a floating frame's model), its six rigid modes, 6 modes, the six uniform strain fields and
+  // 3 directions of the derivatives of 2 (r = 21).
   irdm::ReducedNonlinearModel
-  make_reduced_beam(const bool damped)
+  make_reduced_beam(const bool damped, const bool free_body = false)
   {
     std::string scene = irdm_test::beam_scene(R"(, "kinematics": "nonlinear")");
     if (!damped)
       scene.replace(scene.find("[0.05, 0.05]"), 12, "[0, 0]");
-    const fem::Scene         s = fem::parse_scene(scene, ".");
+    fem::Scene s = fem::parse_scene(scene, ".");
+    if (free_body)
+      s.fixed_surfaces.clear();
     fem::ReducedModelOptions o;
-    o.output = tmp(damped ? "reduced_beam_r10.h5" : "reduced_beam_r10_undamped.h5");
+    o.output = tmp(std::string(free_body ? "reduced_free_beam_r21" : "reduced_beam_r10") + (damped ? ".h5" : "_undamped.h5"));
     o.modes            = 6;
-    o.derivative_modes = 3;
+    o.derivative_modes = free_body ? 2 : 3;
     o.residual_modes   = false;
-    o.basis_size       = 10;
+    o.basis_size       = free_body ? 21 : 10;
     std::filesystem::remove(o.output);
     fem::precompute_reduced_model(s, o);
     return irdm::load_reduced_nonlinear_model(o.output, s.time_step);
@@ -1076,24 +1080,6 @@ namespace
   {
     static const irdm::ReducedNonlinearModel with = make_reduced_beam(true), without = make_reduced_beam(false);
     return damped ? with : without;
-  }
-
-  // The damped beam with nothing fixed, r = 21 (its six rigid modes, 6 modes, the six uniform
-  // strain fields and 3 directions of the derivatives of 2): a floating frame's model.
-  irdm::ReducedNonlinearModel
-  make_free_reduced_beam()
-  {
-    fem::Scene s = fem::parse_scene(irdm_test::beam_scene(R"(, "kinematics": "nonlinear")"), ".");
-    s.fixed_surfaces.clear();
-    fem::ReducedModelOptions o;
-    o.output           = tmp("reduced_free_beam_r21.h5");
-    o.modes            = 6;
-    o.derivative_modes = 2;
-    o.residual_modes   = false;
-    o.basis_size       = 21;
-    std::filesystem::remove(o.output);
-    fem::precompute_reduced_model(s, o);
-    return irdm::load_reduced_nonlinear_model(o.output, s.time_step);
   }
 
   // The surface vertex at the middle of the beam's free end's top edge, and a coupling to it
@@ -1177,7 +1163,7 @@ TEST(ReducedRuntime, TheAllocationCountSeesEigensTemporaries)
 // the beam thrown spinning onto a floor under gravity, a force at one vertex.
 TEST(ReducedRuntime, AFloatingStepAllocatesNothing)
 {
-  static const irdm::ReducedNonlinearModel m = make_free_reduced_beam();
+  static const irdm::ReducedNonlinearModel m = make_reduced_beam(true, true);
   ASSERT_EQ(m.rigid_modes, 6u);
   ASSERT_EQ(m.uniform_strain_fields, 6u);
   irdm::ReducedNonlinearBody body(m);
