@@ -202,3 +202,37 @@ TEST(NonlinearMap, EachCaseIsMappedAgainstItsFinestTruth)
   EXPECT_NE(text.find(std::string(",") + p1_truth + ","), std::string::npos);
   EXPECT_EQ(text.find("cat_fine"), std::string::npos);
 }
+
+// A run keeps the earlier rows of the families it does not run; with --keep-rows also those of
+// its own families' cases and materials it did not make, and it replaces every earlier row
+// (each method's, each truth's) of a case and material it made.
+TEST(NonlinearMap, AKeepRowsRunReplacesOnlyTheCasesAndMaterialsItMade)
+{
+  using namespace irdm::validation::nonlinear;
+  const auto row = [](const std::string &c, const std::string &material, const std::string &method,
+                      const std::string &family) {
+    MapRow r;
+    r.c = c, r.material = material, r.method = method, r.family = family, r.truth = p1_truth;
+    return r;
+  };
+  const std::vector<MapRow> earlier = {
+    row("press_top_1mm", "2kPa", "vdof_nearest", "press_top"), row("drop_2cm", "2kPa", "route2_modal", "free_drop"),
+    row("drop_2cm", "50kPa", "route2_modal", "free_drop"), row("drop_2cm", "50kPa", "route1_rigid_fit", "free_drop"),
+    row("impact_0.2", "50kPa", "route2_modal", "free_impact")};
+  const std::vector<MapRow> made = {row("drop_2cm", "50kPa", "route2_modal", "free_drop"),
+                                    row("drop_2cm", "50kPa", "reduced_free_cat_50kPa", "free_drop")};
+  const auto names = [](const std::vector<MapRow> &rows) {
+    std::string s;
+    for (const MapRow &r : rows)
+      s += r.c + "/" + r.material + "/" + r.method + " ";
+    return s;
+  };
+  EXPECT_EQ(names(rows_kept(earlier, made, {"free"}, false)), "press_top_1mm/2kPa/vdof_nearest ");
+  EXPECT_EQ(names(rows_kept(earlier, made, {"free"}, true)),
+            "press_top_1mm/2kPa/vdof_nearest drop_2cm/2kPa/route2_modal impact_0.2/50kPa/route2_modal ");
+  EXPECT_EQ(names(rows_kept(earlier, made, {"planes", "free"}, true)),
+            "press_top_1mm/2kPa/vdof_nearest drop_2cm/2kPa/route2_modal impact_0.2/50kPa/route2_modal ");
+  EXPECT_EQ(names(rows_kept(earlier, {}, {"planes"}, false)),
+            "drop_2cm/2kPa/route2_modal drop_2cm/50kPa/route2_modal drop_2cm/50kPa/route1_rigid_fit "
+            "impact_0.2/50kPa/route2_modal ");
+}

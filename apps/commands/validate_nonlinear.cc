@@ -138,7 +138,8 @@ namespace irdm::cli
       "study's (irdm validate-free: both routes, virtual DOFs, the body-frame linear and the "
       "corotational FEM). Rows are against the converged truth on --converged-cases (P2 on the "
       "scene's mesh, or --converged-mesh), the P1 truth elsewhere (column truth). --families runs one family and keeps the other's rows from the "
-      "last run in DIR/nonlinear; --families none redraws the report from them. Writes "
+      "last run in DIR/nonlinear (with --keep-rows also its own family's rows of the cases and materials it does "
+      "not run); --families none redraws the report from them. Writes "
       "DIR/nonlinear/nonlinear.csv (case,material,method,force_error,impulse_error,"
       "displacement_error,deformation_error,largest_strain,us_per_step,fem_ms_per_step,stable,"
       "family,load,truth), against_p1.csv, limits.csv, nonlinear.md, map.png, map_force.png, "
@@ -148,6 +149,9 @@ namespace irdm::cli
     vn->add_option("--out", o->report_dir, "report folder")->capture_default_str();
     list_or_none(*vn, "--families", o->families, "the families run (none: the report again from the CSV)")
       ->check(CLI::IsMember({"planes", "free", "none"}));
+    vn->add_flag("--keep-rows", o->keep_rows,
+                 "replace only the rows of the cases and materials this run makes, and keep the earlier run's "
+                 "others of its families too (to add a method or a case to part of the map)");
     add_plane_options(*vn, *o);
     add_free_options(*vn, *o);
     return {vn, [o, vn] {

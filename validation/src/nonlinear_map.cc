@@ -12,6 +12,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <set>
 
 namespace fs = std::filesystem;
 
@@ -123,6 +124,24 @@ namespace irdm::validation::nonlinear
   in_planes(const std::string &family)
   {
     return family.rfind("free_", 0) != 0;
+  }
+
+  std::vector<MapRow>
+  rows_kept(const std::vector<MapRow> &earlier, const std::vector<MapRow> &made,
+            const std::vector<std::string> &families, const bool keep_rows)
+  {
+    std::set<std::pair<std::string, std::string>> ran; // case, material
+    for (const MapRow &r : made)
+      ran.insert({r.c, r.material});
+    std::vector<MapRow> kept;
+    for (const MapRow &r : earlier)
+      {
+        const std::string family = in_planes(r.family) ? "planes" : "free";
+        const bool family_ran = std::find(families.begin(), families.end(), family) != families.end();
+        if (!family_ran || (keep_rows && ran.count({r.c, r.material}) == 0))
+          kept.push_back(r);
+      }
+    return kept;
   }
 
   std::vector<MapRow>

@@ -54,6 +54,13 @@ namespace irdm::validation::nonlinear
   bool
   in_planes(const std::string &family);
 
+  /// Of an earlier run's rows, those a run that made `made` of `families` keeps: the rows of
+  /// the families it did not run; with keep_rows also those of every case and material it did
+  /// not make.
+  std::vector<MapRow>
+  rows_kept(const std::vector<MapRow> &earlier, const std::vector<MapRow> &made,
+            const std::vector<std::string> &families, bool keep_rows);
+
   /// Every row of the plane family's sweeps against the P1 truth, and against the converged
   /// truth on the cases where it ran (nonlinear_map.cc).
   std::vector<MapRow>

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -30,35 +31,56 @@ namespace irdm::validation
       return std::find(o.families.begin(), o.families.end(), family) != o.families.end();
     }
 
-    /// The rows an earlier run wrote in dir of the families this run does not make.
+    /// The rows an earlier run wrote in dir that this run keeps: of the families it does not
+    /// make, and with --keep-rows of every case and material it does not make (`made`).
     std::vector<MapRow>
-    kept_rows(const std::string &dir, const NonlinearMapOptions &o)
+    kept_rows(const std::string &dir, const NonlinearMapOptions &o, const std::vector<MapRow> &made)
     {
       const fs::path best = fs::path(dir) / "nonlinear.csv", p1 = fs::path(dir) / "against_p1.csv";
       if (!fs::exists(best) || !fs::exists(p1))
         return {};
-      std::vector<MapRow> all = read_rows(p1.string()), kept;
+      std::vector<MapRow> all = read_rows(p1.string());
       for (const MapRow &r : read_rows(best.string()))
         if (r.truth != p1_truth)
           all.push_back(r);
-      for (const MapRow &r : all)
-        if (!runs(o, in_planes(r.family) ? "planes" : "free"))
-          kept.push_back(r);
-      return kept;
+      return rows_kept(all, made, o.families, o.keep_rows);
+    }
+
+    /// What a --keep-rows run made, for its line in commands.txt: its families, materials and
+    /// cases.
+    std::string
+    part_made(const std::vector<MapRow> &made)
+    {
+      std::map<std::string, std::set<std::string>> cases; // "family, material" -> cases
+      for (const MapRow &r : made)
+        cases[std::string(in_planes(r.family) ? "planes" : "free") + ", " + r.material].insert(r.c);
+      std::string part;
+      for (const auto &[what, names] : cases)
+        {
+          part += (part.empty() ? "" : "; ") + what + ":";
+          for (const std::string &c : names)
+            part += " " + c;
+        }
+      return part;
     }
 
     /// Each family's command line (DIR/nonlinear/commands.txt, "family<TAB>command" lines):
-    /// this run's for the families it ran, the earlier run's for the others.
+    /// this run's for the families it ran, the earlier run's for the others; a --keep-rows
+    /// run's is added under what it made, beside the earlier ones.
     std::map<std::string, std::string>
-    family_commands(const std::string &dir, const NonlinearMapOptions &o)
+    family_commands(const std::string &dir, const NonlinearMapOptions &o, const std::vector<MapRow> &made)
     {
       std::map<std::string, std::string> commands;
       std::ifstream                      in((fs::path(dir) / "commands.txt").string());
       for (std::string line; std::getline(in, line);)
         if (const auto tab = line.find('\t'); tab != std::string::npos)
           commands[line.substr(0, tab)] = line.substr(tab + 1);
-      for (const std::string &f : o.families)
-        commands[f] = o.command.empty() ? "(not recorded)" : o.command;
+      const std::string command = o.command.empty() ? "(not recorded)" : o.command;
+      if (o.keep_rows && !made.empty())
+        commands["rows replaced by a later run (" + part_made(made) + ")"] = command;
+      else
+        for (const std::string &f : o.families)
+          commands[f] = command;
       std::ostringstream text;
       for (const auto &[family, command] : commands)
         text << family << '\t' << command << '\n';
@@ -110,8 +132,9 @@ namespace irdm::validation
         std::vector<MapRow> free = run_free_family(o, log);
         rows.insert(rows.end(), free.begin(), free.end());
       }
-    const OutputLock    lock = merge_lock((fs::path(dir) / "nonlinear.csv").string(), log);
-    std::vector<MapRow> kept = kept_rows(dir, o);
+    const OutputLock          lock = merge_lock((fs::path(dir) / "nonlinear.csv").string(), log);
+    const std::vector<MapRow> made = rows;
+    std::vector<MapRow>       kept = kept_rows(dir, o, made);
     rows.insert(rows.begin(), kept.begin(), kept.end());
     if (rows.empty())
       throw InputError("validate-nonlinear: no rows to report (no family ran, and '" + dir +
@@ -125,7 +148,7 @@ namespace irdm::validation
         if (std::system(cmd.c_str()) != 0)
           log << "validate-nonlinear: the charts were not drawn (" << cmd << " failed)\n";
       }
-    write_markdown(dir, o, rows, family_commands(dir, o));
+    write_markdown(dir, o, rows, family_commands(dir, o, made));
     log << "validate-nonlinear: wrote " << dir << "/nonlinear.csv, limits.csv, nonlinear.md\n";
   }
 } // namespace irdm::validation

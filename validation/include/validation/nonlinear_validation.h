@@ -23,6 +23,10 @@ namespace irdm::validation
     // rows of a family not run are kept from an existing DIR/nonlinear/nonlinear.csv, so each
     // family is reproduced by its own command; none: the report and charts again from the CSV.
     std::vector<std::string> families = {"planes", "free"};
+    // Keep also the earlier rows of the families run, of every case and material this run does
+    // not make (a run that adds a method or a case to part of the map replaces only the rows
+    // of the cases and materials it ran; its command is listed beside the earlier ones).
+    bool keep_rows = false;
     // The grounded cat: the plane study's models, materials and runner (its sweep, perturbation
     // and plate parts are not run here), on these sweeps.
     PlaneValidationOptions   planes;
