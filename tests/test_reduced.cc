@@ -54,6 +54,9 @@ namespace
     std::vector<std::array<double, 3>> force;
     std::vector<std::vector<double>>   surface;
     unsigned long                      failed = 0;
+    // A floating body's angular momentum's change over the run, and the external torque's
+    // impulse (the trapezoid of the steps' end torques).
+    Eigen::Vector3d angular_change = Eigen::Vector3d::Zero(), torque_impulse = Eigen::Vector3d::Zero();
   };
 
   ReducedRun
@@ -66,7 +69,9 @@ namespace
         EXPECT_TRUE(body.start(s.gravity_enabled ? s.gravity : fem::Vec3{0, 0, 0}, s.initial_velocity,
                                s.initial_angular_velocity));
       }
-    const auto          &plane = s.planes.at(0);
+    const auto           &plane = s.planes.at(0);
+    const Eigen::Vector3d L0    = body.angular_momentum();
+    Eigen::Vector3d       torque = Eigen::Vector3d::Zero(); // none at the start: nothing touches yet
     for (unsigned k = 1; k <= s.n_steps(); ++k)
       {
         const double    t = k * s.time_step;
@@ -78,8 +83,11 @@ namespace
         out.force.push_back(body.plane_force(0));
         out.surface.emplace_back(3 * m.surface_vertex.size());
         body.surface_displacement(out.surface.back().data());
+        out.torque_impulse += 0.5 * s.time_step * (torque + body.external_torque());
+        torque = body.external_torque();
       }
-    out.failed = body.failed_steps();
+    out.failed         = body.failed_steps();
+    out.angular_change = body.angular_momentum() - L0;
     return out;
   }
 
@@ -294,7 +302,8 @@ TEST(ReducedModel, WithTheFullBasisItIsTheNonlinearFemRun)
 // as the basis the reduced model is the FEM here too: the rigid start velocity, gravity's load
 // and the start's balance are the FEM's. With 21 fields (the six rigid modes first, 6 elastic
 // modes, the six uniform strain fields and 3 directions of their derivatives) it flies as the FEM does (translations are
-// exact) and deforms at contact within what the basis holds.
+// exact) and deforms at contact within what the basis holds. With every mode, its angular
+// momentum changes by the floor's torque impulse, to the integrator's error.
 TEST(ReducedModel, AFreeBodyWithTheFullBasisIsTheNonlinearFemRun)
 {
   const fem::Scene s = fem::parse_scene(
@@ -333,6 +342,14 @@ TEST(ReducedModel, AFreeBodyWithTheFullBasisIsTheNonlinearFemRun)
   const std::vector<std::vector<double>> flight(small.surface.begin(), small.surface.begin() + first);
   const double flight_error = relative_max(flight, fem_flight);
   EXPECT_LT(flight_error, 2e-3);
+  // Angular momentum: the change is the torque's impulse, to the integrator's error with
+  // every mode and to what the 21 fields leave out of e x (U q) besides.
+  for (const ReducedRun *run : {&full, &small})
+    std::cout << (run == &full ? "full basis" : "21 fields") << ": angular momentum changed by "
+              << run->angular_change.transpose() << ", the torque's impulse " << run->torque_impulse.transpose()
+              << "\n";
+  EXPECT_GT(full.torque_impulse.norm(), 1e-4) << "the landing turns the beam";
+  EXPECT_LT((full.angular_change - full.torque_impulse).norm(), 0.01 * full.torque_impulse.norm());
   std::cout << "free body, full basis: force " << force_error << ", surface " << surface_error
             << ", peak force " << peak << " N; 21 fields in flight (" << first << " steps) "
             << flight_error << ", whole run force " << relative_max(forces(small), fem_forces(fem)) << "\n";
@@ -342,7 +359,8 @@ TEST(ReducedModel, AFreeBodyWithTheFullBasisIsTheNonlinearFemRun)
 // turn. The six uniform strain fields in a free body's basis hold every finite rotation of the
 // undeformed body (a basis with the six rigid modes alone strains it by theta^2 / 2 and loses
 // it). The floating frame also turns what the body's deformation is with it, and stays closer
-// to the FEM than one frame for the whole run. In free flight for 10 s it gains no energy.
+// to the FEM than one frame for the whole run. In free flight for 10 s it gains no energy and
+// keeps its angular momentum.
 TEST(ReducedModel, ATumblingFreeBodyKeepsItsShapeInTheFloatingFrame)
 {
   const auto scene = [](const double duration) {
@@ -385,14 +403,26 @@ TEST(ReducedModel, ATumblingFreeBodyKeepsItsShapeInTheFloatingFrame)
   const fem::Scene     flight = scene(10);
   ReducedNonlinearBody free_body(b.small);
   ASSERT_TRUE(free_body.start({0, 0, 0}, {0, 0, 0}, flight.initial_angular_velocity));
-  const double start = free_body.energy();
-  double       most  = start, last = start;
+  const double          start = free_body.energy();
+  const Eigen::Vector3d L0    = free_body.angular_momentum();
+  double                most  = start, last = start, L_drift = 0;
   for (unsigned k = 1; k <= flight.n_steps(); ++k)
     {
       free_body.step(&far, 1);
       last = free_body.energy();
       most = std::max(most, last);
+      L_drift = std::max(L_drift, (free_body.angular_momentum() - L0).norm() / L0.norm());
     }
+  // At the start, the rigid spin's: the box's inertia (the P1 consistent mass holds the
+  // second moments of a linear field exactly) times the spin; then kept to the integrator's
+  // and the basis's error.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const auto &x : b.small.coordinates)
+    lo = lo.cwiseMin(Eigen::Vector3d(x[0], x[1], x[2])), hi = hi.cwiseMax(Eigen::Vector3d(x[0], x[1], x[2]));
+  const Eigen::Vector3d e  = (hi - lo).cwiseAbs2() * b.small.mass / 12;
+  const Eigen::Vector3d L_box(e(1) + e(2), 10 * (e(0) + e(2)), 0);
+  EXPECT_LT((L0 - L_box).norm(), 1e-9 * L_box.norm());
+  EXPECT_LT(L_drift, 2e-3);
   // The start holds no stretch yet; the spin's stretch takes some of the kinetic energy as
   // it builds, with the integrator's wobble about its share, and never more.
   EXPECT_EQ(free_body.failed_steps(), 0u);
@@ -401,7 +431,8 @@ TEST(ReducedModel, ATumblingFreeBodyKeepsItsShapeInTheFloatingFrame)
   EXPECT_GT(last, 0.99 * start) << "nor much lost";
   std::cout << "tumbling beam, a turn, 21 fields: surface error " << floating_error
             << " (floating frame), " << linearized_error << " (rotations linearized); 10 s of flight: "
-            << "energy " << start << " J, at most " << most << ", at the end " << last << "\n";
+            << "energy " << start << " J, at most " << most << ", at the end " << last
+            << "; angular momentum within " << L_drift << " of its start\n";
 }
 
 // The cubature's FEM training states (fem_training_states) are the FEM's snapshots projected

@@ -717,6 +717,7 @@ namespace irdm
       ++failed_steps_;
     if (floating_)
       {
+        sum_external_torque(forces, n_forces);
         for (int p = 0; p < n; ++p)
           {
             const Eigen::Vector3d f = frame_rotation_ * Eigen::Vector3d(plane_force_[p][0], plane_force_[p][1], plane_force_[p][2]);
@@ -868,6 +869,52 @@ namespace irdm
       return frame_origin_;
     const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> G(m_.rigid_loads.data(), r_, 6);
     return frame_origin_ + frame_rotation_ * (G.leftCols<3>().transpose() * q_ / m_.mass);
+  }
+
+  void
+  ReducedNonlinearBody::sum_external_torque(const ReducedVertexForce *forces, const int n_forces)
+  {
+    // Arms from the centre of mass, in the step's frame: X~ + U_s q - (c - c0).
+    const Eigen::Vector3d shift = translation_loads_.transpose() * q_ / m_.mass;
+    Eigen::Vector3d       tau   = Eigen::Vector3d::Zero();
+    for (size_t c = 0; c < n_contacts_; ++c)
+      {
+        const unsigned s = contact_vertex_[c];
+        tau += (surface_rest_[s] - center0_ + surface_basis_[s] * q_ - shift).cross(contact_force_[c]);
+      }
+    const Eigen::Matrix3d Rt = frame_rotation_.transpose();
+    for (int i = 0; i < n_forces; ++i)
+      {
+        const unsigned  v = forces[i].vertex; // checked by the step's vertex_load
+        Eigen::Vector3d x = Eigen::Vector3d(m_.coordinates[v][0], m_.coordinates[v][1], m_.coordinates[v][2]) - center0_ - shift;
+        Eigen::Vector3d f = Rt * Eigen::Vector3d(forces[i].force[0], forces[i].force[1], forces[i].force[2]);
+        for (int d = 0; d < 3; ++d)
+          {
+            if (!m_.free_dof[v][d])
+              f(d) = 0;
+            x(d) += Eigen::Map<const Eigen::RowVectorXd>(&m_.basis[(3 * size_t(m_.surface_vertex[v]) + d) * r_], r_) * q_;
+          }
+        tau += x.cross(f);
+      }
+    torque_ = frame_rotation_ * tau;
+  }
+
+  Eigen::Vector3d
+  ReducedNonlinearBody::angular_momentum() const
+  {
+    if (!floating_)
+      return Eigen::Vector3d::Constant(NAN);
+    // About c0 in the frame: (e_k x X~)^T M U v + sum_ab eps_kab q^T J_ab v, then about the
+    // centre of mass, L - (c - c0) x p, and into the world.
+    Eigen::Vector3d L = rotation_loads_.transpose() * v_;
+    for (int k = 0; k < 3; ++k)
+      {
+        const int a = (k + 1) % 3, b = (k + 2) % 3; // eps_kab = 1, eps_kba = -1
+        L(k) += q_.dot(J_[3 * a + b] * v_) - q_.dot(J_[3 * b + a] * v_);
+      }
+    const Eigen::Vector3d shift = translation_loads_.transpose() * q_ / m_.mass;
+    const Eigen::Vector3d p     = translation_loads_.transpose() * v_;
+    return frame_rotation_ * (L - shift.cross(p));
   }
 
   double

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 #include <type_traits>
 
@@ -668,6 +669,38 @@ namespace irdm::validation::free_body
         }
     }
 
+    /// A reduced body's balance of angular momentum over a run of steps: its change against
+    /// the external torque's impulse (the trapezoid of the steps' end torques, as the
+    /// integrator takes a step's forces). What differs is the projected internal force's
+    /// torque, the floating frame's carry and the integrator's own error.
+    struct AngularMomentumBalance
+    {
+      bool            started = false;
+      Eigen::Vector3d first = Eigen::Vector3d::Zero(), last = Eigen::Vector3d::Zero();
+      Eigen::Vector3d impulse = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
+
+      // The state after a step: the first call marks the start (its torque is the step's end
+      // one, the trapezoid's first point).
+      void
+      add(const ReducedNonlinearBody &body, const double tau)
+      {
+        const Eigen::Vector3d L = body.angular_momentum(), t = body.external_torque();
+        if (started)
+          impulse += 0.5 * tau * (torque + t);
+        else
+          first = L, started = true;
+        last = L, torque = t;
+      }
+      std::string
+      text() const
+      {
+        std::ostringstream out;
+        out << "changed by " << (last - first).norm() << " kg m^2/s, the torque's impulse "
+            << impulse.norm() << " N m s, their difference " << (last - first - impulse).norm();
+        return out.str();
+      }
+    };
+
     /// What the basis holds of the truth's deformation: its least-squares best over the
     /// comparison's vertices (every field, the truth's best-fit frame), relative L2 over the
     /// first contact and the run, as the deformation error is measured. A reduced run can do
@@ -732,12 +765,19 @@ namespace irdm::validation::free_body
       std::vector<double>          u(3 * model.surface_vertex.size());
       std::vector<Eigen::Vector3d> xi(m.rest.size());
       double                       seconds = 0, peak_f = 0, peak_i = 0;
+      AngularMomentumBalance       window_balance, run_balance;
       for (unsigned step = 1; step <= c.n; ++step)
         {
           const ReducedVertexForce probe{order[c.probe_vertex], c.probe_history.at(step * m.tau)};
           const auto               t0 = Clock::now();
           body.step(planes.data(), static_cast<int>(planes.size()), c.probed ? &probe : nullptr, c.probed);
           seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+          if (body.floating())
+            {
+              run_balance.add(body, m.tau);
+              if (step + 1 >= c.first_begin && step < c.first_end) // from the state before it
+                window_balance.add(body, m.tau);
+            }
           body.surface_displacement(u.data());
           for (size_t p = 0; p < planes.size(); ++p)
             run.force[step] += vec(body.plane_force(static_cast<int>(p)));
@@ -760,6 +800,9 @@ namespace irdm::validation::free_body
       row.irdm_us    = 1e6 * seconds / c.n;
       row.stable     = row.stable && body.failed_steps() == 0;
       log_basis_reach(model, order, m, c, log);
+      if (body.floating())
+        log << "  " << row.method << ": angular momentum over the first contact " << window_balance.text()
+            << "; over the run " << run_balance.text() << std::endl;
       log << "  " << row.method << ": com " << row.com_error << ", angle " << row.angle_error
           << " deg, force " << row.force_error << ", impulse " << row.impulse_error
           << ", deformation " << row.deformation_error << "; first contact: force "

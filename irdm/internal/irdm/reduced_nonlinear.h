@@ -220,6 +220,21 @@ namespace irdm
     /// The centre of mass after the latest step (m, world frame).
     Eigen::Vector3d
     center_of_mass() const;
+    /// A floating body's angular momentum about its centre of mass after the latest step
+    /// (kg m^2/s, world frame), in the P1 consistent mass: the frame's spin and the
+    /// deformation's own, sum_ab eps_kab (X~ + U q)_a^T M_s (U v)_b. NaN for a body without a
+    /// floating frame. O(r^2).
+    Eigen::Vector3d
+    angular_momentum() const;
+    /// A floating body's torque of the planes' and the vertex forces about its centre of mass
+    /// at the latest step's end (N m, world frame): with angular_momentum(), a reduced model's
+    /// balance of angular momentum (a basis that does not hold e x (U q) lets the projected
+    /// internal force turn the body too). Zero for a body without a floating frame.
+    const Eigen::Vector3d &
+    external_torque() const
+    {
+      return torque_;
+    }
     /// The floating frame: where the model's undeformed centre of mass is (m, world) and its
     /// turn (model frame to world); the model's own position and the identity without one.
     const Eigen::Vector3d &
@@ -357,6 +372,12 @@ namespace irdm
     std::vector<unsigned>        contact_vertex_;
     std::vector<Eigen::Vector3d> contact_force_;
     size_t                       n_contacts_ = 0;
+    Eigen::Vector3d              torque_ = Eigen::Vector3d::Zero(); // external_torque()
+
+    // The external forces' torque about the centre of mass at the step's end, before the
+    // carry (the step frame's contacts and vertex forces), into torque_.
+    void
+    sum_external_torque(const ReducedVertexForce *forces, int n_forces);
 
     // The blocks J_ab and the rigid loads the frame needs (constructor).
     void
