@@ -107,6 +107,10 @@ namespace irdm::validation::free_body
       const unsigned trace_every = std::max(1u, static_cast<unsigned>(std::lround(0.1 / m.tau)));
       double         growth = 0, turned = 0, seconds = 0, deepest = 0;
       Eigen::Matrix3d R_prev = Eigen::Matrix3d::Identity();
+      // Angular momentum against the external torque's impulse (a floating body's): the floor
+      // pushes along z only, so its torque has no z part, and L_z is the start's for good.
+      const Eigen::Vector3d L0 = body.angular_momentum();
+      Eigen::Vector3d       impulse = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
       const size_t        S = r.model.surface_vertex.size();
       std::vector<double> u(3 * S);
       for (unsigned step = 1; step <= steps; ++step)
@@ -114,6 +118,8 @@ namespace irdm::validation::free_body
           const auto t0 = Clock::now();
           body.step(&floor, 1);
           seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+          impulse += 0.5 * m.tau * (torque + body.external_torque());
+          torque = body.external_torque();
           growth = std::max(growth, (energy() - e0) / e_in);
           turned += angle_deg(body.frame_rotation() * R_prev.transpose());
           R_prev = body.frame_rotation();
@@ -135,6 +141,10 @@ namespace irdm::validation::free_body
           << ": largest energy gain " << growth << " of the energy brought in, at the end "
           << (energy() - e0) / e_in << ", turned " << turned << " deg (the frame's), "
           << body.failed_steps() << " steps not converged, " << body.cut_steps() << " cut" << std::endl;
+      if (body.floating())
+        log << "  angular momentum: at the start " << L0.transpose() << " kg m^2/s, at the end "
+            << body.angular_momentum().transpose() << "; the external torque's impulse "
+            << impulse.transpose() << " N m s" << std::endl;
     }
 
     /// Free flight: no plane, 10 s, spinning about an axis off the principal ones. Without the
