@@ -1159,36 +1159,42 @@ TEST(ReducedRuntime, TheAllocationCountSeesEigensTemporaries)
 }
 
 // A free body's step in its floating frame (the frame carried at each step's end, the planes,
-// gravity and the vertex forces turned into it) and its world outputs allocate nothing either:
+// gravity and the vertex forces turned into it; the internal force's torque taken out or not)
+// and its world outputs allocate nothing either:
 // the beam thrown spinning onto a floor under gravity, a force at one vertex.
 TEST(ReducedRuntime, AFloatingStepAllocatesNothing)
 {
   static const irdm::ReducedNonlinearModel m = make_reduced_beam(true, true);
   ASSERT_EQ(m.rigid_modes, 6u);
   ASSERT_EQ(m.uniform_strain_fields, 6u);
-  irdm::ReducedNonlinearBody body(m);
-  ASSERT_TRUE(body.floating());
-  ASSERT_TRUE(body.start({0, 0, -9.81}, {0.1, 0, -0.8}, {0, 3, 1}));
-  std::vector<double> u(3 * m.surface_vertex.size());
-  irdm::ReducedPlane  floor;
-  floor.normal = {0, 0, 1};
-  floor.point  = {0, 0, -0.012};
-  const irdm::ReducedVertexForce push{0, {0, 1e-3, 0}};
-  int most = 0;
-  for (int k = 0; k < 40; ++k)
+  for (const bool torque_free : {false, true})
     {
-      g_allocations       = 0;
-      g_count_allocations = true;
-      body.step(&floor, 1, &push, 1);
-      body.surface_displacement(u.data());
-      const Eigen::Vector3d c = body.center_of_mass();
-      g_count_allocations     = false;
-      EXPECT_EQ(g_allocations, 0) << "step " << k;
-      EXPECT_TRUE(c.allFinite());
-      most = std::max(most, body.plane_vertices(0));
+      irdm::ReducedBodyOptions options;
+      options.keep_angular_momentum = torque_free;
+      irdm::ReducedNonlinearBody body(m, options);
+      ASSERT_TRUE(body.floating());
+      ASSERT_TRUE(body.start({0, 0, -9.81}, {0.1, 0, -0.8}, {0, 3, 1}));
+      std::vector<double> u(3 * m.surface_vertex.size());
+      irdm::ReducedPlane  floor;
+      floor.normal = {0, 0, 1};
+      floor.point  = {0, 0, -0.012};
+      const irdm::ReducedVertexForce push{0, {0, 1e-3, 0}};
+      int most = 0;
+      for (int k = 0; k < 40; ++k)
+        {
+          g_allocations       = 0;
+          g_count_allocations = true;
+          body.step(&floor, 1, &push, 1);
+          body.surface_displacement(u.data());
+          const Eigen::Vector3d c = body.center_of_mass();
+          g_count_allocations     = false;
+          EXPECT_EQ(g_allocations, 0) << "step " << k << (torque_free ? ", torque-free" : "");
+          EXPECT_TRUE(c.allFinite());
+          most = std::max(most, body.plane_vertices(0));
+        }
+      EXPECT_GT(most, 0) << "the beam reached the floor";
+      EXPECT_GT((body.frame_rotation() - Eigen::Matrix3d::Identity()).norm(), 0.01) << "the frame turned";
     }
-  EXPECT_GT(most, 0) << "the beam reached the floor";
-  EXPECT_GT((body.frame_rotation() - Eigen::Matrix3d::Identity()).norm(), 0.01) << "the frame turned";
 }
 
 // A coupled probe is solved with the body: its force is the spring's k (d - u_p) at the step's

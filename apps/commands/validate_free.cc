@@ -145,6 +145,10 @@ namespace irdm::cli
                             "run each reduced model also in one frame for the whole run (its "
                             "rotations linearized), method reduced_<file stem>_one_frame, beside "
                             "its floating frame");
+    validate_free->add_flag("--reduced-torque-free", vfb->reduced_torque_free,
+                            "run each reduced model also with its projected internal force's own torque "
+                            "taken out (it keeps angular momentum where its basis does not hold the turned "
+                            "deformation), method reduced_<file stem>_torque_free");
     validate_free->add_option("--impact-speeds", vfb->impact_speeds,
                               "the impact study's speeds (m/s): the upright cat 1 mm above the "
                               "floor moving onto it, gravity off, 0.3 s (impact.csv)")

@@ -367,6 +367,22 @@ namespace irdm
       size_ = std::max(size_, (x - center0_).norm());
     P_.setZero(r, r);
     carried_.setZero(r);
+    momentum_map_.setZero(r, 3);
+    momentum_work_.setZero(r);
+  }
+
+  void
+  ReducedNonlinearBody::angular_momentum_map(const Vector &q, Eigen::Matrix<double, Eigen::Dynamic, 3> &At)
+  {
+    for (int k = 0; k < 3; ++k)
+      {
+        const int a = (k + 1) % 3, b = (k + 2) % 3;
+        At.col(k) = rotation_loads_.col(k);
+        momentum_work_.noalias() = J_[3 * b + a] * q;
+        At.col(k) += momentum_work_;
+        momentum_work_.noalias() = J_[3 * a + b] * q;
+        At.col(k) -= momentum_work_;
+      }
   }
 
   void
@@ -580,6 +596,15 @@ namespace irdm
             KU_.noalias() = Ut * (weight_[k] * K_e);
             T->triangularView<Eigen::Lower>() += KU_ * Ut.transpose();
           }
+      }
+    if (floating_ && options_.keep_angular_momentum)
+      {
+        // The internal force's own torque taken out, in the mass metric (its rate of angular
+        // momentum A g made zero; the objective law's full force has none).
+        angular_momentum_map(q_af_, momentum_map_);
+        const Eigen::Matrix3d G = momentum_map_.transpose() * momentum_map_;
+        const Eigen::Vector3d s = momentum_map_.transpose() * g_int_;
+        g_int_.noalias() -= momentum_map_ * G.ldlt().solve(s);
       }
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
     // area, force k A g n where it has passed the plane by g).

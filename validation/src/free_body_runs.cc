@@ -744,7 +744,8 @@ namespace irdm::validation::free_body
       const std::vector<unsigned> &order = m.reduced[which].order;
       const Case                  &k     = c.k;
       ReducedBodyOptions           options;
-      options.floating_frame = m.reduced[which].floating;
+      options.floating_frame        = m.reduced[which].floating;
+      options.keep_angular_momentum = m.reduced[which].torque_free;
       ReducedNonlinearBody         body(model, options);
       const ReducedVertexForce     probe0{order[c.probe_vertex], c.probe_history.at(0)};
       if (!body.start(k.gravity ? arr(-9.81 * k.up) : fem::Vec3{0, 0, 0}, arr(k.velocity), arr(k.spin),
@@ -987,6 +988,13 @@ namespace irdm::validation::free_body
               one.method += "_one_frame";
               one.floating = false;
               m.reduced.push_back(std::move(one));
+            }
+          if (m.o.reduced_torque_free)
+            {
+              ReducedModelOfBody kept = r;
+              kept.method += "_torque_free";
+              kept.torque_free = true;
+              m.reduced.push_back(std::move(kept));
             }
           m.reduced.push_back(std::move(r));
         }

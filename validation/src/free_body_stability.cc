@@ -92,7 +92,8 @@ namespace irdm::validation::free_body
         lowest = std::min(lowest, X(2));
       const Eigen::Vector3d g(0, 0, -9.81);
       ReducedBodyOptions    options;
-      options.floating_frame = r.floating;
+      options.floating_frame        = r.floating;
+      options.keep_angular_momentum = r.torque_free;
       ReducedNonlinearBody body(r.model, options);
       if (!body.start({g(0), g(1), g(2)}, {roll.velocity(0), roll.velocity(1), roll.velocity(2)},
                       {roll.spin(0), roll.spin(1), roll.spin(2)}))

@@ -139,6 +139,13 @@ namespace irdm
     // A free body's model moves in a floating frame (above); false: in one frame for the
     // whole run, its rotations linearized (a turn of theta strains it by about theta^2 / 2).
     bool floating_frame = true;
+    // A floating body's internal force less its torque: the projected internal force U^T f
+    // turns the body where the basis does not hold e x (U q) (f is torque-free about the
+    // deformed body, M U U^T f need not be). On: it is replaced by the nearest force in the
+    // mass metric whose angular momentum rate is zero, g - A^T (A A^T)^-1 A g, A the
+    // angular momentum's 3 x r map at the step's alpha level (6 r^2 multiply-adds a residual;
+    // the tangent leaves it out). Nothing changes where the basis holds every mode.
+    bool keep_angular_momentum = false;
   };
 
   class ReducedNonlinearBody
@@ -365,6 +372,8 @@ namespace irdm
     Eigen::Matrix<double, Eigen::Dynamic, 9> turned_rotation_;   // (U^T M [e_j]x U) c_i, col 3i + j
     Eigen::Matrix<double, Eigen::Dynamic, 3> rotation_loads_;    // c_i = U^T M (e_i x X~)
     Eigen::Matrix<double, 6, 6> rigid_inverse_;                  // (U_r^T M W)^-1
+    Eigen::Matrix<double, Eigen::Dynamic, 3> momentum_map_;      // A^T: L = A q' (keep_angular_momentum)
+    Vector                                   momentum_work_;     // J_ab q
     Matrix P_;                                                   // sum_ab Q_ab J_ab
     Vector carried_;
     // The planes' penalty forces of the latest residual, per contact (surface_basis_ index and
@@ -382,6 +391,9 @@ namespace irdm
     // The blocks J_ab and the rigid loads the frame needs (constructor).
     void
     prepare_frame();
+    // A^T at q (about c0, the frame's): column k = c_k + J_ba q - J_ab q, (a, b) = (k + 1, k + 2).
+    void
+    angular_momentum_map(const Vector &q, Eigen::Matrix<double, Eigen::Dynamic, 3> &At);
     // Moves the frame onto the body at a step's end and carries the state into it; the
     // step's end vertex forces (world) give its force in the new frame.
     void
