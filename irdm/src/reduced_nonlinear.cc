@@ -372,16 +372,19 @@ namespace irdm
   }
 
   void
-  ReducedNonlinearBody::angular_momentum_map(const Vector &q, Eigen::Matrix<double, Eigen::Dynamic, 3> &At)
+  ReducedNonlinearBody::angular_momentum_map(const Vector &q) const
   {
+    const Eigen::Vector3d shift = translation_loads_.transpose() * q / m_.mass;
     for (int k = 0; k < 3; ++k)
       {
         const int a = (k + 1) % 3, b = (k + 2) % 3;
-        At.col(k) = rotation_loads_.col(k);
+        auto      Ak = momentum_map_.col(k);
+        Ak           = rotation_loads_.col(k);
         momentum_work_.noalias() = J_[3 * b + a] * q;
-        At.col(k) += momentum_work_;
+        Ak += momentum_work_;
         momentum_work_.noalias() = J_[3 * a + b] * q;
-        At.col(k) -= momentum_work_;
+        Ak -= momentum_work_;
+        Ak.noalias() -= translation_loads_ * Eigen::Vector3d::Unit(k).cross(shift);
       }
   }
 
@@ -601,7 +604,7 @@ namespace irdm
       {
         // The internal force's own torque taken out, in the mass metric (its rate of angular
         // momentum A g made zero; the objective law's full force has none).
-        angular_momentum_map(q_af_, momentum_map_);
+        angular_momentum_map(q_af_);
         const Eigen::Matrix3d G = momentum_map_.transpose() * momentum_map_;
         const Eigen::Vector3d s = momentum_map_.transpose() * g_int_;
         g_int_.noalias() -= momentum_map_ * G.ldlt().solve(s);
@@ -904,8 +907,13 @@ namespace irdm
     Eigen::Vector3d       tau   = Eigen::Vector3d::Zero();
     for (size_t c = 0; c < n_contacts_; ++c)
       {
-        const unsigned s = contact_vertex_[c];
-        tau += (surface_rest_[s] - center0_ + surface_basis_[s] * q_ - shift).cross(contact_force_[c]);
+        const unsigned  s    = contact_vertex_[c];
+        const auto     &free = m_.free_dof[surface_index_[s]];
+        Eigen::Vector3d f    = contact_force_[c];
+        for (int d = 0; d < 3; ++d)
+          if (!free[d])
+            f(d) = 0; // the support's, as plane_force leaves it out
+        tau += (surface_rest_[s] - center0_ + surface_basis_[s] * q_ - shift).cross(f);
       }
     const Eigen::Matrix3d Rt = frame_rotation_.transpose();
     for (int i = 0; i < n_forces; ++i)
@@ -929,17 +937,10 @@ namespace irdm
   {
     if (!floating_)
       return Eigen::Vector3d::Constant(NAN);
-    // About c0 in the frame: (e_k x X~)^T M U v + sum_ab eps_kab q^T J_ab v, then about the
-    // centre of mass, L - (c - c0) x p, and into the world.
-    Eigen::Vector3d L = rotation_loads_.transpose() * v_;
-    for (int k = 0; k < 3; ++k)
-      {
-        const int a = (k + 1) % 3, b = (k + 2) % 3; // eps_kab = 1, eps_kba = -1
-        L(k) += q_.dot(J_[3 * a + b] * v_) - q_.dot(J_[3 * b + a] * v_);
-      }
-    const Eigen::Vector3d shift = translation_loads_.transpose() * q_ / m_.mass;
-    const Eigen::Vector3d p     = translation_loads_.transpose() * v_;
-    return frame_rotation_ * (L - shift.cross(p));
+    // sum_ab eps_kab (X~ + U q)_a^T M_s (U q')_b about c0, less (c - c0) x p: A q' about the
+    // centre of mass, turned into the world.
+    angular_momentum_map(q_);
+    return frame_rotation_ * (momentum_map_.transpose() * v_);
   }
 
   double

@@ -109,7 +109,8 @@ namespace irdm::validation::free_body
       double         growth = 0, turned = 0, seconds = 0, deepest = 0;
       Eigen::Matrix3d R_prev = Eigen::Matrix3d::Identity();
       // Angular momentum against the external torque's impulse (a floating body's): the floor
-      // pushes along z only, so its torque has no z part, and L_z is the start's for good.
+      // pushes along z only, so its torque has no z part, and the physics keeps L_z; the log
+      // shows whether the reduced model does.
       const Eigen::Vector3d L0 = body.angular_momentum();
       Eigen::Vector3d       impulse = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
       const size_t        S = r.model.surface_vertex.size();

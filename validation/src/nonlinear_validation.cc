@@ -76,11 +76,25 @@ namespace irdm::validation
         if (const auto tab = line.find('\t'); tab != std::string::npos)
           commands[line.substr(0, tab)] = line.substr(tab + 1);
       const std::string command = o.command.empty() ? "(not recorded)" : o.command;
-      if (o.keep_rows && !made.empty())
-        commands["rows replaced by a later run (" + part_made(made) + ")"] = command;
+      const std::string later   = "rows replaced by a later run (";
+      if (o.keep_rows)
+        {
+          if (!made.empty())
+            commands[later + part_made(made) + ")"] = command;
+        }
       else
         for (const std::string &f : o.families)
-          commands[f] = command;
+          {
+            // A whole family's run makes every row of it again: the lines of the parts that
+            // replaced some of its rows before no longer made any.
+            for (auto it = commands.begin(); it != commands.end();)
+              if (it->first.rfind(later, 0) == 0 && (it->first.find("(" + f + ", ") != std::string::npos ||
+                                                     it->first.find("; " + f + ", ") != std::string::npos))
+                it = commands.erase(it);
+              else
+                ++it;
+            commands[f] = command;
+          }
       std::ostringstream text;
       for (const auto &[family, command] : commands)
         text << family << '\t' << command << '\n';

@@ -372,8 +372,9 @@ namespace irdm
     Eigen::Matrix<double, Eigen::Dynamic, 9> turned_rotation_;   // (U^T M [e_j]x U) c_i, col 3i + j
     Eigen::Matrix<double, Eigen::Dynamic, 3> rotation_loads_;    // c_i = U^T M (e_i x X~)
     Eigen::Matrix<double, 6, 6> rigid_inverse_;                  // (U_r^T M W)^-1
-    Eigen::Matrix<double, Eigen::Dynamic, 3> momentum_map_;      // A^T: L = A q' (keep_angular_momentum)
-    Vector                                   momentum_work_;     // J_ab q
+    // A^T, L = A q' about the centre of mass (angular_momentum_map), and its work vector.
+    mutable Eigen::Matrix<double, Eigen::Dynamic, 3> momentum_map_;
+    mutable Vector                                   momentum_work_;
     Matrix P_;                                                   // sum_ab Q_ab J_ab
     Vector carried_;
     // The planes' penalty forces of the latest residual, per contact (surface_basis_ index and
@@ -391,9 +392,12 @@ namespace irdm
     // The blocks J_ab and the rigid loads the frame needs (constructor).
     void
     prepare_frame();
-    // A^T at q (about c0, the frame's): column k = c_k + J_ba q - J_ab q, (a, b) = (k + 1, k + 2).
+    // A^T at q, the angular momentum about the centre of mass L = A q' in the frame, into
+    // momentum_map_: column k = c_k + (J_ba - J_ab) q - T (e_k x d), (a, b) = (k + 1, k + 2),
+    // T = U^T M 1 and d = T^T q / m the centre's shift from c0 (so T^T A^T = 0: a force along
+    // A^T moves no momentum).
     void
-    angular_momentum_map(const Vector &q, Eigen::Matrix<double, Eigen::Dynamic, 3> &At);
+    angular_momentum_map(const Vector &q) const;
     // Moves the frame onto the body at a step's end and carries the state into it; the
     // step's end vertex forces (world) give its force in the new frame.
     void
