@@ -602,12 +602,14 @@ namespace irdm
       }
     if (floating_ && options_.keep_angular_momentum)
       {
-        // The internal force's own torque taken out, in the mass metric (its rate of angular
-        // momentum A g made zero; the objective law's full force has none).
+        // The internal force's own torque taken out by a torque on the body as a whole: a
+        // rigid rotation's load C w, C = U^T M (e_k x X~), with A (g - C w) = 0 (the objective
+        // law's full force has no torque). The elastic rows are left as they are: taking the
+        // torque out along A itself would take stiffness out with it.
         angular_momentum_map(q_af_);
-        const Eigen::Matrix3d G = momentum_map_.transpose() * momentum_map_;
+        const Eigen::Matrix3d B = momentum_map_.transpose() * rotation_loads_;
         const Eigen::Vector3d s = momentum_map_.transpose() * g_int_;
-        g_int_.noalias() -= momentum_map_ * G.ldlt().solve(s);
+        g_int_.noalias() -= rotation_loads_ * B.partialPivLu().solve(s);
       }
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
     // area, force k A g n where it has passed the plane by g).

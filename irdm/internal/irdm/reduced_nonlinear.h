@@ -141,8 +141,8 @@ namespace irdm
     bool floating_frame = true;
     // A floating body's internal force less its torque: the projected internal force U^T f
     // turns the body where the basis does not hold e x (U q) (f is torque-free about the
-    // deformed body, M U U^T f need not be). On: it is replaced by the nearest force in the
-    // mass metric whose angular momentum rate is zero, g - A^T (A A^T)^-1 A g, A the
+    // deformed body, M U U^T f need not be). On: a torque on the body as a whole takes it
+    // out, g - C (A C)^-1 A g, C = U^T M (e_k x X~) the rigid rotations' loads and A the
     // angular momentum's 3 x r map at the step's alpha level (6 r^2 multiply-adds a residual;
     // the tangent leaves it out). Nothing changes where the basis holds every mode.
     bool keep_angular_momentum = false;
