@@ -83,7 +83,21 @@ $irdm validate-free $free_cases \
   --out "$out/free_frame" --model-dir out/models/free
 $irdm validate-free $free_cases --reduced-model $free_models/free_cat_50kPa_cubature.h5 \
   --reduced-one-frame --out "$out/free_one_frame" --model-dir out/models/free
-for d in free_frame free_one_frame; do # validate-free writes into <out>/free
+# The same scene with the inputs' band widened to 12 + 3 mm, so that the residual modes cover
+# the contact patch at its largest (every element), on the cases the narrow band missed and
+# the drops.
+n=$(grep -c center_m validation/scenes/reduced/free_cat_floor_and_wall_12mm.json)
+[ -f $free_models/free_cat_50kPa_wide.h5 ] ||
+  $irdm precompute validation/scenes/reduced/free_cat_floor_and_wall_12mm.json --reduced --modes 100 \
+    --derivative-modes 60 --basis $((6 + 100 + 3 * n + 6 + 80)) --cubature-tolerance 0 \
+    --out $free_models/free_cat_50kPa_wide.h5
+$irdm validate-free --materials 50000 --fem-divisions 1 --cases tilted_5cm,wall_throw \
+  --vdof-subdivisions -1 --force-modes 0 --stability 0.002 --converged-degree 0 --no-corotational \
+  --reduced-model $free_models/free_cat_50kPa_wide.h5 --out "$out/free_inputs" --model-dir out/models/free
+$irdm validate-free --materials 50000 --fem-divisions 1 --cases drop_2cm,drop_5cm,spin_roll \
+  --vdof-subdivisions -1 --force-modes 0 --stability 0.002 --converged-degree 0 --no-corotational \
+  --reduced-model $free_models/free_cat_50kPa_wide.h5 --out "$out/free_inputs_drops" --model-dir out/models/free
+for d in free_frame free_one_frame free_inputs free_inputs_drops; do # validate-free writes into <out>/free
   mv "$out/$d/free/"* "$out/$d/" && rmdir "$out/$d/free"
 done
 # The cubature trained on the reduced model's own presses beside one trained on the FEM's
