@@ -147,8 +147,8 @@ namespace irdm::cli
                             "its floating frame");
     validate_free->add_flag("--reduced-torque-free", vfb->reduced_torque_free,
                             "run each reduced model also with its projected internal force's own torque "
-                            "taken out (it keeps angular momentum where its basis does not hold the turned "
-                            "deformation), method reduced_<file stem>_torque_free");
+                            "taken out (that share of the angular momentum a basis without the turned "
+                            "deformation leaks), method reduced_<file stem>_torque_free");
     validate_free->add_option("--impact-speeds", vfb->impact_speeds,
                               "the impact study's speeds (m/s): the upright cat 1 mm above the "
                               "floor moving onto it, gravity off, 0.3 s (impact.csv)")
