@@ -23,6 +23,15 @@ namespace fs = std::filesystem;
 
 namespace irdm::validation::free_body
 {
+  std::string
+  AngularMomentumBalance::text() const
+  {
+    std::ostringstream out;
+    out << "changed by " << (last - first).norm() << " kg m^2/s, the torque's impulse "
+        << impulse.norm() << " N m s, their difference " << (last - first - impulse).norm();
+    return out.str();
+  }
+
   namespace
   {
     using Clock = std::chrono::steady_clock;
@@ -668,38 +677,6 @@ namespace irdm::validation::free_body
           study.linearization.push_back(against);
         }
     }
-
-    /// A reduced body's balance of angular momentum over a run of steps: its change against
-    /// the external torque's impulse (the trapezoid of the steps' end torques, as the
-    /// integrator takes a step's forces). What differs is the projected internal force's
-    /// torque, the floating frame's carry and the integrator's own error.
-    struct AngularMomentumBalance
-    {
-      bool            started = false;
-      Eigen::Vector3d first = Eigen::Vector3d::Zero(), last = Eigen::Vector3d::Zero();
-      Eigen::Vector3d impulse = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
-
-      // The state after a step: the first call marks the start (its torque is the step's end
-      // one, the trapezoid's first point).
-      void
-      add(const ReducedNonlinearBody &body, const double tau)
-      {
-        const Eigen::Vector3d L = body.angular_momentum(), t = body.external_torque();
-        if (started)
-          impulse += 0.5 * tau * (torque + t);
-        else
-          first = L, started = true;
-        last = L, torque = t;
-      }
-      std::string
-      text() const
-      {
-        std::ostringstream out;
-        out << "changed by " << (last - first).norm() << " kg m^2/s, the torque's impulse "
-            << impulse.norm() << " N m s, their difference " << (last - first - impulse).norm();
-        return out.str();
-      }
-    };
 
     /// What the basis holds of the truth's deformation: its least-squares best over the
     /// comparison's vertices (every field, the truth's best-fit frame), relative L2 over the

@@ -275,6 +275,33 @@ namespace irdm::validation::free_body
 
   constexpr const char *vdof_method = "vdof_rigid_fit"; // the seed's virtual DOFs, route 1
 
+  /// A reduced body's balance of angular momentum over a run of steps: its change against
+  /// the external torque's impulse (the trapezoid of the steps' end torques, as the
+  /// integrator takes a step's forces). What differs is the projected forces' own torque,
+  /// the floating frame's carry and the integrator's own error.
+  struct AngularMomentumBalance
+  {
+    bool            started = false;
+    Eigen::Vector3d first = Eigen::Vector3d::Zero(), last = Eigen::Vector3d::Zero();
+    Eigen::Vector3d impulse = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
+
+    // The state after a step: the first call marks the start (its torque is the step's end
+    // one, the trapezoid's first point).
+    void
+    add(const ReducedNonlinearBody &body, const double tau)
+    {
+      const Eigen::Vector3d L = body.angular_momentum(), t = body.external_torque();
+      if (started)
+        impulse += 0.5 * tau * (torque + t);
+      else
+        first = L, started = true;
+      last = L, torque = t;
+    }
+    // "changed by |dL|, the torque's impulse |J|, their difference |dL - J|".
+    std::string
+    text() const;
+  };
+
   /// A reduced nonlinear model of the free body and its free.csv method name; order[v]: the
   /// model's surface index of the comparison's vertex v.
   struct ReducedModelOfBody

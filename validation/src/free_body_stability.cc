@@ -111,8 +111,9 @@ namespace irdm::validation::free_body
       // Angular momentum against the external torque's impulse (a floating body's): the floor
       // pushes along z only, so its torque has no z part, and the physics keeps L_z; the log
       // shows whether the reduced model does.
-      const Eigen::Vector3d L0 = body.angular_momentum();
-      Eigen::Vector3d       impulse = Eigen::Vector3d::Zero(), torque = Eigen::Vector3d::Zero();
+      AngularMomentumBalance balance;
+      if (body.floating())
+        balance.add(body, m.tau); // the start: nothing touches yet
       const size_t        S = r.model.surface_vertex.size();
       std::vector<double> u(3 * S);
       for (unsigned step = 1; step <= steps; ++step)
@@ -120,8 +121,8 @@ namespace irdm::validation::free_body
           const auto t0 = Clock::now();
           body.step(&floor, 1);
           seconds += std::chrono::duration<double>(Clock::now() - t0).count();
-          impulse += 0.5 * m.tau * (torque + body.external_torque());
-          torque = body.external_torque();
+          if (body.floating())
+            balance.add(body, m.tau);
           growth = std::max(growth, (energy() - e0) / e_in);
           turned += angle_deg(body.frame_rotation() * R_prev.transpose());
           R_prev = body.frame_rotation();
@@ -144,9 +145,9 @@ namespace irdm::validation::free_body
           << (energy() - e0) / e_in << ", turned " << turned << " deg (the frame's), "
           << body.failed_steps() << " steps not converged, " << body.cut_steps() << " cut" << std::endl;
       if (body.floating())
-        log << "  angular momentum: at the start " << L0.transpose() << " kg m^2/s, at the end "
-            << body.angular_momentum().transpose() << "; the external torque's impulse "
-            << impulse.transpose() << " N m s" << std::endl;
+        log << "  angular momentum: at the start " << balance.first.transpose() << " kg m^2/s, at the end "
+            << balance.last.transpose() << "; the external torque's impulse "
+            << balance.impulse.transpose() << " N m s" << std::endl;
     }
 
     /// Free flight: no plane, 10 s, spinning about an axis off the principal ones. Without the
