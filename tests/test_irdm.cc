@@ -1171,7 +1171,8 @@ TEST(ReducedRuntime, TheAllocationCountSeesEigensMallocs)
 }
 
 // A free body's step in its floating frame (the frame carried at each step's end, the planes,
-// gravity and the vertex forces turned into it; the internal force's torque taken out or not)
+// gravity and the vertex forces turned into it; the projected forces' torques made the true ones
+// or not)
 // and its world outputs allocate nothing either:
 // the beam thrown spinning onto a floor under gravity, a force at one vertex.
 TEST(ReducedRuntime, AFloatingStepAllocatesNothing)
@@ -1179,10 +1180,10 @@ TEST(ReducedRuntime, AFloatingStepAllocatesNothing)
   static const irdm::ReducedNonlinearModel m = make_reduced_beam(true, true);
   ASSERT_EQ(m.rigid_modes, 6u);
   ASSERT_EQ(m.uniform_strain_fields, 6u);
-  for (const bool torque_free : {false, true})
+  for (const bool true_torques : {false, true})
     {
       irdm::ReducedBodyOptions options;
-      options.keep_angular_momentum = torque_free;
+      options.keep_angular_momentum = true_torques;
       irdm::ReducedNonlinearBody body(m, options);
       ASSERT_TRUE(body.floating());
       ASSERT_TRUE(body.start({0, 0, -9.81}, {0.1, 0, -0.8}, {0, 3, 1}));
@@ -1200,7 +1201,7 @@ TEST(ReducedRuntime, AFloatingStepAllocatesNothing)
           body.surface_displacement(u.data());
           const Eigen::Vector3d c = body.center_of_mass();
           g_count_allocations     = false;
-          EXPECT_EQ(g_allocations, 0) << "step " << k << (torque_free ? ", torque-free" : "");
+          EXPECT_EQ(g_allocations, 0) << "step " << k << (true_torques ? ", true torques" : "");
           EXPECT_TRUE(c.allFinite());
           most = std::max(most, body.plane_vertices(0));
         }

@@ -145,10 +145,11 @@ namespace irdm::cli
                             "run each reduced model also in one frame for the whole run (its "
                             "rotations linearized), method reduced_<file stem>_one_frame, beside "
                             "its floating frame");
-    validate_free->add_flag("--reduced-torque-free", vfb->reduced_torque_free,
-                            "run each reduced model also with its projected internal force's own torque "
-                            "taken out (that share of the angular momentum a basis without the turned "
-                            "deformation leaks), method reduced_<file stem>_torque_free");
+    validate_free->add_flag("--reduced-projected-torque", vfb->reduced_projected_torque,
+                            "run each reduced model also with its projected forces' own torques (the "
+                            "internal force's and the planes' as the basis projects them, which a basis "
+                            "without the turned deformation leaks), method "
+                            "reduced_<file stem>_projected_torque; by default the true torques");
     validate_free->add_option("--impact-speeds", vfb->impact_speeds,
                               "the impact study's speeds (m/s): the upright cat 1 mm above the "
                               "floor moving onto it, gravity off, 0.3 s (impact.csv)")

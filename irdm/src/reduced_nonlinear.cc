@@ -447,8 +447,20 @@ namespace irdm
     a_.swap(dq_);
     const Eigen::Matrix3d Q = Rs.transpose();
     g_c_.setZero();
+    Eigen::Vector3d       torque     = Eigen::Vector3d::Zero();
+    const Eigen::Vector3d arm_origin = center0_ + translation_loads_.transpose() * q_ / m_.mass;
     for (size_t c = 0; c < n_contacts_; ++c)
-      g_c_.noalias() += surface_basis_[contact_vertex_[c]].transpose() * (Q * contact_force_[c]);
+      {
+        const unsigned        s = contact_vertex_[c];
+        const Eigen::Vector3d f = Q * contact_force_[c];
+        g_c_.noalias() += surface_basis_[s].transpose() * f;
+        torque += (surface_rest_[s] + surface_basis_[s] * q_ - arm_origin).cross(f);
+      }
+    if (options_.keep_angular_momentum)
+      {
+        angular_momentum_map(q_);
+        contact_leak_ = torque - momentum_map_.transpose() * g_c_;
+      }
     frame_origin_ += frame_rotation_ * ts;
     Eigen::Quaterniond turned(frame_rotation_ * Rs);
     turned.normalize();
@@ -600,23 +612,16 @@ namespace irdm
             T->triangularView<Eigen::Lower>() += KU_ * Ut.transpose();
           }
       }
-    if (floating_ && options_.keep_angular_momentum)
-      {
-        // The internal force's own torque taken out by a torque on the body as a whole: a
-        // rigid rotation's load C w, C = U^T M (e_k x X~), with A (g - C w) = 0 (the objective
-        // law's full force has no torque). The elastic rows are left as they are: taking the
-        // torque out along A itself would take stiffness out with it.
-        angular_momentum_map(q_af_);
-        const Eigen::Matrix3d B = momentum_map_.transpose() * rotation_loads_;
-        const Eigen::Vector3d s = momentum_map_.transpose() * g_int_;
-        g_int_.noalias() -= rotation_loads_ * B.partialPivLu().solve(s);
-      }
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
     // area, force k A g n where it has passed the plane by g).
     g_c.setZero();
     if (C)
       C->setZero();
     n_contacts_ = 0;
+    // Arms from the centre of mass at x, for the planes' torque (a floating body's).
+    const Eigen::Vector3d arm_origin = floating_ ? Eigen::Vector3d(center0_ + translation_loads_.transpose() * x / m_.mass)
+                                                 : Eigen::Vector3d::Zero();
+    contact_torque_trial_.setZero();
     for (int p = 0; p < n; ++p)
       {
         force[p]    = {0, 0, 0};
@@ -642,6 +647,7 @@ namespace irdm
             contact_vertex_[n_contacts_]  = static_cast<unsigned>(s);
             contact_force_[n_contacts_++] = f;
             g_c.noalias() += U.transpose() * f;
+            contact_torque_trial_ += (xs - arm_origin).cross(f);
             if (C)
               {
                 Un_.noalias() = U.transpose() * normal;
@@ -666,6 +672,24 @@ namespace irdm
         g_c.noalias() += U.transpose() * f;
         if (C && active)
           C->selfadjointView<Eigen::Lower>().rankUpdate(U.transpose(), (1 - af) * (pr.stiffness + pr.damping * g / (b * h)));
+      }
+    if (floating_ && options_.keep_angular_momentum)
+      {
+        // The projected forces' torque made the true one: a torque on the body as a whole, a
+        // rigid rotation's load C w (C = U^T M (e_k x X~)), takes out of the internal force
+        // the torque that its projection has (the objective law's full force has none) and
+        // gives the planes' projected force the torque of their forces at the deformed
+        // vertices, each at its own time level: A_af (g - C w) = (1 - af) (tau_1 - A_1 g_c1)
+        // + af (tau_0 - A_0 g_c0) with the step start's term kept from the carry. The elastic
+        // rows are left as they are: a correction along A itself would take stiffness out with
+        // it. With every mode, nothing changes.
+        angular_momentum_map(x);
+        const Eigen::Vector3d leak = contact_torque_trial_ - momentum_map_.transpose() * g_c;
+        contact_leak_trial_ = leak;
+        angular_momentum_map(q_af_);
+        const Eigen::Matrix3d B = momentum_map_.transpose() * rotation_loads_;
+        const Eigen::Vector3d s = momentum_map_.transpose() * g_int_ + (1 - af) * leak + af * contact_leak_;
+        g_int_.noalias() -= rotation_loads_ * B.partialPivLu().solve(s);
       }
     res += g_int_;
     res -= (1 - af) * (g_c + g_f_new_) + af * (g_c_ + g_f_);
@@ -698,13 +722,13 @@ namespace irdm
     stepped_  = true;
     g_f_end_ += body_force_; // a floating body's in its frame: start() and each carry set it
     // The state at the step's start, to go back to if Newton fails at tau.
-    q0_ = q_, v0_ = v_, a0_ = a_, g_c0_ = g_c_, g_f0_ = g_f_;
+    q0_ = q_, v0_ = v_, a0_ = a_, g_c0_ = g_c_, g_f0_ = g_f_, contact_leak0_ = contact_leak_;
     bool converged = false;
     for (unsigned parts = 1; parts <= max_parts && !converged; parts *= 2)
       {
         if (parts > 1)
           {
-            q_ = q0_, v_ = v0_, a_ = a0_, g_c_ = g_c0_, g_f_ = g_f0_;
+            q_ = q0_, v_ = v0_, a_ = a0_, g_c_ = g_c0_, g_f_ = g_f0_, contact_leak_ = contact_leak0_;
             ++cut_steps_;
           }
         converged = true;
@@ -873,6 +897,7 @@ namespace irdm
     v_   = v1_;
     a_   = a1_;
     g_c_ = g_c_trial_;
+    contact_leak_ = contact_leak_trial_;
     g_f_ = g_f_new_;
     return converged;
   }

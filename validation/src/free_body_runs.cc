@@ -722,7 +722,7 @@ namespace irdm::validation::free_body
       const Case                  &k     = c.k;
       ReducedBodyOptions           options;
       options.floating_frame        = m.reduced[which].floating;
-      options.keep_angular_momentum = m.reduced[which].torque_free;
+      options.keep_angular_momentum = m.reduced[which].keep_angular_momentum;
       ReducedNonlinearBody         body(model, options);
       const ReducedVertexForce     probe0{order[c.probe_vertex], c.probe_history.at(0)};
       if (!body.start(k.gravity ? arr(-9.81 * k.up) : fem::Vec3{0, 0, 0}, arr(k.velocity), arr(k.spin),
@@ -966,12 +966,12 @@ namespace irdm::validation::free_body
               one.floating = false;
               m.reduced.push_back(std::move(one));
             }
-          if (m.o.reduced_torque_free)
+          if (m.o.reduced_projected_torque)
             {
-              ReducedModelOfBody kept = r;
-              kept.method += "_torque_free";
-              kept.torque_free = true;
-              m.reduced.push_back(std::move(kept));
+              ReducedModelOfBody projected = r;
+              projected.method += "_projected_torque";
+              projected.keep_angular_momentum = false;
+              m.reduced.push_back(std::move(projected));
             }
           m.reduced.push_back(std::move(r));
         }

@@ -310,7 +310,7 @@ namespace irdm::validation::free_body
     ReducedNonlinearModel model;
     std::vector<unsigned> order;
     bool                  floating = true; // ReducedBodyOptions::floating_frame
-    bool                  torque_free = false; // ReducedBodyOptions::keep_angular_momentum
+    bool                  keep_angular_momentum = true; // ReducedBodyOptions'
   };
 
   /// Young's modulus (Pa) of a reduced model's law, from its Lame constants.

@@ -93,7 +93,7 @@ namespace irdm::validation::free_body
       const Eigen::Vector3d g(0, 0, -9.81);
       ReducedBodyOptions    options;
       options.floating_frame        = r.floating;
-      options.keep_angular_momentum = r.torque_free;
+      options.keep_angular_momentum = r.keep_angular_momentum;
       ReducedNonlinearBody body(r.model, options);
       if (!body.start({g(0), g(1), g(2)}, {roll.velocity(0), roll.velocity(1), roll.velocity(2)},
                       {roll.spin(0), roll.spin(1), roll.spin(2)}))

@@ -139,13 +139,17 @@ namespace irdm
     // A free body's model moves in a floating frame (above); false: in one frame for the
     // whole run, its rotations linearized (a turn of theta strains it by about theta^2 / 2).
     bool floating_frame = true;
-    // A floating body's internal force less its torque: the projected internal force U^T f
-    // turns the body where the basis does not hold e x (U q) (f is torque-free about the
-    // deformed body, M U U^T f need not be). On: a torque on the body as a whole takes it
-    // out, g - C (A C)^-1 A g, C = U^T M (e_k x X~) the rigid rotations' loads and A the
-    // angular momentum's 3 x r map at the step's alpha level (6 r^2 multiply-adds a residual;
-    // the tangent leaves it out). Nothing changes where the basis holds every mode.
-    bool keep_angular_momentum = false;
+    // A floating body's projected forces with their true torque. On a basis that does not
+    // hold e x (U q), A U^T f (A the angular momentum's 3 x r map) is not the torque of f: the
+    // projected internal force has a torque of its own (the objective law's full force has
+    // none) and the planes' projected force a torque other than theirs at the deformed
+    // vertices, so a body at rest on a frictionless floor spins up about the vertical. On: a
+    // torque on the body as a whole, a rigid rotation's load C w (C = U^T M (e_k x X~)), makes
+    // A (g - g_c - C w) = -tau_c at each time level of the step (about 12 r^2 multiply-adds a
+    // residual; the tangent leaves it out). The vertex forces keep their projected torque.
+    // Nothing changes where the basis holds every mode. false: the Galerkin projection's own
+    // torques (to measure what they leak).
+    bool keep_angular_momentum = true;
   };
 
   class ReducedNonlinearBody
@@ -383,6 +387,12 @@ namespace irdm
     std::vector<Eigen::Vector3d> contact_force_;
     size_t                       n_contacts_ = 0;
     Eigen::Vector3d              torque_ = Eigen::Vector3d::Zero(); // external_torque()
+    // The planes' torque about the centre of mass (the step's frame), and what the projected
+    // force's torque A U^T f misses of it (keep_angular_momentum): at the latest residual, at
+    // the step's start (carried into its frame) and at a cut step's start.
+    Eigen::Vector3d contact_torque_trial_ = Eigen::Vector3d::Zero();
+    Eigen::Vector3d contact_leak_trial_ = Eigen::Vector3d::Zero(), contact_leak_ = Eigen::Vector3d::Zero(),
+                    contact_leak0_ = Eigen::Vector3d::Zero();
 
     // The external forces' torque about the centre of mass at the step's end, before the
     // carry (the step frame's contacts and vertex forces), into torque_.

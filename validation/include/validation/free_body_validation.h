@@ -41,9 +41,9 @@ namespace irdm::validation
     // Each reduced model also in one frame for the whole run (its rotations linearized; a
     // method reduced_<stem>_one_frame), beside the floating frame.
     bool reduced_one_frame = false;
-    // Each reduced model also with its internal force's torque taken out
-    // (ReducedBodyOptions::keep_angular_momentum; a method reduced_<stem>_torque_free).
-    bool reduced_torque_free = false;
+    // Each reduced model also with its projected forces' own torques
+    // (ReducedBodyOptions::keep_angular_momentum off; a method reduced_<stem>_projected_torque).
+    bool reduced_projected_torque = false;
     // The seed's virtual DOFs of the free body (irdm precompute-vdof on it): icosahedron
     // subdivisions (2: 162 orientations), -1: not run; T samples per response.
     int      vdof_subdivisions = 2;
