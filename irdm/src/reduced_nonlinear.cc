@@ -456,7 +456,7 @@ namespace irdm
         g_c_.noalias() += surface_basis_[s].transpose() * f;
         torque += (surface_rest_[s] + surface_basis_[s] * q_ - arm_origin).cross(f);
       }
-    if (options_.keep_angular_momentum)
+    if (options_.keep_angular_momentum) // what the carried forces' projection misses of their torque
       {
         angular_momentum_map(q_);
         contact_leak_ = torque - momentum_map_.transpose() * g_c_;
@@ -679,10 +679,11 @@ namespace irdm
         // rigid rotation's load C w (C = U^T M (e_k x X~)), takes out of the internal force
         // the torque that its projection has (the objective law's full force has none) and
         // gives the planes' projected force the torque of their forces at the deformed
-        // vertices, each at its own time level: A_af (g - C w) = (1 - af) (tau_1 - A_1 g_c1)
-        // + af (tau_0 - A_0 g_c0) with the step start's term kept from the carry. The elastic
-        // rows are left as they are: a correction along A itself would take stiffness out with
-        // it. With every mode, nothing changes.
+        // vertices, each at its own time level: A_af (g - C w) = (1 - af) (A_1 g_c1 - tau_1)
+        // + af (A_0 g_c0 - tau_0), the step start's term kept from the carry, so the rigid
+        // rows give A q'' = tau_c. The elastic rows are left as they are: a correction along A
+        // itself would take stiffness out with it. With every mode, nothing changes. (The
+        // probes' forces, in g_c here, would need their torque too: a floating body takes none.)
         angular_momentum_map(x);
         const Eigen::Vector3d leak = contact_torque_trial_ - momentum_map_.transpose() * g_c;
         contact_leak_trial_ = leak;

@@ -277,8 +277,9 @@ namespace irdm::validation::free_body
 
   /// A reduced body's balance of angular momentum over a run of steps: its change against
   /// the external torque's impulse (the trapezoid of the steps' end torques, as the
-  /// integrator takes a step's forces). What differs is the projected forces' own torque,
-  /// the floating frame's carry and the integrator's own error.
+  /// integrator takes a step's forces). What differs is the projected forces' own torque
+  /// (the vertex forces'; the internal force's and the planes' too with the projected
+  /// torques), the floating frame's carry and the integrator's own error.
   struct AngularMomentumBalance
   {
     bool            started = false;

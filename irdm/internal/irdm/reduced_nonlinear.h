@@ -146,8 +146,9 @@ namespace irdm
     // vertices, so a body at rest on a frictionless floor spins up about the vertical. On: a
     // torque on the body as a whole, a rigid rotation's load C w (C = U^T M (e_k x X~)), makes
     // A (g - g_c - C w) = -tau_c at each time level of the step (about 12 r^2 multiply-adds a
-    // residual; the tangent leaves it out). The vertex forces keep their projected torque.
-    // Nothing changes where the basis holds every mode. false: the Galerkin projection's own
+    // residual; the tangent leaves it out). The vertex forces keep their projected torque, and
+    // the carry its projection of the turned state. Nothing changes where the basis holds
+    // every mode. false: the Galerkin projection's own
     // torques (to measure what they leak).
     bool keep_angular_momentum = true;
   };
@@ -240,7 +241,8 @@ namespace irdm
     /// A floating body's torque of the planes' and the vertex forces about its centre of mass
     /// at the latest step's end (N m, world frame): with angular_momentum(), a reduced model's
     /// balance of angular momentum (a basis that does not hold e x (U q) lets the projected
-    /// internal force turn the body too). Zero for a body without a floating frame.
+    /// forces turn the body too: the vertex forces always, the internal force and the planes'
+    /// with keep_angular_momentum off). Zero for a body without a floating frame.
     const Eigen::Vector3d &
     external_torque() const
     {
