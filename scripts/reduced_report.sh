@@ -97,7 +97,21 @@ $irdm validate-free --materials 50000 --fem-divisions 1 --cases tilted_5cm,wall_
 $irdm validate-free --materials 50000 --fem-divisions 1 --cases drop_2cm,drop_5cm,spin_roll \
   --vdof-subdivisions -1 --force-modes 0 --stability 0.002 --converged-degree 0 --no-corotational \
   --reduced-model $free_models/free_cat_50kPa_wide.h5 --out "$out/free_inputs_drops" --model-dir out/models/free
-for d in free_frame free_one_frame free_inputs free_inputs_drops; do # validate-free writes into <out>/free
+# The wide model with a cubature trained on FEM snapshots, on the five cases, the forces' true
+# torques (the default) beside the projection's own; and the 60 s roll of the r = 387 cubature
+# model with the true torques.
+[ -f $free_models/free_cat_50kPa_wide_cubature.h5 ] ||
+  $irdm precompute validation/scenes/reduced/free_cat_floor_and_wall_12mm.json --reduced --modes 100 \
+    --derivative-modes 60 --basis $((6 + 100 + 3 * n + 6 + 80)) --training-source fem \
+    --out $free_models/free_cat_50kPa_wide_cubature.h5
+$irdm validate-free --materials 50000 --fem-divisions 1 --cases tilted_5cm,wall_throw,spin_roll,drop_2cm,drop_5cm \
+  --vdof-subdivisions -1 --force-modes 0 --stability 0.002 --converged-degree 0 --no-corotational \
+  --reduced-model $free_models/free_cat_50kPa_wide_cubature.h5 --reduced-projected-torque \
+  --out "$out/free_true_torques" --model-dir out/models/free
+$irdm validate-free --materials 50000 --fem-divisions 1 --cases spin_roll --vdof-subdivisions -1 \
+  --force-modes 0 --stability 60 --converged-degree 0 --no-corotational \
+  --reduced-model $free_models/free_cat_50kPa_cubature.h5 --out "$out/free_roll60_true" --model-dir out/models/free
+for d in free_frame free_one_frame free_inputs free_inputs_drops free_true_torques free_roll60_true; do # validate-free writes into <out>/free
   mv "$out/$d/free/"* "$out/$d/" && rmdir "$out/$d/free"
 done
 # The cubature trained on the reduced model's own presses beside one trained on the FEM's
