@@ -712,8 +712,10 @@ namespace irdm::validation::free_body
     /// A reduced nonlinear model of the free body (its six rigid modes in the basis; irdm
     /// precompute --reduced on the free scene): the truth's own law, penalty planes and
     /// integrator on the basis, started with the case's velocity, spin and gravity, the probe's
-    /// force at its vertex, scored as the runtime's methods are (no energy watch: its stability
-    /// is Newton's, each failed step counted).
+    /// force at its vertex, scored as the runtime's methods are; unstable where a step failed or
+    /// its energy (kinetic, strain and gravity's; the penalty's left out) grew past 5 % of the
+    /// energy brought in, as the routes' watch has it (Newton's relative stop can converge on a
+    /// state that has run away).
     void
     run_reduced(const Material &m, const size_t which, const CaseRun &c, FreeStudy &study, std::ostream &log)
     {
@@ -739,6 +741,11 @@ namespace irdm::validation::free_body
       row.c = k.name, row.method = m.reduced[which].method, row.E = m.E;
       row.impact_speed = k.impact_speed;
       row.fem_ms       = 1e3 * c.fem_seconds / c.n;
+      const Eigen::Vector3d gravity = k.gravity ? Eigen::Vector3d(-9.81 * k.up) : Eigen::Vector3d::Zero();
+      const auto energy = [&] { return body.energy() - model.mass * gravity.dot(body.center_of_mass()); };
+      const double e0 = energy(), e_in = body.energy() + model.mass * gravity.norm() * k.height;
+      double       work = 0, work_in = 0; // the probe's on the body
+      Eigen::Vector3d probe_prev = m.rest[c.probe_vertex];
       Samples                      run(c.n);
       std::vector<double>          u(3 * model.surface_vertex.size());
       std::vector<Eigen::Vector3d> xi(m.rest.size());
@@ -768,6 +775,15 @@ namespace irdm::validation::free_body
               row.stable       = row.stable && xi[v].allFinite();
             }
           run.fit[step] = best_rigid_fit(m.rest, xi);
+          if (c.probed)
+            {
+              const Eigen::Vector3d F0 = vec(c.probe_history.at((step - 1) * m.tau)),
+                                    F1 = vec(c.probe_history.at(step * m.tau));
+              const double          w  = 0.5 * (F0 + F1).dot(xi[c.probe_vertex] - probe_prev);
+              work += w, work_in += std::abs(w);
+              probe_prev = xi[c.probe_vertex];
+            }
+          row.energy_growth = std::max(row.energy_growth, (energy() - e0 - work) / std::max(e_in + work_in, 1e-300));
           series_row(study, m, c, row.method, step, run);
           peak_f = std::max(peak_f, c.truth->force[step].norm()), peak_i = std::max(peak_i, run.force[step].norm());
           if (is_frame(c, step))
@@ -776,7 +792,7 @@ namespace irdm::validation::free_body
       score(row, run, m, c, study);
       row.peak_ratio = peak_i / std::max(peak_f, 1e-300);
       row.irdm_us    = 1e6 * seconds / c.n;
-      row.stable     = row.stable && body.failed_steps() == 0;
+      row.stable     = row.stable && body.failed_steps() == 0 && row.energy_growth < 0.05;
       log_basis_reach(model, order, m, c, log);
       if (body.floating())
         log << "  " << row.method << ": angular momentum over the first contact " << window_balance.text()
@@ -786,7 +802,8 @@ namespace irdm::validation::free_body
           << ", deformation " << row.deformation_error << "; first contact: force "
           << row.first_force_error << ", impulse " << row.first_impulse_error << ", deformation "
           << row.first_deformation_error << "; " << row.irdm_us << " us/step ("
-          << body.cut_steps() << " steps cut, " << body.failed_steps() << " not converged)" << std::endl;
+          << body.cut_steps() << " steps cut, " << body.failed_steps() << " not converged; largest energy gain "
+          << row.energy_growth << " of the energy brought in" << (row.stable ? "" : ": unstable") << ")" << std::endl;
       study.rows.push_back(row);
     }
 
