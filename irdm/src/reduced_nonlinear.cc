@@ -819,14 +819,16 @@ namespace irdm
         x_ = q_;
         evaluate(planes, n, fresh);
       }
-    // Converged when the residual is round-off of the forces in it, or the update is.
-    double   r_norm    = residual_.norm();
-    double   best_norm = r_norm;
-    best_              = x_;
-    bool     converged = false;
-    unsigned it        = 0;
+    // Converged when the residual is round-off of the forces in it, or the update is. A
+    // residual that is not finite is never converged: the part fails and the step is cut.
+    bool     tangent_at_x = fresh; // the body's tangent is x_'s own
+    double   r_norm       = residual_.norm();
+    double   best_norm    = r_norm;
+    best_                 = x_;
+    bool     converged    = false;
+    unsigned it           = 0;
     constexpr unsigned max_iterations = 30;
-    for (; it < max_iterations; ++it)
+    for (; it < max_iterations && std::isfinite(r_norm); ++it)
       {
         if (r_norm <= options_.tolerance * std::max(scale_, 1e-300))
           {
@@ -838,12 +840,15 @@ namespace irdm
         factorized_h_ = h_;
         dq_ = solver_.solve(residual_);
         dq_ = -dq_;
-        // A backtracking line search on the residual norm. Where it finds no decrease (a
-        // vertex about to touch a plane: the tangent at x lacks its penalty, and the full
-        // step overshoots into the plane), the full step is taken all the same: the tangent
-        // there holds the contact, and Newton comes back from the other side.
+        // A backtracking line search on the residual norm. Where it finds no decrease with a
+        // kept tangent, the tangent is evaluated at x and the iteration done again. Where even
+        // x's own tangent finds none (a vertex about to touch a plane: the tangent at x lacks
+        // its penalty, and the full step overshoots into the plane), the full step is taken
+        // all the same, the tangent there holding the contact, and Newton comes back from the
+        // other side; but not where it inverts an element or its residual is not finite (a
+        // run-away, Newton diverging): the part fails there.
         double alpha    = 1;
-        bool   accepted = false;
+        bool   accepted = false, full_step_sound = false;
         for (int cut = 0; cut < 6; ++cut, alpha /= 2)
           {
             trial_ = x_ + alpha * dq_;
@@ -851,7 +856,10 @@ namespace irdm
                                      g_c_trial_, trial_force_, trial_vertices_);
             if (!ok)
               ++inverted_;
-            if (ok && r_trial_.norm() < (1 - 1e-4 * alpha) * r_norm)
+            const double trial_norm = r_trial_.norm();
+            if (cut == 0)
+              full_step_sound = ok && std::isfinite(trial_norm);
+            if (ok && trial_norm < (1 - 1e-4 * alpha) * r_norm)
               {
                 accepted = true;
                 break;
@@ -864,12 +872,24 @@ namespace irdm
             x_ = trial_;
             residual_.swap(r_trial_);
           }
-        else
+        else if (!tangent_at_x)
+          {
+            evaluate(planes, n, true);
+            tangent_at_x = true;
+            continue;
+          }
+        else if (full_step_sound)
           {
             x_ += dq_;
             evaluate(planes, n, false);
           }
-        r_norm = residual_.norm();
+        else
+          {
+            evaluate(planes, n, false); // x_'s own planes' tangent and forces again
+            break;
+          }
+        tangent_at_x = false;
+        r_norm       = residual_.norm();
         if (r_norm < best_norm)
           best_norm = r_norm, best_ = x_;
         if (accepted && alpha * dq_.norm() <= 1e-13 * std::max(x_.norm(), 1e-300))
@@ -881,7 +901,10 @@ namespace irdm
         // Newton's method evaluates the body's tangent at every iterate; a kept tangent is
         // evaluated again where the contraction was slow.
         if (!options_.reuse_tangent || r_norm > options_.tangent_refresh_ratio * previous)
-          evaluate(planes, n, true);
+          {
+            evaluate(planes, n, true);
+            tangent_at_x = true;
+          }
       }
     last_iterations_ = it;
     // The state at the part's end: residual() left a1_, v1_ and the planes' force at x_
