@@ -1388,3 +1388,20 @@ TEST(ReducedRuntime, TheTwoLoopSplitFollowsTheImplicitCoupling)
       EXPECT_LT(error, damping > 0 ? 0.05 : 0.07);
     }
 }
+
+// Newton never calls a residual that is not finite converged (its stop is relative to the
+// forces in the residual, which are then not finite too): a force that overflows the residual's
+// norm fails the step, counted, and leaves the state finite. (A free body at 2 kPa once ran to
+// 1e51 m in one step "converged" this way: full steps past a failed line search, each raising
+// the residual, until it overflowed.)
+TEST(ReducedRuntime, NewtonDoesNotConvergeOnAResidualThatIsNotFinite)
+{
+  const irdm::ReducedNonlinearModel &m = reduced_beam();
+  irdm::ReducedNonlinearBody         body(m);
+  const irdm::ReducedVertexForce     push{static_cast<unsigned>(m.surface_vertex.size() - 1), {0, 0, -1}};
+  ASSERT_TRUE(body.step(nullptr, 0, &push, 1)) << "a newton's push converges";
+  const irdm::ReducedVertexForce overflow{push.vertex, {0, 0, -1e200}}; // its square overflows
+  EXPECT_FALSE(body.step(nullptr, 0, &overflow, 1));
+  EXPECT_EQ(body.failed_steps(), 1u);
+  EXPECT_TRUE(body.coordinates().allFinite());
+}

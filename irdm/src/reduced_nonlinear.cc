@@ -822,6 +822,7 @@ namespace irdm
     // Converged when the residual is round-off of the forces in it, or the update is. A
     // residual that is not finite is never converged: the part fails and the step is cut.
     bool     tangent_at_x = fresh; // the body's tangent is x_'s own
+    bool     blind_step_raised = false; // the last iterate: a full step past the line search, the residual up
     double   r_norm       = residual_.norm();
     double   best_norm    = r_norm;
     best_                 = x_;
@@ -845,8 +846,8 @@ namespace irdm
         // x's own tangent finds none (a vertex about to touch a plane: the tangent at x lacks
         // its penalty, and the full step overshoots into the plane), the full step is taken
         // all the same, the tangent there holding the contact, and Newton comes back from the
-        // other side; but not where it inverts an element or its residual is not finite (a
-        // run-away, Newton diverging): the part fails there.
+        // other side. But not twice running where the first raised the residual, nor where its
+        // residual is not finite: that is Newton diverging, and the part fails.
         double alpha    = 1;
         bool   accepted = false, full_step_sound = false;
         for (int cut = 0; cut < 6; ++cut, alpha /= 2)
@@ -858,7 +859,7 @@ namespace irdm
               ++inverted_;
             const double trial_norm = r_trial_.norm();
             if (cut == 0)
-              full_step_sound = ok && std::isfinite(trial_norm);
+              full_step_sound = std::isfinite(trial_norm) && !blind_step_raised;
             if (ok && trial_norm < (1 - 1e-4 * alpha) * r_norm)
               {
                 accepted = true;
@@ -888,8 +889,9 @@ namespace irdm
             evaluate(planes, n, false); // x_'s own planes' tangent and forces again
             break;
           }
-        tangent_at_x = false;
-        r_norm       = residual_.norm();
+        tangent_at_x      = false;
+        blind_step_raised = !accepted && residual_.norm() > r_norm;
+        r_norm            = residual_.norm();
         if (r_norm < best_norm)
           best_norm = r_norm, best_ = x_;
         if (accepted && alpha * dq_.norm() <= 1e-13 * std::max(x_.norm(), 1e-300))
