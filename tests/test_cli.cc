@@ -78,7 +78,7 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
   EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
                    " --model-dir " + tmp("vfm") + " --fem-divisions 0"),
             2);
-  // The converged truth: P2 only, and cases of the study.
+  // The converged truth: P1 or P2, and cases of the study.
   EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
                    " --model-dir " + tmp("vfm") + " --converged-degree 3"),
             2);
@@ -191,6 +191,64 @@ TEST(Cli, AConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
     }
   for (const char *f : {"cli_cm_v.h5", "cli_cm_x.h5"})
     fs::remove(tmp(f));
+}
+
+// The free family's converged truth on another mesh (validate-free --converged-mesh), given the
+// scene's own mesh: no plane moves and every surface vertex takes its own displacement, so the
+// truth is the P1 truth bit for bit: the P1 truth's row against it is zero, and each method's
+// row against it is its first-contact row against the P1 truth.
+TEST(Cli, AFreeConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
+{
+  const std::string out = tmp("cli_fcm");
+  fs::remove_all(out);
+  ASSERT_EQ(status(std::string(IRDM_CLI) + " validate-free --scene " IRDM_MESH_DIR
+                   "/../validation/scenes/free/free_cat.json --materials 50000 --cases drop_2cm "
+                   "--duration 0.1 --vdof-subdivisions -1 --force-modes 0 --stability 0.002 "
+                   "--no-small-strain --no-corotational --converged-cases drop_2cm --converged-mesh " IRDM_MESH_DIR
+                   "/cat.msh --model-dir " + tmp("cli_fcm_models") + " --out " + out),
+            0);
+  // Rows of a CSV by their first columns joined by ',' (case, material, method[, reference]).
+  const auto rows = [](const std::string &file, const int key_columns) {
+    std::ifstream                                          in(file);
+    std::string                                            line;
+    std::map<std::string, std::map<std::string, double>> by_key;
+    std::vector<std::string>                               header;
+    for (bool first = true; std::getline(in, line); first = false)
+      {
+        std::vector<std::string> cells;
+        std::stringstream        ss(line);
+        for (std::string cell; std::getline(ss, cell, ',');)
+          cells.push_back(cell);
+        if (first)
+          {
+            header = cells;
+            continue;
+          }
+        std::string key;
+        for (int k = 0; k < key_columns; ++k)
+          key += (k ? "," : "") + cells[k];
+        for (size_t k = key_columns; k < cells.size() && k < header.size(); ++k)
+          by_key[key][header[k]] = std::stod(cells[k]);
+      }
+    return by_key;
+  };
+  const auto lin   = rows(out + "/free/linearization.csv", 4);
+  const auto first = rows(out + "/free/first_contact.csv", 3);
+  const std::string truth = "fem_neo_hookean_p1_cat";
+  ASSERT_TRUE(lin.count("drop_2cm,50kPa," + truth + ",fem_neo_hookean"));
+  const auto &self = lin.at("drop_2cm,50kPa," + truth + ",fem_neo_hookean");
+  for (const char *e : {"first_force_error", "first_impulse_error", "first_deformation_error", "com_error", "force_error", "deformation_error"})
+    EXPECT_EQ(self.at(e), 0) << e;
+  ASSERT_GE(first.size(), 2u);
+  for (const auto &[key, row] : first)
+    {
+      const std::string against = key + "," + truth;
+      ASSERT_TRUE(lin.count(against)) << against;
+      EXPECT_EQ(lin.at(against).at("first_force_error"), row.at("force_error")) << key;
+      EXPECT_EQ(lin.at(against).at("first_impulse_error"), row.at("impulse_error")) << key;
+      EXPECT_EQ(lin.at(against).at("first_deformation_error"), row.at("deformation_error")) << key;
+      EXPECT_GT(row.at("deformation_error"), 0) << key;
+    }
 }
 
 TEST(Cli, CommandsThatAreNotParallelAreRefusedUnderMpirun)

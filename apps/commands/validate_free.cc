@@ -47,11 +47,18 @@ namespace irdm::cli
         ->capture_default_str();
       app.add_option("--converged-degree", o.converged_degree,
                                 "the truth's own discretization error: on --converged-cases, the "
-                                "nonlinear FEM again with P2 elements on the same mesh, the P1 truth "
-                                "and every run against it (linearization.csv, reference "
-                                "fem_neo_hookean_p2); 0: not run")
+                                "nonlinear FEM again with P2 elements on the same mesh (or P1 or "
+                                "P2 on --converged-mesh), the P1 truth and every run against it "
+                                "(linearization.csv, reference fem_neo_hookean_p<degree>[_<mesh>]); "
+                                "0: not run")
         ->capture_default_str()
-        ->check(CLI::IsMember({0u, 2u}));
+        ->check(CLI::IsMember({0u, 1u, 2u}));
+      app.add_option("--converged-mesh", o.converged_mesh,
+                                "a finer gmsh mesh of the same body for that truth (P1 on it unless "
+                                "--converged-degree says otherwise): the planes moved by the two "
+                                "bodies' difference in reach, its surface read at the closest point "
+                                "to each surface vertex; cases without a probe")
+        ->check(CLI::ExistingFile);
       app.add_option("--converged-cases", o.converged_cases,
                                 "the cases of --converged-degree (every material of the run)")
         ->capture_default_str()
@@ -199,6 +206,8 @@ namespace irdm::cli
                    for (const double E : vfb->materials)
                      vfb->fem_divisions.push_back(E < 1e4 ? 4 : 1);
                  }
+               if (!vfb->converged_mesh.empty() && validate_free->count("--converged-degree") == 0)
+                 vfb->converged_degree = 1;
                irdm::check_output_folder("--out", vfb->report_dir);
                vfb->plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_free.py";
                irdm::validation::run_free_body_validation(*vfb, std::cout);

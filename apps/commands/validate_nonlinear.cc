@@ -113,7 +113,12 @@ namespace irdm::cli
       list_or_none(app, "--drops", o.drops, "the drops (gravity on)")
         ->check(CLI::IsMember({"drop_2cm", "drop_5cm", "drop_10cm", "none"}));
       list_or_none(app, "--free-converged-cases", f.converged_cases,
-                   "free cases also run by the P2 truth (drop_2cm, impact_0.2, ...)");
+                   "free cases also run by the converged truth (drop_2cm, impact_0.2, ...): P2 on "
+                   "the same mesh, or P1 on --free-converged-mesh");
+      app.add_option("--free-converged-mesh", f.converged_mesh,
+                     "a finer gmsh mesh of the free body for that truth (irdm validate-free "
+                     "--converged-mesh)")
+        ->check(CLI::ExistingFile);
       app.add_option("--vdof-subdivisions", f.vdof_subdivisions,
                      "the free cat's virtual DOFs (icosahedron subdivisions; -1: not run)")
         ->capture_default_str()
@@ -158,6 +163,8 @@ namespace irdm::cli
               irdm::check_output_folder("--out", o->report_dir);
               if (!o->planes.converged_mesh.empty() && vn->count("--converged-degree") == 0)
                 o->planes.converged_degree = 1;
+              if (!o->free.converged_mesh.empty()) // a finer mesh's truth is P1 (P2 on it: days)
+                o->free.converged_degree = 1;
               o->plot_script = std::string(IRDM_SOURCE_DIR) + "/validation/plot_nonlinear.py";
               o->command     = invocation();
               irdm::validation::run_nonlinear_validation(*o, std::cout);

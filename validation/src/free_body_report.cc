@@ -264,6 +264,8 @@ namespace irdm::validation::free_body
           c << " --converged-cases";
           for (const auto &name : o.converged_cases)
             c << ' ' << name;
+          if (!o.converged_mesh.empty())
+            c << " --converged-mesh " << o.converged_mesh;
         }
       return c.str();
     }
@@ -297,6 +299,8 @@ namespace irdm::validation::free_body
               {"corotational", o.corotational ? "1" : ""},
               {"converged", o.converged_degree > 0 && !o.converged_cases.empty() ? "1" : ""},
               {"converged_degree", std::to_string(o.converged_degree)},
+              {"converged_mesh", o.converged_mesh.empty() ? "" : std::filesystem::path(o.converged_mesh).filename().string()},
+              {"converged_truth", converged_truth_name(o)},
               {"linear_fem", o.body_frame ? "fem_linear_body_frame" : "fem_small_strain"},
               {"study_surface_modes", std::to_string(o.study_surface_modes)},
               {"stability_seconds", plain(o.stability_seconds)}};
@@ -316,7 +320,7 @@ namespace irdm::validation::free_body
     strain_rows(s, strain_csv, strain_md);
     write(dir, "truth_strain.csv", strain_csv.str());
     linearization_rows(s, lin_csv, lin_md);
-    if (o.small_strain || o.corotational)
+    if (o.small_strain || o.corotational || !s.linearization.empty()) // the converged truth's too
       write(dir, "linearization.csv", lin_csv.str());
     const auto impact = impact_lines(s);
     impact_rows(impact, density, impact_csv, impact_md);

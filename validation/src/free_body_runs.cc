@@ -3,10 +3,12 @@
 #include "free_body_runs.h"
 #include "metrics.h"
 #include "scene_runs.h"
+#include "surface_transfer.h"
 
 #include <irdm_common/error.h>
 #include <irdm_common/format.h>
 #include <reference_fem/impulse_response.h>
+#include <reference_fem/mesh.h>
 #include <reference_fem/nonlinear_elasticity.h>
 #include <reference_fem/virtual_dof.h>
 
@@ -71,20 +73,22 @@ namespace irdm::validation::free_body
     }
 
     // A FEM run at tau / M as Samples at tau (sample_at_tau), its surface read at the
-    // comparison's vertices (`node_tags`, rest positions `rest`); `x`, when given, receives the
+    // comparison's vertices (`node_tags`, rest positions `rest`), or, for a run on another mesh
+    // of the body, by `transfer` at their closest points; `x`, when given, receives the
     // surfaces.
     Samples
     fem_samples(fem::RunResult &r, const unsigned M, const double tau,
                 const std::vector<fem::RigidPlane> &planes, const std::vector<Eigen::Vector3d> &rest,
                 const std::vector<long long> &node_tags, const Eigen::Vector3d &c0,
-                std::vector<std::vector<Eigen::Vector3d>> *x = nullptr)
+                std::vector<std::vector<Eigen::Vector3d>> *x = nullptr,
+                const SurfaceTransfer *transfer = nullptr)
     {
       std::vector<Eigen::Vector3d> impulse = sample_at_tau(r, M, tau);
       const unsigned               n       = static_cast<unsigned>(impulse.size() - 1);
       Samples                      s(n);
       s.impulse = std::move(impulse);
       std::map<long long, unsigned> at;
-      for (unsigned i = 0; i < r.surface.node_tags.size(); ++i)
+      for (unsigned i = 0; !transfer && i < r.surface.node_tags.size(); ++i)
         at[r.surface.node_tags[i]] = i;
       std::vector<Eigen::Vector3d> xs(rest.size());
       if (x)
@@ -94,12 +98,19 @@ namespace irdm::validation::free_body
           for (const auto &pl : planes)
             s.force[step] += vec(r.plane_force.at(pl.name)[step]);
           s.com[step] = c0 + vec(r.center_of_mass_displacement[step]);
-          for (size_t v = 0; v < rest.size(); ++v)
+          if (transfer)
             {
-              const unsigned j = at.at(node_tags[v]);
-              for (int d = 0; d < 3; ++d)
-                xs[v](d) = rest[v](d) + r.surface_displacement[step][3 * j + d];
+              const std::vector<double> u = transferred(*transfer, r.surface_displacement[step]);
+              for (size_t v = 0; v < rest.size(); ++v)
+                xs[v] = rest[v] + Eigen::Vector3d(u[3 * v], u[3 * v + 1], u[3 * v + 2]);
             }
+          else
+            for (size_t v = 0; v < rest.size(); ++v)
+              {
+                const unsigned j = at.at(node_tags[v]);
+                for (int d = 0; d < 3; ++d)
+                  xs[v](d) = rest[v](d) + r.surface_displacement[step][3 * j + d];
+              }
           s.fit[step] = best_rigid_fit(rest, xs);
           if (x)
             (*x)[step] = xs;
@@ -453,12 +464,6 @@ namespace irdm::validation::free_body
       return fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0);
     }
 
-    std::string
-    converged_name(const FreeBodyValidationOptions &o)
-    {
-      return "fem_neo_hookean_p" + std::to_string(o.converged_degree);
-    }
-
     /// A run's samples against the converged truth, where it ran (linearization.csv).
     void
     against_converged(const Material &m, const CaseRun &c, const std::string &method,
@@ -466,14 +471,38 @@ namespace irdm::validation::free_body
     {
       if (!c.converged)
         return;
-      LinearizationRow row = linearization_row(m, c, method, converged_name(m.o).c_str());
+      LinearizationRow row = linearization_row(m, c, method, converged_truth_name(m.o).c_str());
       row.errors           = compare(*c.converged, run, m.c0, c.first_begin, c.first_end);
       study.linearization.push_back(row);
     }
 
+    /// The planes of scene s moved onto the body of another mesh: each by the two bodies'
+    /// difference in reach along its normal (the nearest vertex's n . X), so that a drop falls
+    /// the same height onto it.
+    void
+    planes_onto_mesh(fem::Scene &s, const std::string &mesh_file)
+    {
+      const fem::TetMesh from = fem::read_gmsh(s.mesh_file), to = fem::read_gmsh(mesh_file);
+      const auto reach = [](const fem::TetMesh &mesh, const Eigen::Vector3d &n) {
+        double h = INFINITY;
+        for (const auto &X : mesh.vertices)
+          h = std::min(h, n.dot(vec(X)));
+        return h;
+      };
+      for (fem::RigidPlane &plane : s.planes)
+        {
+          const Eigen::Vector3d n     = vec(plane.normal);
+          const double          shift = reach(to, n) - reach(from, n);
+          for (auto &point : plane.position.values)
+            for (int d = 0; d < 3; ++d)
+              point[d] += shift * n(d);
+        }
+      s.mesh_file = mesh_file;
+    }
+
     /// The converged truth (FreeBodyValidationOptions::converged_degree on the same mesh, so the
-    /// same surface vertices), and the P1 truth against it: the truth's own discretization
-    /// error.
+    /// same surface vertices, or on converged_mesh, read at the closest points), and the P1
+    /// truth against it: the truth's own discretization error.
     void
     run_converged_truth(const Material &m, CaseRun &c, FreeStudy &study, std::ostream &log)
     {
@@ -481,14 +510,32 @@ namespace irdm::validation::free_body
       if (o.converged_degree == 0 ||
           std::find(o.converged_cases.begin(), o.converged_cases.end(), c.k.name) == o.converged_cases.end())
         return;
+      const std::string name = converged_truth_name(o);
+      if (!o.converged_mesh.empty() && c.probed)
+        {
+          log << "  " << name << " not run: the probe's vertex is this mesh's" << std::endl;
+          return;
+        }
       fem::Scene s = c.s;
       s.fe_degree  = o.converged_degree;
-      log << "  the truth with P" << o.converged_degree << " elements (" << converged_name(o) << ")"
-          << std::endl;
-      LinearizationRow row = linearization_row(m, c, converged_name(o), "fem_neo_hookean");
+      log << "  the truth with P" << o.converged_degree << " elements (" << name << ")" << std::endl;
+      LinearizationRow row = linearization_row(m, c, name, "fem_neo_hookean");
       try
         {
-          c.converged = run_sampled(m, c, s, row.fem_ms);
+          if (!o.converged_mesh.empty())
+            planes_onto_mesh(s, o.converged_mesh);
+          const auto     t0 = Clock::now();
+          fem::RunResult r  = fem::NonlinearElasticity(s).run();
+          row.fem_ms        = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
+          std::optional<SurfaceTransfer> transfer;
+          if (!o.converged_mesh.empty())
+            {
+              transfer = surface_transfer(r.surface.coordinates, r.surface.triangles, m.rest);
+              log << "  its surface at most " << 1e3 * transfer->gap << " mm from the body's vertices"
+                  << std::endl;
+            }
+          c.converged = fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0, nullptr,
+                                    transfer ? &*transfer : nullptr);
           row.errors  = compare(*c.truth, *c.converged, m.c0, c.first_begin, c.first_end);
           log << "  the P1 truth against it: first contact: force " << row.errors.window_force
               << ", impulse " << row.errors.window_impulse << ", deformation "
@@ -496,7 +543,7 @@ namespace irdm::validation::free_body
         }
       catch (const std::exception &e)
         {
-          log << "  the P" << o.converged_degree << " truth failed: " << e.what() << std::endl;
+          log << "  the " << name << " truth failed: " << e.what() << std::endl;
           row.failed = e.what();
         }
       study.linearization.push_back(row);
@@ -1087,6 +1134,13 @@ namespace irdm::validation::free_body
     return e;
   }
 
+
+  std::string
+  converged_truth_name(const FreeBodyValidationOptions &o)
+  {
+    const std::string p = "fem_neo_hookean_p" + std::to_string(o.converged_degree);
+    return o.converged_mesh.empty() ? p : p + "_" + fs::path(o.converged_mesh).stem().string();
+  }
 
   void
   run_material(const FreeBodyValidationOptions &o, const std::string &base_text, const double E,

@@ -98,6 +98,11 @@ namespace irdm::validation::free_body
   compare(const Samples &reference, const Samples &run, const Eigen::Vector3d &c0,
           unsigned window_begin, unsigned window_end);
 
+  /// The converged truth's method name: fem_neo_hookean_p<degree>, with _<mesh file stem> on a
+  /// finer mesh (FreeBodyValidationOptions::converged_mesh).
+  std::string
+  converged_truth_name(const FreeBodyValidationOptions &o);
+
   /// One row of free.csv and first_contact.csv: a case, material and method.
   struct Row
   {

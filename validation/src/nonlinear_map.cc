@@ -247,16 +247,18 @@ namespace irdm::validation::nonlinear
       if (r.fem_failed.empty()) // no truth, no error to map (the log says why)
         rows.push_back(row_of(r.c, r.E, r.method, p1_truth, r.first_force_error,
                               r.first_impulse_error, r.first_deformation_error));
-    // The FEM laws against the P1 truth, and every run against the P2 truth where it ran (the
-    // P1 truth among them); not the runs against the linear FEM or the corotational one.
+    // The FEM laws against the P1 truth, and every run against the converged truth where it
+    // ran (the P1 truth among them); not the runs against the linear FEM or the corotational
+    // one.
+    const std::string converged = free_body::converged_truth_name(fo);
     for (const LinearizationRow &l : study.linearization)
       if ((l.reference == "fem_neo_hookean" && l.method.rfind("fem_", 0) == 0 &&
-           l.method != p2_truth) ||
-          l.reference == p2_truth)
+           l.method != converged) ||
+          l.reference == converged)
         {
           const RunErrors &e  = l.errors;
           const double     no = l.failed.empty() ? 1 : NAN; // a failed run has no error
-          rows.push_back(row_of(l.c, l.E, l.method, l.reference == p2_truth ? p2_truth : p1_truth,
+          rows.push_back(row_of(l.c, l.E, l.method, l.reference == converged ? converged.c_str() : p1_truth,
                                 no * e.window_force, no * e.window_impulse,
                                 no * e.window_deformation));
           rows.back().stable = rows.back().stable && l.failed.empty();

@@ -42,7 +42,7 @@ namespace irdm::validation::nonlinear
   };
 
   inline constexpr const char *p1_truth = "fem_neo_hookean_p1";
-  inline constexpr const char *p2_truth = "fem_neo_hookean_p2";
+  inline constexpr const char *p2_truth = "fem_neo_hookean_p2"; // the same mesh's
 
   /// How far a truth is from the converged body: 0 the P1 truth, 1 a higher degree on the same
   /// mesh (fem_neo_hookean_p<d>), 2 another mesh (fem_neo_hookean_p<d>_<mesh>). Each case is

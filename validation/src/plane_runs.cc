@@ -2,6 +2,7 @@
 // method, the device-held plate, and the orientation mapping's diagnosis.
 #include "plane_runs.h"
 #include "metrics.h"
+#include "surface_transfer.h"
 
 #include <irdm/point_interaction.h>
 #include <irdm_common/error.h>
@@ -283,32 +284,17 @@ namespace irdm::validation::planes
       s.mesh_file = mesh_file;
     }
 
-    /// A run's surface displacement at another surface's vertices: each vertex takes that of the
-    /// run's surface point closest to it (barycentric on its triangle). `gap` returns the
-    /// largest distance from a vertex to the run's surface (m): the two faceted bodies'.
+    /// A run's surface displacement at another surface's vertices (surface_transfer.h). `gap`
+    /// returns the largest distance from a vertex to the run's surface (m): the two faceted
+    /// bodies'.
     std::vector<std::vector<double>>
     on_vertices(const fem::SurfaceMesh &to, const fem::RunResult &r, double &gap)
     {
-      struct Weights
-      {
-        std::array<unsigned, 3> v;
-        std::array<double, 3>   w;
-      };
-      std::vector<Weights> at;
-      gap = 0;
-      for (const Vec3 &x : to.coordinates)
-        {
-          const auto p = geometry::closest_point(r.surface.coordinates, r.surface.triangles, x);
-          at.push_back({r.surface.triangles[p.triangle], p.weights});
-          gap = std::max(gap, std::sqrt(p.distance_squared));
-        }
-      std::vector<std::vector<double>> u(r.surface_displacement.size(),
-                                         std::vector<double>(3 * at.size(), 0.0));
-      for (size_t k = 0; k < u.size(); ++k)
-        for (size_t i = 0; i < at.size(); ++i)
-          for (int j = 0; j < 3; ++j)
-            for (int a = 0; a < 3; ++a)
-              u[k][3 * i + a] += at[i].w[j] * r.surface_displacement[k][3 * at[i].v[j] + a];
+      const SurfaceTransfer t = surface_transfer(r.surface.coordinates, r.surface.triangles, to.coordinates);
+      gap                     = t.gap;
+      std::vector<std::vector<double>> u;
+      for (const auto &step : r.surface_displacement)
+        u.push_back(transferred(t, step));
       return u;
     }
 

@@ -79,6 +79,12 @@ namespace irdm::validation
     // fem_neo_hookean_p<degree>).
     unsigned                 converged_degree = 2;
     std::vector<std::string> converged_cases  = {"drop_2cm"};
+    // A finer mesh of the same body for that converged truth (empty: the same mesh): each
+    // plane moved by the two bodies' difference in reach along its normal, as the grounded
+    // family's walls are, and its surface read at the closest point to each of the body's
+    // surface vertices (reference fem_neo_hookean_p<degree>_<mesh file stem>). Cases without a
+    // probe (the probe's vertex is the coarse mesh's).
+    std::string              converged_mesh;
     // The modal routes take the spin's centrifugal force into the deformation
     // (FreeBodyOptions::centrifugal); false: left out, as the virtual DOFs leave it. Off by
     // default: on the cat's roll it changed no figure at 50 kPa and made 2 kPa worse (README.md)

@@ -1,0 +1,47 @@
+#pragma once
+// Internal to validation/: a run's surface displacement read at the vertices of another
+// surface of the same body (a finer mesh's truth at the methods' surface vertices). Each vertex
+// takes the displacement of the run's surface point closest to it, barycentric on its triangle.
+#include <irdm_common/geometry.h>
+
+#include <array>
+#include <cmath>
+#include <vector>
+
+namespace irdm::validation
+{
+  struct SurfaceTransfer
+  {
+    std::vector<std::array<unsigned, 3>> vertices; // of the run's surface, per target vertex
+    std::vector<std::array<double, 3>>   weights;
+    double gap = 0; // m: the largest distance from a target vertex to the run's surface
+  };
+
+  /// From the run's surface (rest coordinates, outward triangles) to the points `to` (rest, m).
+  template <typename Vertices, typename Triangles, typename Points>
+  SurfaceTransfer
+  surface_transfer(const Vertices &from, const Triangles &triangles, const Points &to)
+  {
+    SurfaceTransfer t;
+    for (const auto &x : to)
+      {
+        const auto p = geometry::closest_point(from, triangles, geometry::Point{x[0], x[1], x[2]});
+        t.vertices.push_back(triangles[p.triangle]);
+        t.weights.push_back(p.weights);
+        t.gap = std::max(t.gap, std::sqrt(p.distance_squared));
+      }
+    return t;
+  }
+
+  /// The run's displacement (3 per surface vertex) at the target vertices (3 per vertex).
+  inline std::vector<double>
+  transferred(const SurfaceTransfer &t, const std::vector<double> &u)
+  {
+    std::vector<double> v(3 * t.vertices.size(), 0.0);
+    for (size_t i = 0; i < t.vertices.size(); ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int a = 0; a < 3; ++a)
+          v[3 * i + a] += t.weights[i][j] * u[3 * t.vertices[i][j] + a];
+    return v;
+  }
+} // namespace irdm::validation
