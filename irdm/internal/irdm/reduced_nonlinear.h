@@ -12,7 +12,9 @@
 // with g = sum_e w_e U_e^T f_e(U_e q) the reduced internal force, g_d the objective damping
 // force the same way, g_c = U^T f_c the planes' penalty force, and a_1, v_1 Newmark's in q_1.
 // Newton's method with the reduced tangent (the damping's dependence on q left out, as the
-// FEM's symmetric part is), a backtracking line search on the residual norm. The body's part
+// FEM's symmetric part is), a backtracking line search on the residual norm (where it finds no
+// decrease: the tangent made fresh, then a full step, but never two running that raise the
+// residual, and a residual that is not finite never converged). The body's part
 // of the tangent (inertia, elasticity, damping: O(elements r^2), the step's dominant cost) is
 // kept from step to step and evaluated again only where an iteration reduces the residual by
 // less than a set ratio (a modified Newton method); the planes' part (O(contacts r^2)) is
