@@ -83,6 +83,12 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
                    " --model-dir " + tmp("vfm") + " --converged-degree 3"),
             2);
   EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --converged-degree 1"),
+            2); // P1 on the scene's own mesh: the truth itself
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --converged-mesh " + tmp("no_such.msh")),
+            2);
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
                    " --model-dir " + tmp("vfm") + " --converged-cases drop_3cm"),
             2);
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-degree 1"), 2);

@@ -37,6 +37,9 @@ namespace irdm::validation
         for (const unsigned M : o.fem_divisions)
           if (M == 0)
             throw InputError(command + ": --fem-divisions must be at least 1");
+        if (o.converged_degree == 1 && o.converged_mesh.empty() && !o.converged_cases.empty())
+          throw InputError(command + ": the converged truth with P1 elements on the scene's own mesh "
+                           "is the truth itself: give a finer mesh (--converged-mesh), or degree 2");
       }
     } // namespace
 
