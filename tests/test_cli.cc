@@ -89,6 +89,9 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
                    " --model-dir " + tmp("vfm") + " --converged-mesh " + tmp("no_such.msh")),
             2);
   EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --converged-mesh " IRDM_MESH_DIR "/beam_2.msh"),
+            2); // another body's mesh
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
                    " --model-dir " + tmp("vfm") + " --converged-cases drop_3cm"),
             2);
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-degree 1"), 2);

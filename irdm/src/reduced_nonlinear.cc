@@ -831,7 +831,7 @@ namespace irdm
     constexpr unsigned max_iterations = 30;
     for (; it < max_iterations && std::isfinite(r_norm); ++it)
       {
-        if (r_norm <= options_.tolerance * std::max(scale_, 1e-300))
+        if (r_norm <= options_.tolerance * std::max(scale_, 1e-300) && std::isfinite(scale_))
           {
             converged = true;
             break;

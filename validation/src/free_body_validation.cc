@@ -3,11 +3,15 @@
 // (free_body_runs.cc, free_body_stability.cc), and the report (free_body_report.cc).
 #include <irdm_common/error.h>
 #include <irdm_common/files.h>
+#include <reference_fem/mesh.h>
 #include <reference_fem/scene.h>
 #include <validation/free_body_validation.h>
 
 #include "free_body_runs.h"
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -21,6 +25,26 @@ namespace irdm::validation
   {
     namespace
     {
+      /// A finer mesh of the body must fill the same box (within 5 % of its diagonal): another
+      /// body, other units or another placement would give rows of nothing, read at points of
+      /// the wrong surface. Read before any run, so a bad file is refused at once.
+      void
+      check_same_body(const std::string &mesh_file, const std::string &other, const std::string &command)
+      {
+        const auto box = [](const fem::TetMesh &mesh) {
+          Eigen::AlignedBox3d b;
+          for (const auto &X : mesh.vertices)
+            b.extend(Eigen::Vector3d(X[0], X[1], X[2]));
+          return b;
+        };
+        const Eigen::AlignedBox3d a = box(fem::read_gmsh(mesh_file)), b = box(fem::read_gmsh(other));
+        const double              d = std::max((a.min() - b.min()).cwiseAbs().maxCoeff(),
+                                               (a.max() - b.max()).cwiseAbs().maxCoeff());
+        if (b.isEmpty() || d > 0.05 * a.diagonal().norm())
+          throw InputError(command + ": --converged-mesh '" + other + "' is not a mesh of the scene's "
+                           "body: its box is " + std::to_string(1e3 * d) + " mm from the body's");
+      }
+
       void
       check_options(const FreeBodyValidationOptions &o, const fem::Scene &base, const std::string &command)
       {
@@ -40,6 +64,8 @@ namespace irdm::validation
         if (o.converged_degree == 1 && o.converged_mesh.empty() && !o.converged_cases.empty())
           throw InputError(command + ": the converged truth with P1 elements on the scene's own mesh "
                            "is the truth itself: give a finer mesh (--converged-mesh), or degree 2");
+        if (!o.converged_mesh.empty())
+          check_same_body(base.mesh_file, o.converged_mesh, command);
       }
     } // namespace
 

@@ -2,8 +2,10 @@
 // Internal to validation/: a run's surface displacement read at the vertices of another
 // surface of the same body (a finer mesh's truth at the methods' surface vertices). Each vertex
 // takes the displacement of the run's surface point closest to it, barycentric on its triangle.
+#include <irdm_common/error.h>
 #include <irdm_common/geometry.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
@@ -23,6 +25,8 @@ namespace irdm::validation
   surface_transfer(const Vertices &from, const Triangles &triangles, const Points &to)
   {
     SurfaceTransfer t;
+    if (triangles.size() == 0)
+      throw InputError("surface transfer: the run has no surface");
     for (const auto &x : to)
       {
         const auto p = geometry::closest_point(from, triangles, geometry::Point{x[0], x[1], x[2]});
