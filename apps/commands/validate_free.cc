@@ -20,7 +20,9 @@ namespace irdm::cli
       app.add_flag("--truth-check", o.truth_check,
                               "also run the FEM at half its step (tau / 2M) and compare it with "
                               "the FEM at tau / M by the same measures (truth.csv): how well the "
-                              "truth itself is determined; triples the FEM's time");
+                              "truth itself is determined; triples the FEM's time. The linear FEM "
+                              "too (linearization.csv, method <linear FEM>_half_step): how well "
+                              "the method's reference is");
       app.add_flag("--sensitivity", o.sensitivity,
                               "also run the linear FEM with the floor 1 um lower and compare it with "
                               "the linear FEM by the same measures (linearization.csv, method "
