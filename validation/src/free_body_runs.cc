@@ -586,6 +586,24 @@ namespace irdm::validation::free_body
       study.linearization.push_back(row);
     }
 
+    /// One step of a run in series.csv (not for the impact study's cases).
+    void
+    series_row(FreeStudy &study, const Material &m, const CaseRun &c, const std::string &method,
+               const unsigned step, const Samples &run)
+    {
+      if (c.k.in_study())
+        return;
+      const RigidFit &ff = c.truth->fit[step], &fi = run.fit[step];
+      double          d2 = 0, dd2 = 0;
+      for (size_t v = 0; v < m.rest.size(); ++v)
+        d2 += ff.deformation[v].squaredNorm(), dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
+      study.series << c.k.name << ',' << material_name(m.E) << ',' << method << ',' << step * m.tau
+                   << ',' << c.truth->force[step].dot(c.k.up) << ',' << run.force[step].dot(c.k.up)
+                   << ',' << c.truth->com[step](2) << ',' << run.com[step](2) << ','
+                   << angle_deg(ff.rotation) << ',' << angle_deg(fi.rotation) << ','
+                   << std::sqrt(d2 / m.rest.size()) << ',' << std::sqrt(dd2 / m.rest.size()) << '\n';
+    }
+
     /// The linear FEM `lin` at half its step against itself, at tau's sample times (with
     /// --truth-check): how well the method's reference is determined by its step. A method's
     /// error against the linear FEM below this is not resolved by the step.
@@ -640,6 +658,9 @@ namespace irdm::validation::free_body
         {
           c.small_strain = run_sampled(m, c, lin, row.fem_ms);
           row.errors     = compare(*c.truth, *c.small_strain, m.c0, c.first_begin, c.first_end);
+          // Its path in series.csv too, so that a method's departure from it can be timed.
+          for (unsigned step = 1; step <= c.n; ++step)
+            series_row(study, m, c, linear_fem_name(o), step, *c.small_strain);
           against_converged(m, c, linear_fem_name(o), *c.small_strain, study);
           log << "  the linear FEM against the truth: first contact: force "
               << row.errors.window_force << ", impulse " << row.errors.window_impulse
@@ -708,24 +729,6 @@ namespace irdm::validation::free_body
         study.frames << c.k.name << ',' << material_name(m.E) << ',' << method << ','
                      << step * m.tau << ',' << v << ',' << x[v](0) << ',' << x[v](1) << ','
                      << x[v](2) << '\n';
-    }
-
-    /// One step of a run in series.csv (not for the impact study's cases).
-    void
-    series_row(FreeStudy &study, const Material &m, const CaseRun &c, const std::string &method,
-               const unsigned step, const Samples &run)
-    {
-      if (c.k.in_study())
-        return;
-      const RigidFit &ff = c.truth->fit[step], &fi = run.fit[step];
-      double          d2 = 0, dd2 = 0;
-      for (size_t v = 0; v < m.rest.size(); ++v)
-        d2 += ff.deformation[v].squaredNorm(), dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
-      study.series << c.k.name << ',' << material_name(m.E) << ',' << method << ',' << step * m.tau
-                   << ',' << c.truth->force[step].dot(c.k.up) << ',' << run.force[step].dot(c.k.up)
-                   << ',' << c.truth->com[step](2) << ',' << run.com[step](2) << ','
-                   << angle_deg(ff.rotation) << ',' << angle_deg(fi.rotation) << ','
-                   << std::sqrt(d2 / m.rest.size()) << ',' << std::sqrt(dd2 / m.rest.size()) << '\n';
     }
 
     /// A run's errors into its row: against the truth (whole run and first contact), the
