@@ -116,6 +116,20 @@ def free_frame_headline(folder):
             f"body-frame linear FEM, force {span(force)}, deformation {span(deformation)}")
 
 
+def free_step_headline(folder):
+    def first_force(step, method):
+        path = os.path.join(folder, "check", f"tau_{step}", "linearization.csv")
+        for r in rows(path):
+            if r["case"] == "drop_2cm" and r["method"] == method:
+                return pct(float(r["first_force_error"]))
+        return "-"
+    steps = ["2ms", "0.5ms", "0.125ms"]
+    method = " / ".join(first_force(t, "route2_modal") for t in steps)
+    own = " / ".join(first_force(t, "fem_linear_body_frame_half_step") for t in steps)
+    return (f"2 cm drop, first contact, floor force at 2 / 0.5 / 0.125 ms: route 2 against the "
+            f"body-frame linear FEM {method}; that FEM against itself at half the step {own}")
+
+
 def nonlinear_headline(folder):
     limits = [r for r in rows(os.path.join(folder, "limits.csv"))
               if r["truth"] == "fem_neo_hookean_p1" and r["measure"] == "shape"
@@ -290,6 +304,10 @@ STUDIES = [
      RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/impulse_response*",
                 "validation/src/free_body_*", "validation/src/metrics.h",
                 "validation/templates/free.md"]),
+    ("Free bodies: the time step against what it resolves (50 kPa)", "free-step/README.md", None,
+     free_step_headline,
+     RUNTIME + ["reference_fem/src/nonlinear*", "validation/src/free_body_*",
+                "validation/step_study.py"]),
     ("Where each method holds, against the size of the load (main job: grounded, 5 cases)",
      "quick/nonlinear/nonlinear.md", "quick/nonlinear/map_p1.png", nonlinear_headline,
      PLANES + ["validation/src/nonlinear_*", "validation/templates/nonlinear.md"]),

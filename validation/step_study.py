@@ -4,7 +4,8 @@ FEM at each step, beside that FEM's own change with its step.
 
 Usage: step_study.py TAU_MS=DIR [TAU_MS=DIR ...] [--method route2_modal]
 
-Each DIR is an `irdm validate-free --truth-check` output folder (DIR/free/linearization.csv)
+Each DIR is an `irdm validate-free --truth-check` output folder (DIR/free/linearization.csv,
+or DIR/linearization.csv as reports/free-step keeps them)
 whose scene runs at TAU_MS milliseconds. Prints, per case, one Markdown row per step: the
 method's error against the linear FEM at that step (over the first contact and the whole run)
 and the linear FEM at half the step against itself (`<linear FEM>_half_step`): where the first
@@ -23,6 +24,8 @@ WHOLE = [("com_error", "com"), ("angle_error_deg", "angle (deg)"), ("force_error
 
 def rows_of(folder):
     path = os.path.join(folder, "free", "linearization.csv")
+    if not os.path.exists(path):  # a report's copy: the CSVs in the folder itself
+        path = os.path.join(folder, "linearization.csv")
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
 
