@@ -259,38 +259,42 @@ TEST(Cli, AFreeConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
       EXPECT_EQ(lin.at(against).at("first_deformation_error"), row.at("deformation_error")) << key;
       EXPECT_GT(row.at("deformation_error"), 0) << key;
     }
-  // The linear FEM at half its step against itself: another run (the impulse of the contact's
-  // first 38 ms differs by a few percent), at the same times (sampled at every second of its
-  // steps: its centre of mass within a hundredth of the path; read at every step instead,
-  // each sample would be half the elapsed time early, a third of the path or more off).
+  // The linear FEM at half its step against itself: another run (its contact differs), at the
+  // same times (sampled at every second of its steps: its centre of mass within a hundredth of
+  // the path; read at every step instead, each sample would be half the elapsed time early).
   const std::string half = "drop_2cm,50kPa,fem_linear_body_frame_half_step,fem_linear_body_frame";
   ASSERT_TRUE(lin.count(half));
   EXPECT_GT(lin.at(half).at("first_impulse_error"), 1e-9);
   EXPECT_LT(lin.at(half).at("first_impulse_error"), 0.1);
   EXPECT_GT(lin.at(half).at("com_error"), 0);
   EXPECT_LT(lin.at(half).at("com_error"), 0.01);
-  // The linear FEM's path in series.csv beside the truth's, a row a step: in free fall (before
-  // the contact at 0.062 s) both fall as Newmark integrates a constant force, exactly.
+  // The linear FEM's path in series.csv beside the truth's, a row a step: before the first
+  // contact both fall as Newmark integrates a constant force, alike to the printed digits;
+  // after it they are two laws and part (so these rows are the linear FEM's, not the truth's).
+  const double  contact = lin.at(half).at("start_s");
   std::ifstream in(out + "/free/series.csv");
   std::string   line;
-  int           linear_rows = 0, falling = 0;
+  int           linear_rows = 0, falling = 0, parted = 0;
   while (std::getline(in, line))
     if (line.rfind("drop_2cm,50kPa,fem_linear_body_frame,", 0) == 0)
       {
-        std::vector<double> v;
+        std::vector<double> v; // time_s .. deformation_difference_rms_m
         std::stringstream   ss(line.substr(line.find("frame,") + 6));
         for (std::string cell; std::getline(ss, cell, ',');)
           v.push_back(std::stod(cell));
-        ASSERT_EQ(v.size(), 9u) << line; // time_s .. deformation_difference_rms_m
+        ASSERT_EQ(v.size(), 9u) << line;
         ++linear_rows;
-        if (v[0] < 0.059)
+        if (v[0] < contact - 1e-9)
           {
             ++falling;
-            EXPECT_NEAR(v[4], v[3], 1e-12) << "centre of mass at " << v[0] << " s";
+            EXPECT_EQ(v[4], v[3]) << "centre of mass at " << v[0] << " s";
           }
+        else if (v[8] > 1e-3 * v[7])
+          ++parted;
       }
   EXPECT_EQ(linear_rows, 50); // 0.1 s at 2 ms
-  EXPECT_EQ(falling, 29);
+  EXPECT_GT(falling, 10);
+  EXPECT_GT(parted, 5);
 }
 
 TEST(Cli, CommandsThatAreNotParallelAreRefusedUnderMpirun)

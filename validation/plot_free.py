@@ -4,7 +4,8 @@
 Usage: /usr/bin/python3 validation/plot_free.py REPORT_DIR
 
 REPORT_DIR (reports/free) holds series.csv (case, material, method, time_s, fem_force_N,
-irdm_force_N, ..., fem_deformation_rms_m, deformation_difference_rms_m), frames.csv (case, material, method, time_s, vertex, x_m, y_m, z_m) and
+irdm_force_N, ..., fem_deformation_rms_m, deformation_difference_rms_m; on the rows of a linear
+FEM's method the irdm_ columns hold that FEM's path, which the charts leave out), frames.csv (case, material, method, time_s, vertex, x_m, y_m, z_m) and
 triangles.csv (a, b, c: surface triangles, vertex indices). Writes:
   fig6.png    the floor force along its normal against time for the rolling cat (spin_roll),
               the FEM and both IRDM routes, one panel per material (N, s);

@@ -120,7 +120,8 @@ def free_step_headline(folder):
     def first_force(step, method):
         path = os.path.join(folder, "check", f"tau_{step}", "linearization.csv")
         for r in rows(path):
-            if r["case"] == "drop_2cm" and r["method"] == method:
+            if (r["case"] == "drop_2cm" and r["method"] == method
+                    and r["reference"] == "fem_linear_body_frame"):
                 return pct(float(r["first_force_error"]))
         return "-"
     steps = ["2ms", "0.5ms", "0.125ms"]
