@@ -91,10 +91,21 @@ TEST(Cli, OptionsAreRefusedNotTruncated)
   EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
                    " --model-dir " + tmp("vfm") + " --converged-mesh " IRDM_MESH_DIR "/beam_2.msh"),
             2); // another body's mesh
+  // A mesh that checks the converged truth needs that truth, and must be of the same body.
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --converged-check-mesh " IRDM_MESH_DIR "/cat.msh"),
+            2);
+  EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
+                   " --model-dir " + tmp("vfm") + " --converged-mesh " IRDM_MESH_DIR
+                   "/cat.msh --converged-check-mesh " IRDM_MESH_DIR "/beam_2.msh"),
+            2);
   EXPECT_EQ(status(cli + " validate-free --scene " + free_scene + " --out " + tmp("vf") +
                    " --model-dir " + tmp("vfm") + " --converged-cases drop_3cm"),
             2);
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-degree 1"), 2);
+  EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-mesh " IRDM_MESH_DIR
+                   "/beam_2.msh"),
+            2); // another body's mesh (the scene's is the cat)
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --converged-cases press_top_3mm"), 2);
   // --cases: a name that is neither a case nor a kind; a converged case the choice leaves out.
   EXPECT_EQ(status(cli + " validate-planes --out " + tmp("vf") + " --cases press_top_3mm"), 2);
@@ -206,7 +217,9 @@ TEST(Cli, AConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
 // scene's own mesh: no plane moves and every surface vertex takes its own displacement, so the
 // truth is the P1 truth bit for bit: the P1 truth's row against it is zero, and each method's
 // row against it is its first-contact row against the P1 truth. The same run checks the linear
-// FEM at half its step (--truth-check): a run of its own, sampled at the same times.
+// FEM at half its step (--truth-check): a run of its own, sampled at the same times. The
+// converged truth's check on a coarser mesh (--converged-check-mesh), given the same mesh, is
+// that truth.
 TEST(Cli, AFreeConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
 {
   const std::string out = tmp("cli_fcm");
@@ -215,7 +228,8 @@ TEST(Cli, AFreeConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
                    "/../validation/scenes/free/free_cat.json --materials 50000 --cases drop_2cm "
                    "--duration 0.1 --vdof-subdivisions -1 --force-modes 0 --stability 0.002 "
                    "--truth-check --no-corotational --converged-cases drop_2cm --converged-mesh " IRDM_MESH_DIR
-                   "/cat.msh --model-dir " + tmp("cli_fcm_models") + " --out " + out),
+                   "/cat.msh --converged-check-mesh " IRDM_MESH_DIR "/cat.msh --model-dir " +
+                   tmp("cli_fcm_models") + " --out " + out),
             0);
   // Rows of a CSV by their first columns joined by ',' (case, material, method[, reference]).
   const auto rows = [](const std::string &file, const int key_columns) {
@@ -247,8 +261,16 @@ TEST(Cli, AFreeConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
   const std::string truth = "fem_neo_hookean_p1_cat";
   ASSERT_TRUE(lin.count("drop_2cm,50kPa," + truth + ",fem_neo_hookean"));
   const auto &self = lin.at("drop_2cm,50kPa," + truth + ",fem_neo_hookean");
+  // The check mesh's truth against the converged one: the same mesh, so the same run, bit for
+  // bit (a check run of another scene, step or degree would differ).
+  const std::string check = "drop_2cm,50kPa," + truth + "," + truth;
+  ASSERT_TRUE(lin.count(check));
   for (const char *e : {"first_force_error", "first_impulse_error", "first_deformation_error", "com_error", "force_error", "deformation_error"})
-    EXPECT_EQ(self.at(e), 0) << e;
+    {
+      EXPECT_EQ(self.at(e), 0) << e;
+      EXPECT_EQ(lin.at(check).at(e), 0) << e;
+    }
+  EXPECT_GT(lin.at(check).at("fem_ms_per_step"), 0);
   ASSERT_GE(first.size(), 2u);
   for (const auto &[key, row] : first)
     {

@@ -61,6 +61,13 @@ namespace irdm::cli
                                 "bodies' difference in reach, its surface read at the closest point "
                                 "to each surface vertex; cases without a probe")
         ->check(CLI::ExistingFile);
+      app.add_option("--converged-check-mesh", o.converged_check_meshes,
+                                "other meshes of the body (coarser than --converged-mesh): the "
+                                "truth again on each, as on --converged-mesh, and scored against "
+                                "that truth (linearization.csv, method "
+                                "fem_neo_hookean_p<degree>_<mesh>, reference the converged "
+                                "truth): whether the converged truth is converged")
+        ->check(CLI::ExistingFile);
       app.add_option("--converged-cases", o.converged_cases,
                                 "the cases of --converged-degree (every material of the run)")
         ->capture_default_str()

@@ -266,6 +266,10 @@ namespace irdm::validation::free_body
             c << ' ' << name;
           if (!o.converged_mesh.empty())
             c << " --converged-mesh " << o.converged_mesh;
+          if (!o.converged_check_meshes.empty())
+            c << " --converged-check-mesh";
+          for (const auto &mesh : o.converged_check_meshes)
+            c << ' ' << mesh;
         }
       return c.str();
     }

@@ -447,6 +447,15 @@ namespace irdm::validation::free_body
       return row;
     }
 
+    /// The nonlinear FEM's method name at P<degree>: fem_neo_hookean_p<degree>, with
+    /// _<mesh file stem> on another mesh than the scene's (empty).
+    std::string
+    truth_name(const unsigned degree, const std::string &mesh_file)
+    {
+      const std::string p = "fem_neo_hookean_p" + std::to_string(degree);
+      return mesh_file.empty() ? p : p + "_" + fs::path(mesh_file).stem().string();
+    }
+
     const char *
     linear_fem_name(const FreeBodyValidationOptions &o)
     {
@@ -502,9 +511,35 @@ namespace irdm::validation::free_body
       s.mesh_file = mesh_file;
     }
 
-    /// The converged truth (FreeBodyValidationOptions::converged_degree on the same mesh, so the
-    /// same surface vertices, or on converged_mesh, read at the closest points), and the P1
-    /// truth against it: the truth's own discretization error.
+    /// The nonlinear FEM of case c with P<converged_degree> elements on mesh_file (empty: the
+    /// scene's own mesh, so the same surface vertices; else read at the closest points), sampled
+    /// as the truth is; ms: its cost per step of tau.
+    Samples
+    truth_on_mesh(const Material &m, const CaseRun &c, const std::string &mesh_file, double &ms,
+                  std::ostream &log)
+    {
+      fem::Scene s = c.s;
+      s.fe_degree  = m.o.converged_degree;
+      if (!mesh_file.empty())
+        planes_onto_mesh(s, mesh_file);
+      const auto     t0 = Clock::now();
+      fem::RunResult r  = fem::NonlinearElasticity(s).run();
+      ms = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
+      std::optional<SurfaceTransfer> transfer;
+      if (!mesh_file.empty())
+        {
+          transfer = surface_transfer(r.surface.coordinates, r.surface.triangles, m.rest);
+          log << "  its surface at most " << 1e3 * transfer->gap << " mm from the body's vertices"
+              << std::endl;
+        }
+      return fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0, nullptr,
+                         transfer ? &*transfer : nullptr);
+    }
+
+    /// The converged truth (FreeBodyValidationOptions::converged_degree on the same mesh or on
+    /// converged_mesh), and the P1 truth against it: the truth's own discretization error. Then
+    /// each converged_check_meshes' truth against it: how far the converged truth is from the
+    /// next coarser ones, so whether it is converged.
     void
     run_converged_truth(const Material &m, CaseRun &c, FreeStudy &study, std::ostream &log)
     {
@@ -518,26 +553,11 @@ namespace irdm::validation::free_body
           log << "  " << name << " not run: the probe's vertex is this mesh's" << std::endl;
           return;
         }
-      fem::Scene s = c.s;
-      s.fe_degree  = o.converged_degree;
       log << "  the truth with P" << o.converged_degree << " elements (" << name << ")" << std::endl;
       LinearizationRow row = linearization_row(m, c, name, "fem_neo_hookean");
       try
         {
-          if (!o.converged_mesh.empty())
-            planes_onto_mesh(s, o.converged_mesh);
-          const auto     t0 = Clock::now();
-          fem::RunResult r  = fem::NonlinearElasticity(s).run();
-          row.fem_ms        = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / c.n;
-          std::optional<SurfaceTransfer> transfer;
-          if (!o.converged_mesh.empty())
-            {
-              transfer = surface_transfer(r.surface.coordinates, r.surface.triangles, m.rest);
-              log << "  its surface at most " << 1e3 * transfer->gap << " mm from the body's vertices"
-                  << std::endl;
-            }
-          c.converged = fem_samples(r, m.M, m.tau, c.planes, m.rest, m.node_tags, m.c0, nullptr,
-                                    transfer ? &*transfer : nullptr);
+          c.converged = truth_on_mesh(m, c, o.converged_mesh, row.fem_ms, log);
           row.errors  = compare(*c.truth, *c.converged, m.c0, c.first_begin, c.first_end);
           const RunErrors p1 = compare(*c.converged, *c.truth, m.c0, c.first_begin, c.first_end);
           log << "  the P1 truth against it: first contact: force " << p1.window_force
@@ -551,6 +571,28 @@ namespace irdm::validation::free_body
         }
       study.linearization.push_back(row);
       against_converged(m, c, "fem_neo_hookean", *c.truth, study);
+      for (const std::string &mesh : c.converged ? o.converged_check_meshes : std::vector<std::string>{})
+        {
+          const std::string check = truth_name(o.converged_degree, mesh);
+          log << "  the truth with P" << o.converged_degree << " elements (" << check
+              << ") against " << name << std::endl;
+          LinearizationRow r = linearization_row(m, c, check, name.c_str());
+          try
+            {
+              const Samples   s = truth_on_mesh(m, c, mesh, r.fem_ms, log);
+              const RunErrors e = compare(*c.converged, s, m.c0, c.first_begin, c.first_end);
+              r.errors          = e;
+              log << "  first contact: force " << e.window_force << ", impulse "
+                  << e.window_impulse << ", deformation " << e.window_deformation << "; "
+                  << r.fem_ms << " ms/step" << std::endl;
+            }
+          catch (const std::exception &e)
+            {
+              log << "  the " << check << " truth failed: " << e.what() << std::endl;
+              r.failed = e.what();
+            }
+          study.linearization.push_back(r);
+        }
     }
 
     /// The linear FEM `lin` again with the floor `um` micrometres lower (the body starts that
@@ -1175,8 +1217,7 @@ namespace irdm::validation::free_body
   std::string
   converged_truth_name(const FreeBodyValidationOptions &o)
   {
-    const std::string p = "fem_neo_hookean_p" + std::to_string(o.converged_degree);
-    return o.converged_mesh.empty() ? p : p + "_" + fs::path(o.converged_mesh).stem().string();
+    return truth_name(o.converged_degree, o.converged_mesh);
   }
 
   void

@@ -9,7 +9,7 @@
 
 #include "free_body_runs.h"
 
-#include <Eigen/Geometry>
+#include "surface_transfer.h"
 
 #include <algorithm>
 #include <cstdlib>
@@ -25,24 +25,13 @@ namespace irdm::validation
   {
     namespace
     {
-      /// A finer mesh of the body must fill the same box (within 5 % of its diagonal): another
-      /// body, other units or another placement would give rows of nothing, read at points of
-      /// the wrong surface. Read before any run, so a bad file is refused at once.
+      /// Another mesh of the body (--converged-mesh, --converged-check-mesh): read before any
+      /// run, so a bad file is refused at once.
       void
       check_same_body(const std::string &mesh_file, const std::string &other, const std::string &command)
       {
-        const auto box = [](const fem::TetMesh &mesh) {
-          Eigen::AlignedBox3d b;
-          for (const auto &X : mesh.vertices)
-            b.extend(Eigen::Vector3d(X[0], X[1], X[2]));
-          return b;
-        };
-        const Eigen::AlignedBox3d a = box(fem::read_gmsh(mesh_file)), b = box(fem::read_gmsh(other));
-        const double              d = std::max((a.min() - b.min()).cwiseAbs().maxCoeff(),
-                                               (a.max() - b.max()).cwiseAbs().maxCoeff());
-        if (b.isEmpty() || d > 0.05 * a.diagonal().norm())
-          throw InputError(command + ": --converged-mesh '" + other + "' is not a mesh of the scene's "
-                           "body: its box is " + std::to_string(1e3 * d) + " mm from the body's");
+        irdm::validation::check_same_body(fem::read_gmsh(mesh_file).vertices, fem::read_gmsh(other).vertices,
+                                    command + ": '" + other + "'");
       }
 
       void
@@ -66,6 +55,11 @@ namespace irdm::validation
                            "is the truth itself: give a finer mesh (--converged-mesh), or degree 2");
         if (!o.converged_mesh.empty())
           check_same_body(base.mesh_file, o.converged_mesh, command);
+        if (!o.converged_check_meshes.empty() && (o.converged_mesh.empty() || o.converged_degree == 0))
+          throw InputError(command + ": --converged-check-mesh checks the truth on --converged-mesh: "
+                           "give that mesh too");
+        for (const std::string &mesh : o.converged_check_meshes)
+          check_same_body(base.mesh_file, mesh, command);
       }
     } // namespace
 

@@ -742,7 +742,10 @@ namespace irdm::validation::planes
   {
     if (!o.converged_mesh.empty() && o.converged_degree > 0 && !o.converged_cases.empty())
       {
-        if (free_surface_vertices(fem::read_gmsh(o.converged_mesh), body.fixed_surfaces).empty())
+        const fem::TetMesh finer = fem::read_gmsh(o.converged_mesh);
+        check_same_body(fem::read_gmsh(body.mesh_file).vertices, finer.vertices,
+                        "--converged-mesh '" + o.converged_mesh + "'");
+        if (free_surface_vertices(finer, body.fixed_surfaces).empty())
           throw InputError("--converged-mesh '" + o.converged_mesh + "' has no free surface");
       }
     else if (o.converged_degree == 1 && !o.converged_cases.empty())

@@ -8,10 +8,37 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace irdm::validation
 {
+  /// A finer mesh of the body must fill the body's box (within 5 % of its diagonal): another
+  /// body, other units or another placement would give rows of nothing, read at points of the
+  /// wrong surface. `what` names the other mesh in the error.
+  template <typename Vertices>
+  void
+  check_same_body(const Vertices &body, const Vertices &other, const std::string &what)
+  {
+    const auto box = [](const Vertices &vertices) {
+      std::array<double, 6> b{INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+      for (const auto &x : vertices)
+        for (int d = 0; d < 3; ++d)
+          b[d] = std::min(b[d], double(x[d])), b[3 + d] = std::max(b[3 + d], double(x[d]));
+      return b;
+    };
+    const auto a = box(body), b = box(other);
+    double     gap = 0, diagonal = 0;
+    for (int d = 0; d < 3; ++d)
+      {
+        gap = std::max({gap, std::abs(a[d] - b[d]), std::abs(a[3 + d] - b[3 + d])});
+        diagonal += (a[3 + d] - a[d]) * (a[3 + d] - a[d]);
+      }
+    if (other.empty() || !(gap <= 0.05 * std::sqrt(diagonal)))
+      throw InputError(what + " is not a mesh of the scene's body: its box is " +
+                       std::to_string(1e3 * gap) + " mm from the body's");
+  }
+
   struct SurfaceTransfer
   {
     std::vector<std::array<unsigned, 3>> vertices; // of the run's surface, per target vertex

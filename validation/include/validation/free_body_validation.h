@@ -85,6 +85,11 @@ namespace irdm::validation
     // surface vertices (reference fem_neo_hookean_p<degree>_<mesh file stem>). Cases without a
     // probe (the probe's vertex is the coarse mesh's).
     std::string              converged_mesh;
+    // Coarser meshes of the same body than converged_mesh (or any others), each one's truth
+    // run as the converged truth is and scored against it (linearization.csv, method
+    // fem_neo_hookean_p<degree>_<mesh> against the converged truth): whether that truth is
+    // converged, measured rather than assumed. Needs converged_mesh.
+    std::vector<std::string> converged_check_meshes;
     // The modal routes take the spin's centrifugal force into the deformation
     // (FreeBodyOptions::centrifugal); false: left out, as the virtual DOFs leave it. Off by
     // default: on the cat's roll it changed no figure at 50 kPa and made 2 kPa worse (README.md)
