@@ -315,6 +315,17 @@ TEST(Cli, AFreeConvergedTruthOnTheScenesOwnMeshIsTheTruthItself)
           ++parted;
       }
   EXPECT_EQ(linear_rows, 50); // 0.1 s at 2 ms
+  // The converged truth's and its check's paths too (here both the truth itself: no difference).
+  in.clear();
+  in.seekg(0);
+  int converged_rows = 0;
+  while (std::getline(in, line))
+    if (line.rfind("drop_2cm,50kPa," + truth + ",", 0) == 0)
+      {
+        ++converged_rows;
+        EXPECT_EQ(line.substr(line.rfind(',') + 1), "0") << line;
+      }
+  EXPECT_EQ(converged_rows, 100);
   EXPECT_GT(falling, 10);
   EXPECT_GT(parted, 5);
 }

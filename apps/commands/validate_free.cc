@@ -102,7 +102,7 @@ namespace irdm::cli
       "case, material and method), first_contact.csv (the same measures over the first "
       "contact alone), truth_strain.csv (the truth's largest strain), truth.csv (with --truth-check), linearization.csv (the linear "
       "FEM against the truth, the runtime against the linear FEM), series.csv (forces, heights, angles and "
-      "deformation against time, each method's and the linear FEM's beside the truth's), "
+      "deformation against time, each method's, the linear FEM's and the finer truths' beside the truth's), "
       "frames.csv and triangles.csv (surfaces of the rolling cat), fig6.png, frames.png and "
       "report.md. Units SI.");
     validate_free->add_option("--scene", vfb->scene, "the free body")

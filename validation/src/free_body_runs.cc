@@ -447,15 +447,6 @@ namespace irdm::validation::free_body
       return row;
     }
 
-    /// The nonlinear FEM's method name at P<degree>: fem_neo_hookean_p<degree>, with
-    /// _<mesh file stem> on another mesh than the scene's (empty).
-    std::string
-    truth_name(const unsigned degree, const std::string &mesh_file)
-    {
-      const std::string p = "fem_neo_hookean_p" + std::to_string(degree);
-      return mesh_file.empty() ? p : p + "_" + fs::path(mesh_file).stem().string();
-    }
-
     const char *
     linear_fem_name(const FreeBodyValidationOptions &o)
     {
@@ -511,6 +502,24 @@ namespace irdm::validation::free_body
       s.mesh_file = mesh_file;
     }
 
+    /// One step of a run in series.csv (not for the impact study's cases).
+    void
+    series_row(FreeStudy &study, const Material &m, const CaseRun &c, const std::string &method,
+               const unsigned step, const Samples &run)
+    {
+      if (c.k.in_study())
+        return;
+      const RigidFit &ff = c.truth->fit[step], &fi = run.fit[step];
+      double          d2 = 0, dd2 = 0;
+      for (size_t v = 0; v < m.rest.size(); ++v)
+        d2 += ff.deformation[v].squaredNorm(), dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
+      study.series << c.k.name << ',' << material_name(m.E) << ',' << method << ',' << step * m.tau
+                   << ',' << c.truth->force[step].dot(c.k.up) << ',' << run.force[step].dot(c.k.up)
+                   << ',' << c.truth->com[step](2) << ',' << run.com[step](2) << ','
+                   << angle_deg(ff.rotation) << ',' << angle_deg(fi.rotation) << ','
+                   << std::sqrt(d2 / m.rest.size()) << ',' << std::sqrt(dd2 / m.rest.size()) << '\n';
+    }
+
     /// The nonlinear FEM of case c with P<converged_degree> elements on mesh_file (empty: the
     /// scene's own mesh, so the same surface vertices; else read at the closest points), sampled
     /// as the truth is; ms: its cost per step of tau.
@@ -558,6 +567,8 @@ namespace irdm::validation::free_body
       try
         {
           c.converged = truth_on_mesh(m, c, o.converged_mesh, row.fem_ms, log);
+          for (unsigned step = 1; step <= c.n; ++step)
+            series_row(study, m, c, name, step, *c.converged);
           row.errors  = compare(*c.truth, *c.converged, m.c0, c.first_begin, c.first_end);
           const RunErrors p1 = compare(*c.converged, *c.truth, m.c0, c.first_begin, c.first_end);
           log << "  the P1 truth against it: first contact: force " << p1.window_force
@@ -579,7 +590,9 @@ namespace irdm::validation::free_body
           LinearizationRow r = linearization_row(m, c, check, name.c_str());
           try
             {
-              const Samples   s = truth_on_mesh(m, c, mesh, r.fem_ms, log);
+              const Samples s = truth_on_mesh(m, c, mesh, r.fem_ms, log);
+              for (unsigned step = 1; step <= c.n; ++step)
+                series_row(study, m, c, check, step, s);
               const RunErrors e = compare(*c.converged, s, m.c0, c.first_begin, c.first_end);
               r.errors          = e;
               log << "  first contact: force " << e.window_force << ", impulse "
@@ -628,24 +641,6 @@ namespace irdm::validation::free_body
           row.failed = e.what();
         }
       study.linearization.push_back(row);
-    }
-
-    /// One step of a run in series.csv (not for the impact study's cases).
-    void
-    series_row(FreeStudy &study, const Material &m, const CaseRun &c, const std::string &method,
-               const unsigned step, const Samples &run)
-    {
-      if (c.k.in_study())
-        return;
-      const RigidFit &ff = c.truth->fit[step], &fi = run.fit[step];
-      double          d2 = 0, dd2 = 0;
-      for (size_t v = 0; v < m.rest.size(); ++v)
-        d2 += ff.deformation[v].squaredNorm(), dd2 += (ff.deformation[v] - fi.deformation[v]).squaredNorm();
-      study.series << c.k.name << ',' << material_name(m.E) << ',' << method << ',' << step * m.tau
-                   << ',' << c.truth->force[step].dot(c.k.up) << ',' << run.force[step].dot(c.k.up)
-                   << ',' << c.truth->com[step](2) << ',' << run.com[step](2) << ','
-                   << angle_deg(ff.rotation) << ',' << angle_deg(fi.rotation) << ','
-                   << std::sqrt(d2 / m.rest.size()) << ',' << std::sqrt(dd2 / m.rest.size()) << '\n';
     }
 
     /// The linear FEM `lin` at half its step against itself, at tau's sample times (with

@@ -733,8 +733,7 @@ namespace irdm::validation::planes
   std::string
   converged_truth_name(const PlaneValidationOptions &o)
   {
-    const std::string p = "fem_neo_hookean_p" + std::to_string(o.converged_degree);
-    return o.converged_mesh.empty() ? p : p + "_" + fs::path(o.converged_mesh).stem().string();
+    return truth_name(o.converged_degree, o.converged_mesh);
   }
 
   PlaneModels

@@ -1,18 +1,29 @@
 #pragma once
-// Internal to validation/: a run's surface displacement read at the vertices of another
-// surface of the same body (a finer mesh's truth at the methods' surface vertices). Each vertex
-// takes the displacement of the run's surface point closest to it, barycentric on its triangle.
+// Internal to validation/: other meshes of the same body (a finer mesh's truth). A run's surface
+// displacement read at the vertices of another surface of the body (that truth at the methods'
+// surface vertices): each vertex takes the displacement of the run's surface point closest to
+// it, barycentric on its triangle.
 #include <irdm_common/error.h>
 #include <irdm_common/geometry.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 namespace irdm::validation
 {
+  /// The nonlinear FEM's method name at P<degree>: fem_neo_hookean_p<degree> on the scene's own
+  /// mesh (mesh_file empty), fem_neo_hookean_p<degree>_<mesh file stem> on another.
+  inline std::string
+  truth_name(const unsigned degree, const std::string &mesh_file)
+  {
+    const std::string p = "fem_neo_hookean_p" + std::to_string(degree);
+    return mesh_file.empty() ? p : p + "_" + std::filesystem::path(mesh_file).stem().string();
+  }
+
   /// A finer mesh of the body must fill the body's box (within 5 % of its diagonal): another
   /// body, other units or another placement would give rows of nothing, read at points of the
   /// wrong surface. `what` names the other mesh in the error.
