@@ -131,6 +131,21 @@ def free_step_headline(folder):
             f"body-frame linear FEM {method}; that FEM against itself at half the step {own}")
 
 
+def truth_convergence_headline(folder):
+    def against(run, method):
+        for r in rows(os.path.join(folder, run, "linearization.csv")):
+            if r["case"] == "drop_2cm" and r["method"] == method and r["reference"].startswith(
+                    "fem_neo_hookean_p1_"):
+                return (f"{pct(float(r['first_force_error']))} / "
+                        f"{pct(float(r['first_impulse_error']))} / "
+                        f"{pct(float(r['first_deformation_error']))}")
+        return "-"
+    return ("50 kPa 2 cm drop, first contact, force / impulse / deformation against the truth on "
+            f"cat_lc3.4mm: the truth on cat_fine {against('drop_2ms', 'fem_neo_hookean_p1_cat_fine')}, "
+            f"on cat_xfine {against('drop_2ms', 'fem_neo_hookean_p1_cat_xfine')}, on the P1 cat "
+            f"{against('drop_2ms', 'fem_neo_hookean')}")
+
+
 def nonlinear_headline(folder):
     limits = [r for r in rows(os.path.join(folder, "limits.csv"))
               if r["truth"] == "fem_neo_hookean_p1" and r["measure"] == "shape"
@@ -316,6 +331,10 @@ STUDIES = [
      "nonlinear/map_p1.png", nonlinear_headline,
      PLANES + ["validation/src/free_body_*", "validation/src/nonlinear_*",
                "validation/templates/nonlinear.md", "validation/templates/free.md"]),
+    ("Is the nonlinear truth converged? Three finer meshes of the cat", "nonlinear/mesh_convergence/README.md",
+     None, truth_convergence_headline,
+     ["reference_fem/src/nonlinear*", "validation/src/free_body_*", "validation/src/surface_transfer.h",
+      "meshes"]),
     ("Method and discretization error on the converged cat", "converged/report.md",
      "converged/converged.png", converged_headline,
      RUNTIME + ["reference_fem", "validation/src/converged_validation.cc",
