@@ -620,7 +620,10 @@ TEST(ReducedModel, NonNegativeLeastSquaresFindsTheKnownAnswer)
 // floor's, on a basis that does not hold e x (U q)) have a vertical torque of their own, which
 // spins it up; with the projected torques made the true ones (keep_angular_momentum) its
 // vertical angular momentum stays within the integrator's error, 1e-3 of the rocking's. Newton
-// converges at every step either way (the tangent leaves the correction out).
+// converges at every step either way (the tangent leaves the correction out). The cat hops on
+// the penalty floor (out of contact on some steps), so round-off decides each figure: the
+// bounds sit outside their spread over summation orders and floors shifted by picometres
+// (reports/reduced/README.md, "The step's cost").
 TEST(ReducedModel, AFreeBodyRestingOnAFrictionlessFloorDoesNotSpinUp)
 {
   const fem::Scene s = fem::parse_scene(
@@ -649,20 +652,22 @@ TEST(ReducedModel, AFreeBodyRestingOnAFrictionlessFloorDoesNotSpinUp)
     options.keep_angular_momentum = keep;
     ReducedNonlinearBody body(m, options);
     EXPECT_TRUE(body.start({0, 0, -9.81}));
-    double spin = 0;
-    rocking     = 0;
-    iterations  = 0;
+    double   spin = 0;
+    unsigned touching = 0;
+    rocking    = 0;
+    iterations = 0;
     for (unsigned k = 1; k <= s.n_steps(); ++k)
       {
         body.step(&floor, 1);
         iterations += body.newton_iterations();
+        touching += body.plane_vertices(0) > 0;
         const Eigen::Vector3d L = body.angular_momentum();
         spin    = std::max(spin, std::abs(L(2)));
         rocking = std::max(rocking, L.head<2>().norm());
       }
     EXPECT_EQ(body.failed_steps(), 0u);
     EXPECT_EQ(body.cut_steps(), 0u);
-    EXPECT_GT(body.plane_vertices(0), 0) << "the cat stands on the floor";
+    EXPECT_GT(touching, s.n_steps() / 2) << "the cat stands on the floor";
     return spin;
   };
   double        rocking = 0, kept_rocking = 0;
@@ -671,7 +676,7 @@ TEST(ReducedModel, AFreeBodyRestingOnAFrictionlessFloorDoesNotSpinUp)
   EXPECT_GT(rocking, 1e-4) << "it rocks";
   EXPECT_GT(kept_rocking, 1e-4) << "it rocks";
   EXPECT_LT(kept, 1e-3 * kept_rocking);
-  EXPECT_GT(spin, 0.05 * rocking) << "the projected torque spins it up (what the option takes out)";
+  EXPECT_GT(spin, 0.01 * rocking) << "the projected torque spins it up (what the option takes out)";
   std::cout << "resting cat, 21 fields, 1 s: largest vertical angular momentum " << spin << " kg m^2/s (rocking "
             << rocking << "), with the projected torques the true ones " << kept << " (rocking " << kept_rocking << "); Newton iterations " << iterations << " and "
             << kept_iterations << " over " << s.n_steps() << " steps\n";

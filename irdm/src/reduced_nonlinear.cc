@@ -246,6 +246,74 @@ namespace irdm
     return m;
   }
 
+  Eigen::Map<const Eigen::RowVectorXd>
+  ReducedNonlinearBody::basis_row(const unsigned v, const int d) const
+  {
+    return Eigen::Map<const Eigen::RowVectorXd>(&m_.basis[(3 * static_cast<size_t>(v) + d) * r_], r_);
+  }
+
+  void
+  ReducedNonlinearBody::prepare_cubature()
+  {
+    // The distinct vertices, in the mesh's order, and each element's among them.
+    std::vector<unsigned> local(m_.n_vertices, ~0u);
+    unsigned              n_local = 0;
+    for (const unsigned e : m_.cubature_elements)
+      for (const unsigned v : m_.tetrahedra[e])
+        local[v] = 0;
+    std::vector<unsigned> vertices;
+    for (unsigned v = 0; v < m_.n_vertices; ++v)
+      if (local[v] == 0)
+        local[v] = n_local++, vertices.push_back(v);
+    vertex_basis_.resize(3 * Eigen::Index(n_local), r_);
+    for (unsigned i = 0; i < n_local; ++i)
+      for (int d = 0; d < 3; ++d)
+        vertex_basis_.row(3 * Eigen::Index(i) + d) =
+          basis_row(vertices[i], d);
+    for (size_t k = 0; k < m_.cubature_elements.size(); ++k)
+      {
+        const unsigned e = m_.cubature_elements[k];
+        element_vertices_.push_back({local[m_.tetrahedra[e][0]], local[m_.tetrahedra[e][1]],
+                                     local[m_.tetrahedra[e][2]], local[m_.tetrahedra[e][3]]});
+        element_.push_back(m_.elements[e]);
+        weight_.push_back(m_.cubature_weights[k]);
+      }
+    // The block CSR of the vertex pairs the elements couple, and each element's places in it.
+    std::vector<std::vector<unsigned>> columns(n_local);
+    for (const auto &t : element_vertices_)
+      for (const unsigned a : t)
+        for (const unsigned b : t)
+          columns[a].push_back(b);
+    block_row_start_.assign(1, 0);
+    for (auto &c : columns)
+      {
+        std::sort(c.begin(), c.end());
+        c.erase(std::unique(c.begin(), c.end()), c.end());
+        block_column_.insert(block_column_.end(), c.begin(), c.end());
+        block_row_start_.push_back(static_cast<unsigned>(block_column_.size()));
+      }
+    for (const auto &t : element_vertices_)
+      {
+        std::array<unsigned, 16> places{};
+        for (int a = 0; a < 4; ++a)
+          for (int b = 0; b < 4; ++b)
+            {
+              const auto first = block_column_.begin() + block_row_start_[t[a]],
+                         last  = block_column_.begin() + block_row_start_[t[a] + 1];
+              places[4 * a + b] = static_cast<unsigned>(std::lower_bound(first, last, t[b]) - block_column_.begin());
+            }
+        element_blocks_.push_back(places);
+      }
+    blocks_.assign(block_column_.size(), Eigen::Matrix3d::Zero());
+    for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_})
+      x->setZero(3 * Eigen::Index(n_local));
+    KU_.setZero(3 * Eigen::Index(n_local), r_);
+    // Eigen's product keeps its packed operands on the stack up to EIGEN_STACK_ALLOCATION_LIMIT
+    // (128 KiB): a slice of s rows packs about s (r + 16) doubles of each (r rounded up to its
+    // kernel's width); 96 KiB leaves room.
+    slice_ = std::max<Eigen::Index>(3, (96 * 1024 / 8) / (Eigen::Index(r_) + 16) / 3 * 3);
+  }
+
   ReducedNonlinearBody::ReducedNonlinearBody(const ReducedNonlinearModel &model,
                                              const ReducedBodyOptions    &options)
     : m_(model)
@@ -254,44 +322,35 @@ namespace irdm
     , h_(model.time_step)
     , solver_(model.size) // sized once here: an LDLT assigned later reads its unset status
   {
-    const auto row = [&](const unsigned v, const int d) {
-      return Eigen::Map<const Eigen::RowVectorXd>(&m_.basis[(3 * static_cast<size_t>(v) + d) * r_], r_);
-    };
-    element_basis_.resize(r_, 12 * Eigen::Index(m_.cubature_elements.size()));
-    for (size_t k = 0; k < m_.cubature_elements.size(); ++k)
-      {
-        const unsigned e = m_.cubature_elements[k];
-        for (int i = 0; i < 4; ++i)
-          for (int d = 0; d < 3; ++d)
-            element_basis_.col(12 * Eigen::Index(k) + 3 * i + d) = row(m_.tetrahedra[e][i], d).transpose();
-        element_.push_back(m_.elements[e]);
-        weight_.push_back(m_.cubature_weights[k]);
-      }
+    prepare_cubature();
     for (unsigned s = 0; s < m_.surface_vertex.size(); ++s)
       {
         const auto &free = m_.free_dof[s];
-        if (!(free[0] || free[1] || free[2]))
-          continue; // a fixed vertex: the plane's push on it goes into the support
-        Eigen::Matrix<double, 3, Eigen::Dynamic> U(3, r_);
+        if (free[0] || free[1] || free[2]) // not a fixed vertex: a plane's push on that goes into the support
+          surface_index_.push_back(s);
+      }
+    surface_basis_.resize(3 * Eigen::Index(surface_index_.size()), r_);
+    for (size_t k = 0; k < surface_index_.size(); ++k)
+      {
+        const unsigned s    = surface_index_[k];
+        const auto    &free = m_.free_dof[s];
         for (int d = 0; d < 3; ++d)
-          U.row(d) = free[d] ? Eigen::RowVectorXd(row(m_.surface_vertex[s], d)) : Eigen::RowVectorXd::Zero(r_);
-        surface_basis_.push_back(U);
+          surface_basis_.row(3 * Eigen::Index(k) + d) = free[d] ? Eigen::RowVectorXd(basis_row(m_.surface_vertex[s], d)) : Eigen::RowVectorXd::Zero(r_);
         surface_rest_.emplace_back(m_.coordinates[s][0], m_.coordinates[s][1], m_.coordinates[s][2]);
         surface_area_.push_back(m_.lumped_area[s]);
-        surface_index_.push_back(s);
       }
+    surface_u_.setZero(surface_basis_.rows());
     for (Vector *x : {&q_, &v_, &a_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
                       &r_trial_, &dq_, &g_c_trial_, &best_, &g_int_, &Un_, &g_f_, &g_f_new_, &g_f_end_, &body_force_, &q0_, &v0_, &a0_, &g_c0_, &g_f0_})
       x->setZero(r_);
-    KU_.setZero(r_, 12);
     for (Matrix *T : {&body_tangent_, &contact_tangent_, &tangent_})
       T->setZero(r_, r_);
     for (auto &B : probe_basis_)
       B.setZero(3, r_);
     point_basis_.setZero(3, r_);
     point_solve_.setZero(r_, 3);
-    contact_vertex_.assign(surface_basis_.size() * max_planes, 0);
-    contact_force_.assign(surface_basis_.size() * max_planes, Eigen::Vector3d::Zero());
+    contact_vertex_.assign(surface_index_.size() * max_planes, 0);
+    contact_force_.assign(surface_index_.size() * max_planes, Eigen::Vector3d::Zero());
     center0_      = Eigen::Vector3d(m_.center_of_mass[0], m_.center_of_mass[1], m_.center_of_mass[2]);
     frame_origin_ = center0_;
     floating_     = options_.floating_frame && m_.rigid_modes == 6;
@@ -453,8 +512,9 @@ namespace irdm
       {
         const unsigned        s = contact_vertex_[c];
         const Eigen::Vector3d f = Q * contact_force_[c];
-        g_c_.noalias() += surface_basis_[s].transpose() * f;
-        torque += (surface_rest_[s] + surface_basis_[s] * q_ - arm_origin).cross(f);
+        const auto            U = surface_basis_.middleRows<3>(3 * Eigen::Index(s));
+        g_c_.noalias() += U.transpose() * f;
+        torque += (surface_rest_[s] + U * q_ - arm_origin).cross(f);
       }
     if (options_.keep_angular_momentum) // what the carried forces' projection misses of their torque
       {
@@ -485,7 +545,7 @@ namespace irdm
           return false;
         for (int d = 0; d < 3; ++d)
           if (m_.free_dof[s][d])
-            g += f(d) * Eigen::Map<const Vector>(&m_.basis[(3 * size_t(m_.surface_vertex[s]) + d) * r_], r_);
+            g += f(d) * basis_row(m_.surface_vertex[s], d).transpose();
       }
     return true;
   }
@@ -528,8 +588,7 @@ namespace irdm
           return false;
         for (int d = 0; d < 3; ++d)
           if (m_.free_dof[s][d])
-            B.row(d) += weights[i] * Eigen::Map<const Eigen::RowVectorXd>(
-                                       &m_.basis[(3 * size_t(m_.surface_vertex[s]) + d) * r_], r_);
+            B.row(d) += weights[i] * basis_row(m_.surface_vertex[s], d);
       }
     return true;
   }
@@ -574,29 +633,37 @@ namespace irdm
     const double c_m = (1 - am) / (b * h * h), c_c = (1 - af) * g / (b * h);
     res = (1 - am) * a1_ + am * a_ + m_.rayleigh_alpha * v_af_;
     scale_ = res.norm();
-    g_int_.setZero();
     if (T)
       {
         T->setZero();
         T->diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
+        for (auto &B : blocks_)
+          B.setZero();
       }
-    // Element by element: its 12 columns of U^T (contiguous, read from memory once and then
-    // from the cache) give its displacement and velocity and take back its force.
+    // Every cubature vertex's displacement and velocity; the elements then gather theirs and
+    // give back their forces, assembled by vertex.
+    const bool damped = m_.rayleigh_beta != 0;
+    vertex_u_.noalias() = vertex_basis_ * q_af_;
+    if (damped)
+      vertex_v_.noalias() = vertex_basis_ * v_af_;
+    vertex_f_.setZero();
     bool              ok = true;
     elastic::Vector12 u_e, v_e, f_e, d_e;
     elastic::Matrix12 K_e, D_e;
     for (size_t k = 0; k < element_.size(); ++k)
       {
-        const auto Ut = element_basis_.middleCols<12>(12 * Eigen::Index(k));
-        u_e.noalias() = Ut.transpose() * q_af_;
+        const auto &l = element_vertices_[k];
+        for (int a = 0; a < 4; ++a)
+          u_e.segment<3>(3 * a) = vertex_u_.segment<3>(3 * Eigen::Index(l[a]));
         if (!elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, T ? &K_e : nullptr))
           {
             ok = false;
             continue;
           }
-        if (m_.rayleigh_beta != 0)
+        if (damped)
           {
-            v_e.noalias() = Ut.transpose() * v_af_;
+            for (int a = 0; a < 4; ++a)
+              v_e.segment<3>(3 * a) = vertex_v_.segment<3>(3 * Eigen::Index(l[a]));
             elastic::objective_damping_force(element_[k], u_e, v_e, m_.mu, m_.lambda, d_e, T ? &D_e : nullptr);
             f_e += m_.rayleigh_beta * d_e;
             if (T)
@@ -604,12 +671,28 @@ namespace irdm
           }
         else if (T)
           K_e *= 1 - af;
-        g_int_.noalias() += Ut * (weight_[k] * f_e);
+        for (int a = 0; a < 4; ++a)
+          vertex_f_.segment<3>(3 * Eigen::Index(l[a])) += weight_[k] * f_e.segment<3>(3 * a);
         if (T)
+          for (int a = 0; a < 4; ++a)
+            for (int b = 0; b < 4; ++b)
+              blocks_[element_blocks_[k][4 * a + b]] += weight_[k] * K_e.block<3, 3>(3 * a, 3 * b);
+      }
+    g_int_.noalias() = vertex_basis_.transpose() * vertex_f_;
+    if (T)
+      {
+        // K U by block rows, then U^T (K U), symmetric: the lower triangle alone.
+        for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)
           {
-            // Symmetric: the lower triangle alone, half the product's work.
-            KU_.noalias() = Ut * (weight_[k] * K_e);
-            T->triangularView<Eigen::Lower>() += KU_ * Ut.transpose();
+            auto Y = KU_.middleRows<3>(3 * Eigen::Index(i));
+            Y.setZero();
+            for (unsigned s = block_row_start_[i]; s < block_row_start_[i + 1]; ++s)
+              Y.noalias() += blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
+          }
+        for (Eigen::Index c = 0; c < KU_.rows(); c += slice_)
+          {
+            const Eigen::Index n = std::min(slice_, KU_.rows() - c);
+            T->triangularView<Eigen::Lower>() += vertex_basis_.middleRows(c, n).transpose() * KU_.middleRows(c, n);
           }
       }
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
@@ -622,6 +705,8 @@ namespace irdm
     const Eigen::Vector3d arm_origin = floating_ ? Eigen::Vector3d(center0_ + translation_loads_.transpose() * x / m_.mass)
                                                  : Eigen::Vector3d::Zero();
     contact_torque_trial_.setZero();
+    if (n > 0)
+      surface_u_.noalias() = surface_basis_ * x;
     for (int p = 0; p < n; ++p)
       {
         force[p]    = {0, 0, 0};
@@ -630,10 +715,10 @@ namespace irdm
         const Eigen::Vector3d point(planes[p].point[0], planes[p].point[1], planes[p].point[2]);
         const double          k = planes[p].penalty > 0 ? planes[p].penalty : m_.default_penalty;
         const double          rest_gap_bound = normal.dot(point);
-        for (size_t s = 0; s < surface_basis_.size(); ++s)
+        for (size_t s = 0; s < surface_index_.size(); ++s)
           {
-            const auto           &U = surface_basis_[s];
-            const Eigen::Vector3d xs = surface_rest_[s] + U * x;
+            const auto            U  = surface_basis_.middleRows<3>(3 * Eigen::Index(s));
+            const Eigen::Vector3d xs = surface_rest_[s] + surface_u_.segment<3>(3 * Eigen::Index(s));
             const double          depth = rest_gap_bound - normal.dot(xs);
             if (depth <= 0)
               continue;
@@ -933,11 +1018,12 @@ namespace irdm
   {
     const size_t S = m_.surface_vertex.size();
     std::fill(u, u + 3 * S, 0.0);
-    for (size_t k = 0; k < surface_basis_.size(); ++k)
+    for (size_t k = 0; k < surface_index_.size(); ++k)
       {
         const Eigen::Vector3d &X  = surface_rest_[k];
-        const Eigen::Vector3d  us = floating_ ? Eigen::Vector3d(frame_origin_ + frame_rotation_ * (X - center0_ + surface_basis_[k] * q_) - X)
-                                              : Eigen::Vector3d(surface_basis_[k] * q_);
+        const auto             U  = surface_basis_.middleRows<3>(3 * Eigen::Index(k));
+        const Eigen::Vector3d  us = floating_ ? Eigen::Vector3d(frame_origin_ + frame_rotation_ * (X - center0_ + U * q_) - X)
+                                              : Eigen::Vector3d(U * q_);
         for (int d = 0; d < 3; ++d)
           u[3 * surface_index_[k] + d] = us(d);
       }
@@ -966,7 +1052,7 @@ namespace irdm
         for (int d = 0; d < 3; ++d)
           if (!free[d])
             f(d) = 0; // the support's, as plane_force leaves it out
-        tau += (surface_rest_[s] - center0_ + surface_basis_[s] * q_ - shift).cross(f);
+        tau += (surface_rest_[s] - center0_ + surface_basis_.middleRows<3>(3 * Eigen::Index(s)) * q_ - shift).cross(f);
       }
     const Eigen::Matrix3d Rt = frame_rotation_.transpose();
     for (int i = 0; i < n_forces; ++i)
@@ -978,7 +1064,7 @@ namespace irdm
           {
             if (!m_.free_dof[v][d])
               f(d) = 0;
-            x(d) += Eigen::Map<const Eigen::RowVectorXd>(&m_.basis[(3 * size_t(m_.surface_vertex[v]) + d) * r_], r_) * q_;
+            x(d) += basis_row(m_.surface_vertex[v], d) * q_;
           }
         tau += x.cross(f);
       }
@@ -1001,10 +1087,12 @@ namespace irdm
   {
     double            W = 0;
     elastic::Vector12 u_e, f_e;
+    vertex_u_.noalias() = vertex_basis_ * q;
     for (size_t k = 0; k < element_.size(); ++k)
       {
         double w_e = 0;
-        u_e.noalias() = element_basis_.middleCols<12>(12 * Eigen::Index(k)).transpose() * q;
+        for (int a = 0; a < 4; ++a)
+          u_e.segment<3>(3 * a) = vertex_u_.segment<3>(3 * Eigen::Index(element_vertices_[k][a]));
         if (elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, nullptr, &w_e))
           W += weight_[k] * w_e;
       }

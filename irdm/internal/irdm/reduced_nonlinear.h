@@ -15,7 +15,7 @@
 // FEM's symmetric part is), a backtracking line search on the residual norm (where it finds no
 // decrease: the tangent made fresh, then a full step, but never two running that raise the
 // residual, and a residual that is not finite never converged). The body's part
-// of the tangent (inertia, elasticity, damping: O(elements r^2), the step's dominant cost) is
+// of the tangent (inertia, elasticity, damping: U^T K U, O(vertices r^2), the step's dominant cost) is
 // kept from step to step and evaluated again only where an iteration reduces the residual by
 // less than a set ratio (a modified Newton method); the planes' part (O(contacts r^2)) is
 // fresh at every iterate. It converges to the same stop either way. A step where
@@ -297,7 +297,7 @@ namespace irdm
     {
       return cut_steps_;
     }
-    /// Evaluations of the body's tangent so far (each O(elements r^2)).
+    /// Evaluations of the body's tangent so far (each O(vertices r^2)).
     unsigned long
     tangent_evaluations() const
     {
@@ -320,16 +320,36 @@ namespace irdm
     const ReducedNonlinearModel &m_;
     ReducedBodyOptions           options_;
     unsigned                     r_ = 0;
-    // The cubature elements' rows of U as columns of U^T (12 per element, one after another:
-    // each element's block contiguous), each element's tetrahedron and weight.
-    Matrix                            element_basis_;
-    std::vector<elastic::Tetrahedron> element_;
-    std::vector<double>               weight_;
-    // Per surface vertex with a free DoF: U_s (3 x r, rows of fixed DoFs zero), X_s, area.
-    std::vector<Eigen::Matrix<double, 3, Eigen::Dynamic>> surface_basis_;
-    std::vector<Eigen::Vector3d>                          surface_rest_;
-    std::vector<double>                                   surface_area_;
-    std::vector<unsigned>                                 surface_index_; // into the model's
+    // The cubature elements' distinct vertices: their rows of U (three per vertex, row-major:
+    // a vertex's 3 x r block contiguous), each element's four vertices among them, its
+    // tetrahedron and weight. A residual takes every vertex's displacement and gives back
+    // their forces by one pass over the rows each, O(vertices r) whatever the elements: a
+    // cubature keeps hundreds of elements on a few hundred vertices, each vertex shared by
+    // several.
+    using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    RowMatrix                             vertex_basis_;
+    std::vector<std::array<unsigned, 4>>  element_vertices_;
+    std::vector<elastic::Tetrahedron>     element_;
+    std::vector<double>                   weight_;
+    mutable Vector                        vertex_u_; // 3 per cubature vertex: displacement (strain_energy's too)
+    Vector                                vertex_v_, vertex_f_; // velocity, force
+    // The body's tangent as U^T (K U): K the weighted elements' stiffness assembled by vertex
+    // pair (3 x 3 blocks, rows of a block CSR; each element's 16 blocks' places), K U into
+    // KU_ (3 per vertex x r), then U^T (K U) in slices of slice_ rows (Eigen's product then
+    // keeps its work space on the stack: nothing allocated).
+    std::vector<unsigned>                 block_row_start_, block_column_;
+    std::vector<std::array<unsigned, 16>> element_blocks_;
+    std::vector<Eigen::Matrix3d>          blocks_;
+    RowMatrix                             KU_;
+    Eigen::Index                          slice_ = 3;
+    // Per surface vertex with a free DoF: U_s (its 3 rows of surface_basis_, rows of fixed
+    // DoFs zero), X_s, area; every one's displacement at the latest residual's iterate (one
+    // product a residual, whatever the planes).
+    RowMatrix                    surface_basis_;
+    std::vector<Eigen::Vector3d> surface_rest_;
+    std::vector<double>          surface_area_;
+    std::vector<unsigned>        surface_index_; // into the model's
+    Vector                       surface_u_;
     Vector q_, v_, a_;          // state at the latest step
     Vector g_c_;                // reduced plane force of the latest step
     Vector g_f_, g_f_new_;      // reduced vertex forces of the latest step and of this one
@@ -361,7 +381,6 @@ namespace irdm
     Matrix body_tangent_, contact_tangent_, tangent_;
     double body_tangent_h_ = 0; // 0: none yet
     unsigned long tangent_evaluations_ = 0;
-    Eigen::Matrix<double, Eigen::Dynamic, 12> KU_; // an element's U_e^T w_e K_e
     Eigen::LDLT<Matrix> solver_;
     std::array<std::array<double, 3>, max_planes> plane_force_{}, trial_force_{};
     std::array<int, max_planes>                   plane_vertices_{}, trial_vertices_{};
@@ -403,6 +422,13 @@ namespace irdm
     void
     sum_external_torque(const ReducedVertexForce *forces, int n_forces);
 
+    // U's row at mesh vertex v, DoF d (1 x r).
+    Eigen::Map<const Eigen::RowVectorXd>
+    basis_row(unsigned v, int d) const;
+    // The cubature's vertices, their rows of U and the block pattern of their stiffness
+    // (constructor).
+    void
+    prepare_cubature();
     // The blocks J_ab and the rigid loads the frame needs (constructor).
     void
     prepare_frame();
