@@ -623,7 +623,7 @@ TEST(ReducedModel, NonNegativeLeastSquaresFindsTheKnownAnswer)
 // converges at every step either way (the tangent leaves the correction out). The cat hops on
 // the penalty floor (out of contact on some steps), so round-off decides each figure: the
 // bounds sit outside their spread over summation orders and floors shifted by picometres
-// (reports/reduced/README.md, "The step's cost").
+// (reports/reduced/step_cost/README.md).
 TEST(ReducedModel, AFreeBodyRestingOnAFrictionlessFloorDoesNotSpinUp)
 {
   const fem::Scene s = fem::parse_scene(

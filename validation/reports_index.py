@@ -116,6 +116,14 @@ def free_frame_headline(folder):
             f"body-frame linear FEM, force {span(force)}, deformation {span(deformation)}")
 
 
+def reduced_step_cost_headline(folder):
+    table = markdown_table(os.path.join(folder, "README.md"))
+    kept = [r for r in table if "kept tangent (the default)" in r["model, method"]]
+    return ("the reduced step with the tangent kept, by vertex against element by element: "
+            + "; ".join(f"{r['model, method'].split(',')[0].strip('`')} {r['by vertex'].split(';')[0]} "
+                        f"against {r['element by element'].split(';')[0]}" for r in kept))
+
+
 def free_step_headline(folder):
     def first_force(step, method):
         path = os.path.join(folder, "check", f"tau_{step}", "linearization.csv")
@@ -299,6 +307,9 @@ STUDIES = [
      "reduced/free_true_torques/report.md", None, reduced_free_headline,
      RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/reduced*",
                 "validation/src/free_body_*", "scripts/reduced_report.sh"]),
+    ("The reduced nonlinear step by vertex: its cost, and what 1 ms would need",
+     "reduced/step_cost/README.md", None, reduced_step_cost_headline,
+     RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
     ("Reduced nonlinear models of the free cat (50 kPa): 60 s of rolling with the true torques",
      "reduced/free_roll60_true/report.md", "reduced/free_roll60_true/stability.png", reduced_free_headline,
      RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/reduced*",
