@@ -246,6 +246,17 @@ namespace irdm
     return m;
   }
 
+  namespace
+  {
+    // An element's 12 values from the per-vertex ones, by its four vertices.
+    void
+    gather(const Eigen::VectorXd &per_vertex, const std::array<unsigned, 4> &vertices, elastic::Vector12 &x)
+    {
+      for (int a = 0; a < 4; ++a)
+        x.segment<3>(3 * a) = per_vertex.segment<3>(3 * Eigen::Index(vertices[a]));
+    }
+  } // namespace
+
   Eigen::Map<const Eigen::RowVectorXd>
   ReducedNonlinearBody::basis_row(const unsigned v, const int d) const
   {
@@ -304,13 +315,14 @@ namespace irdm
             }
         element_blocks_.push_back(places);
       }
-    blocks_.assign(block_column_.size(), Eigen::Matrix3d::Zero());
+    stiffness_blocks_.assign(block_column_.size(), Eigen::Matrix3d::Zero());
     for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_})
       x->setZero(3 * Eigen::Index(n_local));
     KU_.setZero(3 * Eigen::Index(n_local), r_);
     // Eigen's product keeps its packed operands on the stack up to EIGEN_STACK_ALLOCATION_LIMIT
-    // (128 KiB): a slice of s rows packs about s (r + 16) doubles of each (r rounded up to its
-    // kernel's width); 96 KiB leaves room.
+    // (128 KiB): a slice of s rows packs at most s r doubles of each (its blocks are at most the
+    // slice deep and r wide); (r + 16) s doubles within 96 KiB leaves room. Past r = 4096 the
+    // floor of 3 rows exceeds it and the product's work space goes to the heap.
     slice_ = std::max<Eigen::Index>(3, (96 * 1024 / 8) / (Eigen::Index(r_) + 16) / 3 * 3);
   }
 
@@ -361,8 +373,7 @@ namespace irdm
   void
   ReducedNonlinearBody::prepare_frame()
   {
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-    using Strided  = Eigen::Map<const RowMajor, 0, Eigen::OuterStride<>>;
+    using Strided = Eigen::Map<const RowMatrix, 0, Eigen::OuterStride<>>;
     const auto fail = [&](const std::string &what) {
       throw InputError("reduced nonlinear model '" + m_.path + "': " + what +
                        "; its body cannot move in a floating frame (ReducedBodyOptions::floating_frame)");
@@ -377,8 +388,8 @@ namespace irdm
     const double rho = m_.mass / volume;
     // M_s U: the P1 consistent mass, rho V (1 + delta_ij) / 20 per element, on each vertex's
     // three rows at once (M = M_s (x) I_3).
-    const Eigen::Map<const RowMajor> U(m_.basis.data(), 3 * n, r);
-    RowMajor                         MU = RowMajor::Zero(3 * n, r);
+    const Eigen::Map<const RowMatrix> U(m_.basis.data(), 3 * n, r);
+    RowMatrix                         MU = RowMatrix::Zero(3 * n, r);
     for (size_t e = 0; e < m_.elements.size(); ++e)
       for (int i = 0; i < 4; ++i)
         for (int j = 0; j < 4; ++j)
@@ -512,7 +523,7 @@ namespace irdm
       {
         const unsigned        s = contact_vertex_[c];
         const Eigen::Vector3d f = Q * contact_force_[c];
-        const auto            U = surface_basis_.middleRows<3>(3 * Eigen::Index(s));
+        const auto            U = surface_rows(s);
         g_c_.noalias() += U.transpose() * f;
         torque += (surface_rest_[s] + U * q_ - arm_origin).cross(f);
       }
@@ -637,7 +648,7 @@ namespace irdm
       {
         T->setZero();
         T->diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
-        for (auto &B : blocks_)
+        for (auto &B : stiffness_blocks_)
           B.setZero();
       }
     // Every cubature vertex's displacement and velocity; the elements then gather theirs and
@@ -653,8 +664,7 @@ namespace irdm
     for (size_t k = 0; k < element_.size(); ++k)
       {
         const auto &l = element_vertices_[k];
-        for (int a = 0; a < 4; ++a)
-          u_e.segment<3>(3 * a) = vertex_u_.segment<3>(3 * Eigen::Index(l[a]));
+        gather(vertex_u_, l, u_e);
         if (!elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, T ? &K_e : nullptr))
           {
             ok = false;
@@ -662,8 +672,7 @@ namespace irdm
           }
         if (damped)
           {
-            for (int a = 0; a < 4; ++a)
-              v_e.segment<3>(3 * a) = vertex_v_.segment<3>(3 * Eigen::Index(l[a]));
+            gather(vertex_v_, l, v_e);
             elastic::objective_damping_force(element_[k], u_e, v_e, m_.mu, m_.lambda, d_e, T ? &D_e : nullptr);
             f_e += m_.rayleigh_beta * d_e;
             if (T)
@@ -676,7 +685,7 @@ namespace irdm
         if (T)
           for (int a = 0; a < 4; ++a)
             for (int b = 0; b < 4; ++b)
-              blocks_[element_blocks_[k][4 * a + b]] += weight_[k] * K_e.block<3, 3>(3 * a, 3 * b);
+              stiffness_blocks_[element_blocks_[k][4 * a + b]] += weight_[k] * K_e.block<3, 3>(3 * a, 3 * b);
       }
     g_int_.noalias() = vertex_basis_.transpose() * vertex_f_;
     if (T)
@@ -687,7 +696,7 @@ namespace irdm
             auto Y = KU_.middleRows<3>(3 * Eigen::Index(i));
             Y.setZero();
             for (unsigned s = block_row_start_[i]; s < block_row_start_[i + 1]; ++s)
-              Y.noalias() += blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
+              Y.noalias() += stiffness_blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
           }
         for (Eigen::Index c = 0; c < KU_.rows(); c += slice_)
           {
@@ -717,7 +726,7 @@ namespace irdm
         const double          rest_gap_bound = normal.dot(point);
         for (size_t s = 0; s < surface_index_.size(); ++s)
           {
-            const auto            U  = surface_basis_.middleRows<3>(3 * Eigen::Index(s));
+            const auto            U  = surface_rows(s);
             const Eigen::Vector3d xs = surface_rest_[s] + surface_u_.segment<3>(3 * Eigen::Index(s));
             const double          depth = rest_gap_bound - normal.dot(xs);
             if (depth <= 0)
@@ -1021,7 +1030,7 @@ namespace irdm
     for (size_t k = 0; k < surface_index_.size(); ++k)
       {
         const Eigen::Vector3d &X  = surface_rest_[k];
-        const auto             U  = surface_basis_.middleRows<3>(3 * Eigen::Index(k));
+        const auto             U  = surface_rows(k);
         const Eigen::Vector3d  us = floating_ ? Eigen::Vector3d(frame_origin_ + frame_rotation_ * (X - center0_ + U * q_) - X)
                                               : Eigen::Vector3d(U * q_);
         for (int d = 0; d < 3; ++d)
@@ -1052,7 +1061,7 @@ namespace irdm
         for (int d = 0; d < 3; ++d)
           if (!free[d])
             f(d) = 0; // the support's, as plane_force leaves it out
-        tau += (surface_rest_[s] - center0_ + surface_basis_.middleRows<3>(3 * Eigen::Index(s)) * q_ - shift).cross(f);
+        tau += (surface_rest_[s] - center0_ + surface_rows(s) * q_ - shift).cross(f);
       }
     const Eigen::Matrix3d Rt = frame_rotation_.transpose();
     for (int i = 0; i < n_forces; ++i)
@@ -1085,14 +1094,16 @@ namespace irdm
   double
   ReducedNonlinearBody::strain_energy(const Vector &q) const
   {
+    // Element by element from U's rows (not through the residual's work space: a const call
+    // writes nothing).
     double            W = 0;
     elastic::Vector12 u_e, f_e;
-    vertex_u_.noalias() = vertex_basis_ * q;
     for (size_t k = 0; k < element_.size(); ++k)
       {
         double w_e = 0;
         for (int a = 0; a < 4; ++a)
-          u_e.segment<3>(3 * a) = vertex_u_.segment<3>(3 * Eigen::Index(element_vertices_[k][a]));
+          for (int d = 0; d < 3; ++d)
+            u_e(3 * a + d) = vertex_basis_.row(3 * Eigen::Index(element_vertices_[k][a]) + d).dot(q);
         if (elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, nullptr, &w_e))
           W += weight_[k] * w_e;
       }

@@ -25,15 +25,6 @@ namespace irdm::validation
   {
     namespace
     {
-      /// Another mesh of the body (--converged-mesh, --converged-check-mesh): read before any
-      /// run, so a bad file is refused at once.
-      void
-      check_same_body(const std::string &mesh_file, const std::string &other, const std::string &command)
-      {
-        irdm::validation::check_same_body(fem::read_gmsh(mesh_file).vertices, fem::read_gmsh(other).vertices,
-                                    command + ": '" + other + "'");
-      }
-
       void
       check_options(const FreeBodyValidationOptions &o, const fem::Scene &base, const std::string &command)
       {
@@ -53,13 +44,21 @@ namespace irdm::validation
         if (o.converged_degree == 1 && o.converged_mesh.empty() && !o.converged_cases.empty())
           throw InputError(command + ": the converged truth with P1 elements on the scene's own mesh "
                            "is the truth itself: give a finer mesh (--converged-mesh), or degree 2");
+        // Other meshes of the body: read before any run, so a bad file is refused at once (the
+        // scene's own mesh read once for them all).
+        decltype(fem::read_gmsh(base.mesh_file).vertices) body;
+        const auto same_body = [&](const std::string &other) {
+          if (body.empty())
+            body = fem::read_gmsh(base.mesh_file).vertices;
+          irdm::validation::check_same_body(body, fem::read_gmsh(other).vertices, command + ": '" + other + "'");
+        };
         if (!o.converged_mesh.empty())
-          check_same_body(base.mesh_file, o.converged_mesh, command);
+          same_body(o.converged_mesh);
         if (!o.converged_check_meshes.empty() && (o.converged_mesh.empty() || o.converged_degree == 0))
           throw InputError(command + ": --converged-check-mesh checks the truth on --converged-mesh: "
                            "give that mesh too");
         for (const std::string &mesh : o.converged_check_meshes)
-          check_same_body(base.mesh_file, mesh, command);
+          same_body(mesh);
       }
     } // namespace
 

@@ -323,23 +323,21 @@ namespace irdm
     // The cubature elements' distinct vertices: their rows of U (three per vertex, row-major:
     // a vertex's 3 x r block contiguous), each element's four vertices among them, its
     // tetrahedron and weight. A residual takes every vertex's displacement and gives back
-    // their forces by one pass over the rows each, O(vertices r) whatever the elements: a
-    // cubature keeps hundreds of elements on a few hundred vertices, each vertex shared by
-    // several.
+    // their forces by one pass over the rows each, O(vertices r) whatever the elements, which
+    // share vertices.
     using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     RowMatrix                             vertex_basis_;
     std::vector<std::array<unsigned, 4>>  element_vertices_;
     std::vector<elastic::Tetrahedron>     element_;
     std::vector<double>                   weight_;
-    mutable Vector                        vertex_u_; // 3 per cubature vertex: displacement (strain_energy's too)
-    Vector                                vertex_v_, vertex_f_; // velocity, force
+    Vector vertex_u_, vertex_v_, vertex_f_; // 3 per cubature vertex: displacement, velocity, force
     // The body's tangent as U^T (K U): K the weighted elements' stiffness assembled by vertex
     // pair (3 x 3 blocks, rows of a block CSR; each element's 16 blocks' places), K U into
     // KU_ (3 per vertex x r), then U^T (K U) in slices of slice_ rows (Eigen's product then
     // keeps its work space on the stack: nothing allocated).
     std::vector<unsigned>                 block_row_start_, block_column_;
     std::vector<std::array<unsigned, 16>> element_blocks_;
-    std::vector<Eigen::Matrix3d>          blocks_;
+    std::vector<Eigen::Matrix3d>          stiffness_blocks_;
     RowMatrix                             KU_;
     Eigen::Index                          slice_ = 3;
     // Per surface vertex with a free DoF: U_s (its 3 rows of surface_basis_, rows of fixed
@@ -425,6 +423,12 @@ namespace irdm
     // U's row at mesh vertex v, DoF d (1 x r).
     Eigen::Map<const Eigen::RowVectorXd>
     basis_row(unsigned v, int d) const;
+    // U_s of surface_basis_'s vertex s (3 x r).
+    auto
+    surface_rows(size_t s) const
+    {
+      return surface_basis_.middleRows<3>(3 * Eigen::Index(s));
+    }
     // The cubature's vertices, their rows of U and the block pattern of their stiffness
     // (constructor).
     void
