@@ -630,27 +630,8 @@ namespace irdm
   }
 
   bool
-  ReducedNonlinearBody::residual(const Vector &x, const ReducedPlane *planes, const int n,
-                                 Vector &res, Matrix *T, Matrix *C, Vector &g_c,
-                                 std::array<std::array<double, 3>, max_planes> &force,
-                                 std::array<int, max_planes> &vertices)
+  ReducedNonlinearBody::internal_force(Matrix *T, const double af, const double c_c)
   {
-    const double h = h_, am = m_.alpha_m, af = m_.alpha_f, b = m_.beta, g = m_.gamma;
-    // Newmark's acceleration and velocity at q_1 = x, and the alpha levels.
-    a1_   = (x - q_ - h * v_) / (b * h * h) - (1 / (2 * b) - 1) * a_;
-    v1_   = v_ + h * ((1 - g) * a_ + g * a1_);
-    q_af_ = (1 - af) * x + af * q_;
-    v_af_ = (1 - af) * v1_ + af * v_;
-    const double c_m = (1 - am) / (b * h * h), c_c = (1 - af) * g / (b * h);
-    res = (1 - am) * a1_ + am * a_ + m_.rayleigh_alpha * v_af_;
-    scale_ = res.norm();
-    if (T)
-      {
-        T->setZero();
-        T->diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
-        for (auto &B : stiffness_blocks_)
-          B.setZero();
-      }
     // Every cubature vertex's displacement and velocity; the elements then gather theirs and
     // give back their forces, assembled by vertex.
     const bool damped = m_.rayleigh_beta != 0;
@@ -658,6 +639,9 @@ namespace irdm
     if (damped)
       vertex_v_.noalias() = vertex_basis_ * v_af_;
     vertex_f_.setZero();
+    if (T)
+      for (auto &B : stiffness_blocks_)
+        B.setZero();
     bool              ok = true;
     elastic::Vector12 u_e, v_e, f_e, d_e;
     elastic::Matrix12 K_e, D_e;
@@ -704,6 +688,30 @@ namespace irdm
             T->triangularView<Eigen::Lower>() += vertex_basis_.middleRows(c, n).transpose() * KU_.middleRows(c, n);
           }
       }
+    return ok;
+  }
+
+  bool
+  ReducedNonlinearBody::residual(const Vector &x, const ReducedPlane *planes, const int n,
+                                 Vector &res, Matrix *T, Matrix *C, Vector &g_c,
+                                 std::array<std::array<double, 3>, max_planes> &force,
+                                 std::array<int, max_planes> &vertices)
+  {
+    const double h = h_, am = m_.alpha_m, af = m_.alpha_f, b = m_.beta, g = m_.gamma;
+    // Newmark's acceleration and velocity at q_1 = x, and the alpha levels.
+    a1_   = (x - q_ - h * v_) / (b * h * h) - (1 / (2 * b) - 1) * a_;
+    v1_   = v_ + h * ((1 - g) * a_ + g * a1_);
+    q_af_ = (1 - af) * x + af * q_;
+    v_af_ = (1 - af) * v1_ + af * v_;
+    const double c_m = (1 - am) / (b * h * h), c_c = (1 - af) * g / (b * h);
+    res = (1 - am) * a1_ + am * a_ + m_.rayleigh_alpha * v_af_;
+    scale_ = res.norm();
+    if (T)
+      {
+        T->setZero();
+        T->diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
+      }
+    const bool ok = internal_force(T, af, c_c);
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
     // area, force k A g n where it has passed the plane by g).
     g_c.setZero();

@@ -466,6 +466,11 @@ namespace irdm
     residual(const Vector &x, const ReducedPlane *planes, int n, Vector &res, Matrix *T,
              Matrix *C, Vector &g_c, std::array<std::array<double, 3>, max_planes> &force,
              std::array<int, max_planes> &vertices);
+    // The cubature's internal force (elastic and damping) at q_af_, v_af_ into g_int_, and its
+    // tangent (times 1 - af, the damping's by c_c) added to T's lower triangle where given.
+    // False if an element inverted.
+    bool
+    internal_force(Matrix *T, double af, double c_c);
     // The residual at x_ into residual_, its planes' tangent, and the body's tangent where
     // `body` (counted). False if an element inverted.
     bool
