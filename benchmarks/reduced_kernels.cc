@@ -32,7 +32,8 @@ namespace
 
   struct Counts
   {
-    double iterations = 0, tangents = 0;
+    double state_sum = 0; // the sum of the last step's coordinates: two builds took the same steps where it agrees
+    double iterations = 0, tangents = 0, factorizations = 0;
   };
   Counts g_counts[3];
 
@@ -68,7 +69,7 @@ namespace
     // A quarter period first: the plane in contact and moving.
     while (tau * double(n) < period / 4)
       step();
-    const unsigned long tangents0 = body.tangent_evaluations();
+    const unsigned long tangents0 = body.tangent_evaluations(), factorizations0 = body.factorizations();
     long                steps = 0, iterations = 0;
     for (auto _ : state)
       {
@@ -78,10 +79,13 @@ namespace
         benchmark::ClobberMemory();
       }
     Counts &c    = g_counts[variant];
+    c.state_sum  = body.coordinates().sum();
     c.iterations = double(iterations) / double(std::max(steps, 1L));
     c.tangents   = double(body.tangent_evaluations() - tangents0) / double(std::max(steps, 1L));
+    c.factorizations = double(body.factorizations() - factorizations0) / double(std::max(steps, 1L));
     state.counters["iterations"] = c.iterations;
     state.counters["tangents"]   = c.tangents;
+    state.counters["factorizations"] = c.factorizations;
     state.counters["failed"]     = double(body.failed_steps());
   }
 } // namespace
@@ -135,7 +139,10 @@ main(int argc, char **argv)
       newton = us;
   for (const auto &[name, us] : collector.times)
     if (const int v = variant(name); v >= 0)
-      std::printf("  %-32s %9.1f us  ratio to Newton %.3f  %.2f iterations, %.2f tangents per step\n",
-                  names[v], us, newton > 0 ? us / newton : 0.0, g_counts[v].iterations, g_counts[v].tangents);
+      std::printf("  %-32s %9.1f us  ratio to Newton %.3f  %.2f iterations, %.2f tangents, %.2f factorizations per step\n",
+                  names[v], us, newton > 0 ? us / newton : 0.0, g_counts[v].iterations, g_counts[v].tangents,
+                  g_counts[v].factorizations);
+  for (int v = 0; v < 3; ++v)
+    std::printf("  %-32s the last step's coordinates sum to %.17g\n", names[v], g_counts[v].state_sum);
   return 0;
 }

@@ -23,6 +23,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <set>
 #include <cstdlib>
 #include <filesystem>
 #include <new>
@@ -1141,6 +1142,34 @@ TEST(ReducedRuntime, StepAndSurfaceAllocateNothing)
     }
   EXPECT_GT(most, 0) << "the plane reached the beam";
   EXPECT_GT(body.cut_steps(), 0u) << "the jump was solved in parts";
+}
+
+// A factorization kept while the tangent stays is the same matrix's: the steps are those of a
+// factorization at every iteration, bit for bit, while the plane's contacts change as it goes
+// into the beam and out again (a kept factorization that missed a change would take other
+// Newton directions, and end its steps elsewhere within the stop).
+TEST(ReducedRuntime, AKeptFactorizationTakesTheSameSteps)
+{
+  const irdm::ReducedNonlinearModel &m = reduced_beam();
+  irdm::ReducedBodyOptions           every;
+  every.keep_factorization = false;
+  irdm::ReducedNonlinearBody kept(m), each(m, every);
+  irdm::ReducedPlane         plane;
+  plane.normal = {0, 0, -1};
+  std::set<int> contacts;
+  for (int k = 0; k < 60; ++k)
+    {
+      plane.point = {0, 0, 0.01 - 3e-3 * std::sin(M_PI * k / 40.0)}; // in by 3 mm and out
+      kept.step(&plane, 1);
+      each.step(&plane, 1);
+      contacts.insert(kept.plane_vertices(0));
+      ASSERT_EQ(kept.plane_vertices(0), each.plane_vertices(0)) << "step " << k;
+      for (Eigen::Index i = 0; i < kept.coordinates().size(); ++i)
+        ASSERT_EQ(kept.coordinates()(i), each.coordinates()(i)) << "step " << k << ", coordinate " << i;
+    }
+  EXPECT_GE(contacts.size(), 4u) << "the contacts changed as the plane went";
+  EXPECT_LT(2 * kept.factorizations(), each.factorizations()) << "a kept factorization saves most of them";
+  EXPECT_EQ(kept.tangent_evaluations(), each.tangent_evaluations());
 }
 
 // The allocation count sees both routes to the heap: a new-expression, and Eigen's storage

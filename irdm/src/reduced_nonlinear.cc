@@ -362,6 +362,11 @@ namespace irdm
     point_basis_.setZero(3, r_);
     point_solve_.setZero(r_, 3);
     contact_vertex_.assign(surface_index_.size() * max_planes, 0);
+    contact_plane_.assign(contact_vertex_.size(), 0);
+    contact_weight_.assign(contact_vertex_.size(), 0);
+    key_vertex_.assign(contact_vertex_.size(), 0);
+    key_weight_.assign(contact_vertex_.size(), 0);
+    key_normal_.assign(contact_vertex_.size(), {0, 0, 0});
     contact_force_.assign(surface_index_.size() * max_planes, Eigen::Vector3d::Zero());
     center0_      = Eigen::Vector3d(m_.center_of_mass[0], m_.center_of_mass[1], m_.center_of_mass[2]);
     frame_origin_ = center0_;
@@ -715,8 +720,6 @@ namespace irdm
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
     // area, force k A g n where it has passed the plane by g).
     g_c.setZero();
-    if (C)
-      C->setZero();
     n_contacts_ = 0;
     // Arms from the centre of mass at x, for the planes' torque (a floating body's).
     const Eigen::Vector3d arm_origin = floating_ ? Eigen::Vector3d(center0_ + translation_loads_.transpose() * x / m_.mass)
@@ -747,14 +750,11 @@ namespace irdm
                 force[p][d] += f(d);
             ++vertices[p];
             contact_vertex_[n_contacts_]  = static_cast<unsigned>(s);
+            contact_plane_[n_contacts_]   = p;
+            contact_weight_[n_contacts_]  = (1 - af) * ka;
             contact_force_[n_contacts_++] = f;
             g_c.noalias() += U.transpose() * f;
             contact_torque_trial_ += (xs - arm_origin).cross(f);
-            if (C)
-              {
-                Un_.noalias() = U.transpose() * normal;
-                C->selfadjointView<Eigen::Lower>().rankUpdate(Un_, (1 - af) * ka);
-              }
           }
       }
     // The probes' couplings at the step's end: spring and damper between the device and the
@@ -771,10 +771,11 @@ namespace irdm
         if (!active)
           f.setZero();
         probe_trial_force_[p] = {f(0), f(1), f(2)};
+        probe_active_[p]      = active;
         g_c.noalias() += U.transpose() * f;
-        if (C && active)
-          C->selfadjointView<Eigen::Lower>().rankUpdate(U.transpose(), (1 - af) * (pr.stiffness + pr.damping * g / (b * h)));
       }
+    if (C)
+      contact_tangent(planes, *C);
     if (floating_ && options_.keep_angular_momentum)
       {
         // The projected forces' torque made the true one: a torque on the body as a whole, a
@@ -798,6 +799,39 @@ namespace irdm
     res -= (1 - af) * (g_c + g_f_new_) + af * (g_c_ + g_f_);
     scale_ = std::max({scale_, g_int_.norm(), g_c.norm(), g_f_new_.norm()});
     return ok;
+  }
+
+  void
+  ReducedNonlinearBody::contact_tangent(const ReducedPlane *planes, Matrix &C)
+  {
+    // The planes' penalty is linear in the depth, so their tangent depends only on which
+    // vertices touch which plane, each one's stiffness and the plane's normal: the matrix is
+    // kept while those stay (bit for bit what it would be made again), and with it the
+    // factorization. A probe's coupling depends on the part's length: made every time.
+    bool same = contact_key_valid_ && n_probes_ == 0 && n_contacts_ == key_contacts_;
+    for (size_t c = 0; same && c < n_contacts_; ++c)
+      same = key_vertex_[c] == contact_vertex_[c] && key_weight_[c] == contact_weight_[c] &&
+             key_normal_[c] == planes[contact_plane_[c]].normal;
+    if (same)
+      return;
+    C.setZero();
+    for (size_t c = 0; c < n_contacts_; ++c)
+      {
+        const auto &nrm = planes[contact_plane_[c]].normal;
+        Un_.noalias()   = surface_rows(contact_vertex_[c]).transpose() * Eigen::Vector3d(nrm[0], nrm[1], nrm[2]);
+        C.selfadjointView<Eigen::Lower>().rankUpdate(Un_, contact_weight_[c]);
+        key_vertex_[c] = contact_vertex_[c];
+        key_weight_[c] = contact_weight_[c];
+        key_normal_[c] = nrm;
+      }
+    const double coupling_rate = m_.gamma / (m_.beta * h_);
+    for (int p = 0; p < n_probes_; ++p)
+      if (probe_active_[p])
+        C.selfadjointView<Eigen::Lower>().rankUpdate(probe_basis_[p].transpose(),
+                                                     (1 - m_.alpha_f) * (probes_[p].stiffness + probes_[p].damping * coupling_rate));
+    key_contacts_      = n_contacts_;
+    contact_key_valid_ = n_probes_ == 0;
+    ++tangent_version_;
   }
 
   bool
@@ -902,6 +936,7 @@ namespace irdm
     if (body)
       {
         ++tangent_evaluations_;
+        ++tangent_version_;
         body_tangent_h_ = h_;
       }
     return residual(x_, planes, n, residual_, body ? &body_tangent_ : nullptr, &contact_tangent_,
@@ -938,9 +973,14 @@ namespace irdm
             converged = true;
             break;
           }
-        tangent_.triangularView<Eigen::Lower>() = body_tangent_ + contact_tangent_;
-        solver_.compute(tangent_);
-        factorized_h_ = h_;
+        if (!options_.keep_factorization || factorized_version_ != tangent_version_ || factorized_h_ != h_)
+          {
+            tangent_.triangularView<Eigen::Lower>() = body_tangent_ + contact_tangent_;
+            solver_.compute(tangent_);
+            ++factorizations_;
+            factorized_h_       = h_;
+            factorized_version_ = tangent_version_;
+          }
         dq_ = solver_.solve(residual_);
         dq_ = -dq_;
         // A backtracking line search on the residual norm. Where it finds no decrease with a

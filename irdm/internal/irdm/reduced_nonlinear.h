@@ -135,6 +135,10 @@ namespace irdm
     // iteration evaluates it (Newton's method proper).
     bool   reuse_tangent         = true;
     double tangent_refresh_ratio = 0.1;
+    // Keep the factorization of the step's tangent while neither the body's tangent nor the
+    // planes' contacts change (the same matrix: the same steps, bit for bit). false: factorize
+    // at every iteration.
+    bool keep_factorization = true;
     // Newton's stop: the residual's norm at most this fraction of the largest force in it
     // (the nonlinear FEM's), or an update of round-off size.
     double tolerance = 1e-8;
@@ -303,6 +307,13 @@ namespace irdm
     {
       return tangent_evaluations_;
     }
+    /// Factorizations of the step's tangent so far (each O(r^3)); one is kept while neither
+    /// the body's tangent nor the planes' contacts change.
+    unsigned long
+    factorizations() const
+    {
+      return factorizations_;
+    }
     unsigned long
     inverted_evaluations() const // residuals refused because a cubature element inverted
     {
@@ -378,7 +389,10 @@ namespace irdm
     // with), the planes' part, and their sum as factorized.
     Matrix body_tangent_, contact_tangent_, tangent_;
     double body_tangent_h_ = 0; // 0: none yet
-    unsigned long tangent_evaluations_ = 0;
+    unsigned long tangent_evaluations_ = 0, factorizations_ = 0;
+    // Changes whenever body_tangent_ or contact_tangent_ does; solver_ holds the one of
+    // factorized_version_.
+    unsigned long tangent_version_ = 1, factorized_version_ = 0;
     Eigen::LDLT<Matrix> solver_;
     std::array<std::array<double, 3>, max_planes> plane_force_{}, trial_force_{};
     std::array<int, max_planes>                   plane_vertices_{}, trial_vertices_{};
@@ -407,6 +421,16 @@ namespace irdm
     std::vector<unsigned>        contact_vertex_;
     std::vector<Eigen::Vector3d> contact_force_;
     size_t                       n_contacts_ = 0;
+    // Each contact's plane and its tangent's weight (1 - af) k A; and the contacts that made
+    // contact_tangent_ (contact_tangent()), which is kept while they stay.
+    std::vector<int>                   contact_plane_;
+    std::vector<double>                contact_weight_;
+    std::vector<unsigned>              key_vertex_;
+    std::vector<double>                key_weight_;
+    std::vector<std::array<double, 3>> key_normal_;
+    size_t                             key_contacts_      = 0;
+    bool                               contact_key_valid_ = false;
+    std::array<bool, max_probes>       probe_active_{};
     Eigen::Vector3d              torque_ = Eigen::Vector3d::Zero(); // external_torque()
     // The planes' torque about the centre of mass (the step's frame), and what the projected
     // force's torque A U^T f misses of it (keep_angular_momentum): at the latest residual, at
@@ -466,6 +490,10 @@ namespace irdm
     residual(const Vector &x, const ReducedPlane *planes, int n, Vector &res, Matrix *T,
              Matrix *C, Vector &g_c, std::array<std::array<double, 3>, max_planes> &force,
              std::array<int, max_planes> &vertices);
+    // The planes' and probes' tangent of the latest residual's contacts into C (lower
+    // triangle), made again only where those contacts changed (tangent_version_ then moves).
+    void
+    contact_tangent(const ReducedPlane *planes, Matrix &C);
     // The cubature's internal force (elastic and damping) at q_af_, v_af_ into g_int_, and its
     // tangent (times 1 - af, the damping's by c_c) added to T's lower triangle where given.
     // False if an element inverted.
