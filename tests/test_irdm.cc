@@ -509,6 +509,65 @@ TEST(Runtime, SurfaceProductKernelsAgreeWithAnExactSum)
         }
       else
         std::cout << "note: no AVX2/FMA on this CPU; only the portable kernel checked\n";
+      // Two products in one pass (a, and a in reverse order), summed in double: each within
+      // M r of its sum of magnitudes, as the double kernels.
+      const std::vector<double> b(a.rbegin(), a.rend());
+      std::vector<double>       u2(nout), v2(nout), b_exact(nout), b_scale(nout);
+      for (size_t j = 0; j < nout; ++j)
+        {
+          long double t = 0, g = 0;
+          for (size_t m = 0; m < M; ++m)
+            {
+              t += static_cast<long double>(shapes[j * M + m]) * b[m];
+              g += std::abs(static_cast<long double>(shapes[j * M + m]) * b[m]);
+            }
+          b_exact[j] = static_cast<double>(t), b_scale[j] = static_cast<double>(g);
+        }
+      for (const bool avx2 : {false, true})
+        {
+          if (avx2 && !detail::surface_product_avx2_available())
+            continue;
+          std::fill(u2.begin(), u2.end(), 1e300); // every row must be written
+          std::fill(v2.begin(), v2.end(), 1e300);
+          (avx2 ? detail::rows_product2_avx2 : detail::rows_product2_portable)(shapes.data(), M, nout, a.data(),
+                                                                               b.data(), u2.data(), v2.data());
+          for (size_t j = 0; j < nout; ++j)
+            {
+              ASSERT_LE(std::abs(u2[j] - exact[j]), 1.01 * M * r_double * scale[j])
+                << "two at once, " << (avx2 ? "AVX2" : "portable") << ", first, row " << j;
+              ASSERT_LE(std::abs(v2[j] - b_exact[j]), 1.01 * M * r_double * b_scale[j])
+                << "two at once, " << (avx2 ? "AVX2" : "portable") << ", second, row " << j;
+            }
+        }
+      // The transposed product, g = rows^T f (the forces back onto the basis): summed in
+      // double, so within n_rows r of the sum of the magnitudes.
+      std::vector<double> f(nout), g(M), g_exact(M), g_scale(M);
+      for (auto &x : f)
+        x = dist(gen);
+      for (size_t m = 0; m < M; ++m)
+        {
+          long double t = 0, a_sum = 0;
+          for (size_t j = 0; j < nout; ++j)
+            {
+              t += static_cast<long double>(shapes[j * M + m]) * f[j];
+              a_sum += std::abs(static_cast<long double>(shapes[j * M + m]) * f[j]);
+            }
+          g_exact[m] = static_cast<double>(t), g_scale[m] = static_cast<double>(a_sum);
+        }
+      const auto check_transposed = [&](const char *kernel) {
+        for (size_t m = 0; m < M; ++m)
+          ASSERT_LE(std::abs(g[m] - g_exact[m]), 1.01 * nout * r_double * g_scale[m])
+            << kernel << ", " << nout << " x " << M << ", column " << m;
+      };
+      std::fill(g.begin(), g.end(), 1e300); // every entry must be written
+      detail::transposed_rows_product_portable(shapes.data(), M, nout, f.data(), g.data());
+      check_transposed("transposed, portable");
+      if (detail::surface_product_avx2_available())
+        {
+          std::fill(g.begin(), g.end(), 1e300);
+          detail::transposed_rows_product_avx2(shapes.data(), M, nout, f.data(), g.data());
+          check_transposed("transposed, AVX2");
+        }
     }
 }
 

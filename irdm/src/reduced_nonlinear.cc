@@ -3,6 +3,8 @@
 #include <irdm_common/error.h>
 #include <irdm_common/h5.h>
 
+#include "surface_product.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -316,6 +318,8 @@ namespace irdm
         element_blocks_.push_back(places);
       }
     stiffness_blocks_.assign(block_column_.size(), Eigen::Matrix3d::Zero());
+    if (options_.single_precision_rows)
+      vertex_rows_ = vertex_basis_.cast<float>();
     for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_})
       x->setZero(3 * Eigen::Index(n_local));
     KU_.setZero(3 * Eigen::Index(n_local), r_);
@@ -640,9 +644,21 @@ namespace irdm
     // Every cubature vertex's displacement and velocity; the elements then gather theirs and
     // give back their forces, assembled by vertex.
     const bool damped = m_.rayleigh_beta != 0;
-    vertex_u_.noalias() = vertex_basis_ * q_af_;
-    if (damped)
-      vertex_v_.noalias() = vertex_basis_ * v_af_;
+    const auto rows = static_cast<std::size_t>(vertex_basis_.rows());
+    if (options_.single_precision_rows)
+      {
+        if (damped)
+          detail::rows_product2(vertex_rows_.data(), r_, rows, q_af_.data(), v_af_.data(),
+                                vertex_u_.data(), vertex_v_.data());
+        else
+          detail::rows_product(vertex_rows_.data(), r_, rows, q_af_.data(), vertex_u_.data());
+      }
+    else
+      {
+        vertex_u_.noalias() = vertex_basis_ * q_af_;
+        if (damped)
+          vertex_v_.noalias() = vertex_basis_ * v_af_;
+      }
     vertex_f_.setZero();
     if (T)
       for (auto &B : stiffness_blocks_)
@@ -676,7 +692,10 @@ namespace irdm
             for (int b = 0; b < 4; ++b)
               stiffness_blocks_[element_blocks_[k][4 * a + b]] += weight_[k] * K_e.block<3, 3>(3 * a, 3 * b);
       }
-    g_int_.noalias() = vertex_basis_.transpose() * vertex_f_;
+    if (options_.single_precision_rows)
+      detail::transposed_rows_product(vertex_rows_.data(), r_, rows, vertex_f_.data(), g_int_.data());
+    else
+      g_int_.noalias() = vertex_basis_.transpose() * vertex_f_;
     if (T)
       {
         // K U by block rows, then U^T (K U), symmetric: the lower triangle alone.

@@ -37,7 +37,142 @@ namespace irdm::detail
       }
   }
 
+  // Each row widened a chunk at a time and added in, times its f, with Eigen's vectorized
+  // axpy.
+  void
+  transposed_rows_product_portable(const float *rows, const std::size_t M,
+                                   const std::size_t n_rows, const double *f, double *g)
+  {
+    constexpr std::size_t chunk = 64;
+    double                wide[chunk];
+    std::fill(g, g + M, 0.0);
+    for (std::size_t j = 0; j < n_rows; ++j)
+      for (std::size_t m0 = 0; m0 < M; m0 += chunk)
+        {
+          const std::size_t c = std::min(chunk, M - m0);
+          for (std::size_t i = 0; i < c; ++i)
+            wide[i] = static_cast<double>(rows[j * M + m0 + i]);
+          const auto n = static_cast<Eigen::Index>(c);
+          Eigen::Map<Eigen::VectorXd>(g + m0, n) += f[j] * Eigen::Map<const Eigen::VectorXd>(wide, n);
+        }
+  }
+
+  void
+  rows_product2_portable(const float *rows, const std::size_t M, const std::size_t n_rows,
+                         const double *a, const double *b, double *u, double *v)
+  {
+    constexpr std::size_t chunk = 64;
+    double                wide[chunk];
+    for (std::size_t j = 0; j < n_rows; ++j)
+      {
+        double su = 0, sv = 0;
+        for (std::size_t m0 = 0; m0 < M; m0 += chunk)
+          {
+            const std::size_t c = std::min(chunk, M - m0);
+            for (std::size_t i = 0; i < c; ++i)
+              wide[i] = static_cast<double>(rows[j * M + m0 + i]);
+            const auto                              n = static_cast<Eigen::Index>(c);
+            const Eigen::Map<const Eigen::VectorXd> w(wide, n);
+            su += w.dot(Eigen::Map<const Eigen::VectorXd>(a + m0, n));
+            sv += w.dot(Eigen::Map<const Eigen::VectorXd>(b + m0, n));
+          }
+        u[j] = su, v[j] = sv;
+      }
+  }
+
 #ifdef IRDM_HAVE_AVX2_KERNEL
+  namespace
+  {
+    __attribute__((target("avx2,fma"))) inline __m256d
+    lane_sums4(const __m256d r0, const __m256d r1, const __m256d r2, const __m256d r3)
+    {
+      const __m256d s01 = _mm256_hadd_pd(r0, r1);
+      const __m256d s23 = _mm256_hadd_pd(r2, r3);
+      return _mm256_add_pd(_mm256_permute2f128_pd(s01, s23, 0x20),
+                           _mm256_permute2f128_pd(s01, s23, 0x31));
+    }
+  } // namespace
+
+  // Four rows a pass, each widened once and taken into both sums: eight independent FMA
+  // chains.
+  __attribute__((target("avx2,fma"))) void
+  rows_product2_avx2(const float *rows, const std::size_t M, const std::size_t n_rows,
+                     const double *a, const double *b, double *u, double *v)
+  {
+    const std::size_t M4 = M - M % 4;
+    std::size_t       j  = 0;
+    for (; j + 4 <= n_rows; j += 4)
+      {
+        const float *row = rows + j * M;
+        __m256d      au[4], av[4];
+        for (int r = 0; r < 4; ++r)
+          au[r] = _mm256_setzero_pd(), av[r] = _mm256_setzero_pd();
+        for (std::size_t m = 0; m < M4; m += 4)
+          {
+            const __m256d am = _mm256_loadu_pd(a + m), bm = _mm256_loadu_pd(b + m);
+            #pragma GCC unroll 4
+            for (int r = 0; r < 4; ++r)
+              {
+                const __m256d w = _mm256_cvtps_pd(_mm_loadu_ps(row + r * M + m));
+                au[r]           = _mm256_fmadd_pd(w, am, au[r]);
+                av[r]           = _mm256_fmadd_pd(w, bm, av[r]);
+              }
+          }
+        __m256d su = lane_sums4(au[0], au[1], au[2], au[3]);
+        __m256d sv = lane_sums4(av[0], av[1], av[2], av[3]);
+        if (M4 < M)
+          {
+            alignas(32) double tu[4] = {}, tv[4] = {};
+            for (int r = 0; r < 4; ++r)
+              for (std::size_t m = M4; m < M; ++m)
+                tu[r] += static_cast<double>(row[r * M + m]) * a[m],
+                  tv[r] += static_cast<double>(row[r * M + m]) * b[m];
+            su = _mm256_add_pd(su, _mm256_load_pd(tu));
+            sv = _mm256_add_pd(sv, _mm256_load_pd(tv));
+          }
+        _mm256_storeu_pd(u + j, su);
+        _mm256_storeu_pd(v + j, sv);
+      }
+    for (; j < n_rows; ++j) // the last n_rows % 4 rows
+      {
+        double su = 0, sv = 0;
+        for (std::size_t m = 0; m < M; ++m)
+          su += static_cast<double>(rows[j * M + m]) * a[m], sv += static_cast<double>(rows[j * M + m]) * b[m];
+        u[j] = su, v[j] = sv;
+      }
+  }
+
+  // Four rows a pass over g: each load and store of g carries four FMAs.
+  __attribute__((target("avx2,fma"))) void
+  transposed_rows_product_avx2(const float *rows, const std::size_t M, const std::size_t n_rows,
+                               const double *f, double *g)
+  {
+    const std::size_t M4 = M - M % 4;
+    std::fill(g, g + M, 0.0);
+    std::size_t j = 0;
+    for (; j + 4 <= n_rows; j += 4)
+      {
+        const float  *row = rows + j * M;
+        const __m256d f0 = _mm256_set1_pd(f[j]), f1 = _mm256_set1_pd(f[j + 1]),
+                      f2 = _mm256_set1_pd(f[j + 2]), f3 = _mm256_set1_pd(f[j + 3]);
+        for (std::size_t m = 0; m < M4; m += 4)
+          {
+            __m256d gm = _mm256_loadu_pd(g + m);
+            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + m)), f0, gm);
+            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + M + m)), f1, gm);
+            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + 2 * M + m)), f2, gm);
+            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + 3 * M + m)), f3, gm);
+            _mm256_storeu_pd(g + m, gm);
+          }
+        for (std::size_t m = M4; m < M; ++m)
+          for (int r = 0; r < 4; ++r)
+            g[m] += static_cast<double>(row[r * M + m]) * f[j + r];
+      }
+    for (; j < n_rows; ++j) // the last n_rows % 4 rows
+      for (std::size_t m = 0; m < M; ++m)
+        g[m] += static_cast<double>(rows[j * M + m]) * f[j];
+  }
+
   bool
   surface_product_avx2_available()
   {
@@ -185,6 +320,20 @@ namespace irdm::detail
   }
 
   void
+  transposed_rows_product_avx2(const float *rows, const std::size_t M, const std::size_t n_rows,
+                               const double *f, double *g)
+  {
+    transposed_rows_product_portable(rows, M, n_rows, f, g);
+  }
+
+  void
+  rows_product2_avx2(const float *rows, const std::size_t M, const std::size_t n_rows,
+                     const double *a, const double *b, double *u, double *v)
+  {
+    rows_product2_portable(rows, M, n_rows, a, b, u, v);
+  }
+
+  void
   surface_product_avx2(const float *shapes, const std::size_t M, const std::size_t n_outputs,
                        const double *a, double *u)
   {
@@ -208,5 +357,38 @@ namespace irdm::detail
       surface_product_avx2_single(shapes, M, n_outputs, a, u);
     else
       surface_product_portable(shapes, M, n_outputs, a, u);
+  }
+
+  void
+  rows_product(const float *rows, const std::size_t M, const std::size_t n_rows, const double *a,
+               double *u)
+  {
+    static const bool avx2 = surface_product_avx2_available();
+    if (avx2)
+      surface_product_avx2(rows, M, n_rows, a, u);
+    else
+      surface_product_portable(rows, M, n_rows, a, u);
+  }
+
+  void
+  rows_product2(const float *rows, const std::size_t M, const std::size_t n_rows, const double *a,
+                const double *b, double *u, double *v)
+  {
+    static const bool avx2 = surface_product_avx2_available();
+    if (avx2)
+      rows_product2_avx2(rows, M, n_rows, a, b, u, v);
+    else
+      rows_product2_portable(rows, M, n_rows, a, b, u, v);
+  }
+
+  void
+  transposed_rows_product(const float *rows, const std::size_t M, const std::size_t n_rows,
+                          const double *f, double *g)
+  {
+    static const bool avx2 = surface_product_avx2_available();
+    if (avx2)
+      transposed_rows_product_avx2(rows, M, n_rows, f, g);
+    else
+      transposed_rows_product_portable(rows, M, n_rows, f, g);
   }
 } // namespace irdm::detail

@@ -36,4 +36,35 @@ namespace irdm::detail
   void
   surface_product(const float *shapes, std::size_t M, std::size_t n_outputs, const double *a,
                   double *u);
+
+  // The fastest of the two that sum in double (decided once): where the product must be the
+  // rounded rows' own to double round-off (the reduced nonlinear model's residual, which
+  // Newton drives to 1e-8 of its forces).
+  void
+  rows_product(const float *rows, std::size_t M, std::size_t n_rows, const double *a, double *u);
+
+  // Two products over one pass of the rows, u = rows a and v = rows b, summed in double (the
+  // rows are read from memory once): portable, AVX2/FMA, and the faster (decided once).
+  void
+  rows_product2_portable(const float *rows, std::size_t M, std::size_t n_rows, const double *a,
+                         const double *b, double *u, double *v);
+  void
+  rows_product2_avx2(const float *rows, std::size_t M, std::size_t n_rows, const double *a,
+                     const double *b, double *u, double *v);
+  void
+  rows_product2(const float *rows, std::size_t M, std::size_t n_rows, const double *a,
+                const double *b, double *u, double *v);
+
+  // The transposed product g[m] = sum_j rows[j * M + m] * f[j], m < M, summed in double: the
+  // forces at the rows' points back onto the basis. Portable and AVX2/FMA (four rows a pass),
+  // and the faster (decided once).
+  void
+  transposed_rows_product_portable(const float *rows, std::size_t M, std::size_t n_rows,
+                                   const double *f, double *g);
+  void
+  transposed_rows_product_avx2(const float *rows, std::size_t M, std::size_t n_rows,
+                               const double *f, double *g);
+  void
+  transposed_rows_product(const float *rows, std::size_t M, std::size_t n_rows, const double *f,
+                          double *g);
 } // namespace irdm::detail

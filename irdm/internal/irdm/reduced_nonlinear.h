@@ -139,6 +139,11 @@ namespace irdm
     // planes' contacts change (the same matrix: the same steps, bit for bit). false: factorize
     // at every iteration.
     bool keep_factorization = true;
+    // The residual reads U's rows at the cubature's vertices in single precision, summing in
+    // double (half the bytes a residual streams): the elastic and damping forces are then the
+    // Galerkin projection on U rounded to float (relative 6e-8), the tangent U's own (Newton
+    // converges to the residual's root). false: double rows (the model exactly U's).
+    bool single_precision_rows = true;
     // Newton's stop: the residual's norm at most this fraction of the largest force in it
     // (the nonlinear FEM's), or an update of round-off size.
     double tolerance = 1e-8;
@@ -338,6 +343,7 @@ namespace irdm
     // share vertices.
     using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     RowMatrix                             vertex_basis_;
+    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> vertex_rows_; // rounded, where the option says
     std::vector<std::array<unsigned, 4>>  element_vertices_;
     std::vector<elastic::Tetrahedron>     element_;
     std::vector<double>                   weight_;
