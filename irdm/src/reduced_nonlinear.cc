@@ -670,20 +670,30 @@ namespace irdm
       {
         const auto &l = element_vertices_[k];
         gather(vertex_u_, l, u_e);
-        if (!elastic::neo_hookean_force(element_[k], u_e, m_.mu, m_.lambda, f_e, T ? &K_e : nullptr))
+        if (damped)
+          gather(vertex_v_, l, v_e);
+        const auto &t = element_[k];
+        if (!T) // the residual alone: one kernel for both forces
+          {
+            if (!(damped ? elastic::damped_neo_hookean_force(t, u_e, v_e, m_.mu, m_.lambda, m_.rayleigh_beta, f_e)
+                         : elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, f_e)))
+              {
+                ok = false;
+                continue;
+              }
+          }
+        else if (!elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, f_e, &K_e))
           {
             ok = false;
             continue;
           }
-        if (damped)
+        else if (damped)
           {
-            gather(vertex_v_, l, v_e);
-            elastic::objective_damping_force(element_[k], u_e, v_e, m_.mu, m_.lambda, d_e, T ? &D_e : nullptr);
+            elastic::objective_damping_force(t, u_e, v_e, m_.mu, m_.lambda, d_e, &D_e);
             f_e += m_.rayleigh_beta * d_e;
-            if (T)
-              K_e = (1 - af) * K_e + m_.rayleigh_beta * c_c * D_e;
+            K_e = (1 - af) * K_e + m_.rayleigh_beta * c_c * D_e;
           }
-        else if (T)
+        else
           K_e *= 1 - af;
         for (int a = 0; a < 4; ++a)
           vertex_f_.segment<3>(3 * Eigen::Index(l[a])) += weight_[k] * f_e.segment<3>(3 * a);

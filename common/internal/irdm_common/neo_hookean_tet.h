@@ -110,4 +110,29 @@ namespace irdm::elastic
           t.volume * (lambda * FG.col(i) * FG.col(j).transpose() + mu * gg(i, j) * FFt +
                       mu * FG.col(j) * FG.col(i).transpose());
   }
+  /// neo_hookean_force + beta objective_damping_force, the force alone (no tangent): the
+  /// residual's element kernel, F and grad u formed once and one product with the gradients.
+  /// False if the element is inverted.
+  inline bool
+  damped_neo_hookean_force(const Tetrahedron &t, const Vector12 &u, const Vector12 &v,
+                           const double mu, const double lambda, const double beta, Vector12 &f)
+  {
+    const Eigen::Matrix3d H  = nodal_gradient(t, u);
+    const double          tH = H.trace();
+    const double J_minus_1 = tH + 0.5 * (tH * tH - (H * H).trace()) + H.determinant();
+    if (!(J_minus_1 > -1))
+      return false;
+    const double          lnJ = std::log1p(J_minus_1);
+    const Eigen::Matrix3d F   = Eigen::Matrix3d::Identity() + H;
+    const Eigen::Matrix3d A   = F.inverse().transpose();
+    const Eigen::Matrix3d FtG   = F.transpose() * nodal_gradient(t, v);
+    const Eigen::Matrix3d E_dot = 0.5 * (FtG + FtG.transpose());
+    Eigen::Matrix3d       S     = 2 * mu * E_dot;
+    S.diagonal().array() += lambda * E_dot.trace();
+    const Eigen::Matrix3d P  = mu * (H + H.transpose() * A) + lambda * lnJ * A + beta * (F * S);
+    const Matrix34        PG = P * t.grad;
+    for (int i = 0; i < 4; ++i)
+      f.segment<3>(3 * i) = t.volume * PG.col(i);
+    return true;
+  }
 } // namespace irdm::elastic
