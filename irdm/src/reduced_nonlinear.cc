@@ -322,7 +322,10 @@ namespace irdm
       vertex_rows_ = vertex_basis_.cast<float>();
     for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_})
       x->setZero(3 * Eigen::Index(n_local));
-    KU_.setZero(3 * Eigen::Index(n_local), r_);
+    if (options_.single_precision_rows)
+      KU_rows_.setZero(3 * Eigen::Index(n_local), r_), tangent_rows_.setZero(r_, r_), KU_row_.setZero(3, r_);
+    else
+      KU_.setZero(3 * Eigen::Index(n_local), r_);
     // Eigen's product keeps its packed operands on the stack up to EIGEN_STACK_ALLOCATION_LIMIT
     // (128 KiB): a slice of s rows packs at most s r doubles of each (its blocks are at most the
     // slice deep and r wide); (r + 16) s doubles within 96 KiB leaves room. Past r = 4096 the
@@ -706,7 +709,27 @@ namespace irdm
       detail::transposed_rows_product(vertex_rows_.data(), r_, rows, vertex_f_.data(), g_int_.data());
     else
       g_int_.noalias() = vertex_basis_.transpose() * vertex_f_;
-    if (T)
+    if (T && options_.single_precision_rows)
+      {
+        // As below, on the rows rounded to float and in float arithmetic (twice the numbers
+        // per instruction): the tangent only steers Newton and is kept over many iterations,
+        // so a relative 1e-6 in it changes the convergence, not the root.
+        for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)
+          {
+            KU_row_.setZero();
+            for (unsigned s = block_row_start_[i]; s < block_row_start_[i + 1]; ++s)
+              KU_row_.noalias() += stiffness_blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
+            KU_rows_.middleRows<3>(3 * Eigen::Index(i)) = KU_row_.cast<float>();
+          }
+        tangent_rows_.setZero();
+        for (Eigen::Index c = 0; c < KU_rows_.rows(); c += slice_)
+          {
+            const Eigen::Index n = std::min(slice_, KU_rows_.rows() - c);
+            tangent_rows_.triangularView<Eigen::Lower>() += vertex_rows_.middleRows(c, n).transpose() * KU_rows_.middleRows(c, n);
+          }
+        T->triangularView<Eigen::Lower>() += tangent_rows_.cast<double>();
+      }
+    else if (T)
       {
         // K U by block rows, then U^T (K U), symmetric: the lower triangle alone.
         for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)

@@ -141,8 +141,10 @@ namespace irdm
     bool keep_factorization = true;
     // The residual reads U's rows at the cubature's vertices in single precision, summing in
     // double (half the bytes a residual streams): the elastic and damping forces are then the
-    // Galerkin projection on U rounded to float (relative 6e-8), the tangent U's own (Newton
-    // converges to the residual's root). false: double rows (the model exactly U's).
+    // Galerkin projection on U rounded to float (relative 6e-8). The body's tangent U^T (K U)
+    // is formed in float arithmetic on those rows (relative about 1e-6: Newton converges to
+    // the residual's root all the same). false: double rows and tangent (the model exactly
+    // U's).
     bool single_precision_rows = true;
     // Newton's stop: the residual's norm at most this fraction of the largest force in it
     // (the nonlinear FEM's), or an update of round-off size.
@@ -356,6 +358,10 @@ namespace irdm
     std::vector<std::array<unsigned, 16>> element_blocks_;
     std::vector<Eigen::Matrix3d>          stiffness_blocks_;
     RowMatrix                             KU_;
+    // The same in float where the rows are (single_precision_rows), and U^T (K U) in float.
+    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> KU_rows_;
+    Eigen::MatrixXf                                                       tangent_rows_;
+    Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>             KU_row_; // one vertex's, in double
     Eigen::Index                          slice_ = 3;
     // Per surface vertex with a free DoF: U_s (its 3 rows of surface_basis_, rows of fixed
     // DoFs zero), X_s, area; every one's displacement at the latest residual's iterate (one
