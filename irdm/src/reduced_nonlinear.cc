@@ -318,8 +318,11 @@ namespace irdm
         element_blocks_.push_back(places);
       }
     stiffness_blocks_.assign(block_column_.size(), Eigen::Matrix3d::Zero());
-    if (options_.single_precision_rows)
-      vertex_rows_ = vertex_basis_.cast<float>();
+    if (options_.single_precision_rows) // the double rows rounded too: every use reads the same basis
+      {
+        vertex_rows_  = vertex_basis_.cast<float>();
+        vertex_basis_ = vertex_rows_.cast<double>();
+      }
     for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_})
       x->setZero(3 * Eigen::Index(n_local));
     if (options_.single_precision_rows)
@@ -357,6 +360,11 @@ namespace irdm
           surface_basis_.row(3 * Eigen::Index(k) + d) = free[d] ? Eigen::RowVectorXd(basis_row(m_.surface_vertex[s], d)) : Eigen::RowVectorXd::Zero(r_);
         surface_rest_.emplace_back(m_.coordinates[s][0], m_.coordinates[s][1], m_.coordinates[s][2]);
         surface_area_.push_back(m_.lumped_area[s]);
+      }
+    if (options_.single_precision_rows)
+      {
+        surface_rows_f_ = surface_basis_.cast<float>();
+        surface_basis_  = surface_rows_f_.cast<double>();
       }
     surface_u_.setZero(surface_basis_.rows());
     for (Vector *x : {&q_, &v_, &a_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
@@ -777,7 +785,9 @@ namespace irdm
     const Eigen::Vector3d arm_origin = floating_ ? Eigen::Vector3d(center0_ + translation_loads_.transpose() * x / m_.mass)
                                                  : Eigen::Vector3d::Zero();
     contact_torque_trial_.setZero();
-    if (n > 0)
+    if (n > 0 && options_.single_precision_rows)
+      detail::rows_product(surface_rows_f_.data(), r_, static_cast<std::size_t>(surface_rows_f_.rows()), x.data(), surface_u_.data());
+    else if (n > 0)
       surface_u_.noalias() = surface_basis_ * x;
     for (int p = 0; p < n; ++p)
       {

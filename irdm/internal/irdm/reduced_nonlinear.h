@@ -139,12 +139,13 @@ namespace irdm
     // planes' contacts change (the same matrix: the same steps, bit for bit). false: factorize
     // at every iteration.
     bool keep_factorization = true;
-    // The residual reads U's rows at the cubature's vertices in single precision, summing in
-    // double (half the bytes a residual streams): the elastic and damping forces are then the
-    // Galerkin projection on U rounded to float (relative 6e-8). The body's tangent U^T (K U)
-    // is formed in float arithmetic on those rows (relative about 1e-6: Newton converges to
-    // the residual's root all the same). false: double rows and tangent (the model exactly
-    // U's).
+    // U's rows at the cubature's and the surface's vertices rounded to float, and read in
+    // single precision with the sums in double (half the bytes a residual streams): the
+    // elastic, damping and plane forces are then the Galerkin projection on U so rounded
+    // (relative 6e-8; the inertia, loads and probes keep U's own). The body's tangent
+    // U^T (K U) is formed in float arithmetic on those rows (relative about 1e-6: Newton
+    // converges to the residual's root all the same). false: U's own rows and a tangent in
+    // double.
     bool single_precision_rows = true;
     // Newton's stop: the residual's norm at most this fraction of the largest force in it
     // (the nonlinear FEM's), or an update of round-off size.
@@ -367,6 +368,7 @@ namespace irdm
     // DoFs zero), X_s, area; every one's displacement at the latest residual's iterate (one
     // product a residual, whatever the planes).
     RowMatrix                    surface_basis_;
+    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> surface_rows_f_; // where single_precision_rows
     std::vector<Eigen::Vector3d> surface_rest_;
     std::vector<double>          surface_area_;
     std::vector<unsigned>        surface_index_; // into the model's
