@@ -4,9 +4,10 @@
 // repetition times the same steps, one period after the first quarter (a faster step must not
 // be timed over another part of the press). Newton's
 // method with the body's tangent at every iteration beside the modified Newton method that
-// keeps it (the runtime's default), and the latter with a stop 100 times looser; the ratios
-// and each one's iterations and tangent evaluations per step are printed at the end, side by
-// side in one run.
+// keeps it (the runtime's default), the latter with a stop 100 times looser, and with each of
+// two of its savings undone (a factorization at every iteration; U's rows and the tangent in
+// double); the ratios and each one's iterations, tangent evaluations and factorizations per
+// step are printed at the end, side by side in one run.
 //
 //   irdm_reduced_kernels REDUCED_MODEL.h5 [DEPTH_M] [google-benchmark flags]
 // REDUCED_MODEL.h5: irdm precompute SCENE --reduced (docs/reduced-model.md); DEPTH_M default
@@ -35,7 +36,8 @@ namespace
     double state_sum = 0; // the sum of the last step's coordinates: two builds took the same steps where it agrees
     double iterations = 0, tangents = 0, factorizations = 0;
   };
-  Counts g_counts[3];
+  constexpr int n_variants = 5;
+  Counts        g_counts[n_variants];
 
   /// The plane `depth` into the top of the body, pushing down.
   irdm::ReducedPlane
@@ -53,11 +55,14 @@ namespace
   void
   run(benchmark::State &state, const int variant)
   {
-    // 0: Newton; 1: the kept tangent; 2: the kept tangent and a looser stop.
+    // 0: Newton; 1: the kept tangent; 2: the kept tangent and a looser stop; 3: the kept
+    // tangent, factorized at every iteration; 4: the kept tangent, U's rows in double.
     irdm::ReducedBodyOptions o;
     o.reuse_tangent = variant > 0;
     if (variant == 2)
       o.tolerance = 1e-6;
+    o.keep_factorization    = variant != 3;
+    o.single_precision_rows = variant != 4;
     irdm::ReducedNonlinearBody body(*g_model, o);
     const double               tau = g_model->time_step;
     long                       n   = 0;
@@ -114,9 +119,11 @@ main(int argc, char **argv)
       std::fprintf(stderr, "irdm_reduced_kernels: error: %s\n", e.what());
       return 2;
     }
-  const char *names[] = {"step, Newton", "step, kept tangent", "step, kept tangent, stop 1e-6"};
+  const char *names[n_variants] = {"step, Newton", "step, kept tangent", "step, kept tangent, stop 1e-6",
+                                   "step, kept tangent, factorized every iteration",
+                                   "step, kept tangent, rows in double"};
   const auto period_steps = static_cast<benchmark::IterationCount>(std::lround(period / g_model->time_step));
-  for (int v = 0; v < 3; ++v)
+  for (int v = 0; v < n_variants; ++v)
     benchmark::RegisterBenchmark(names[v], [v](benchmark::State &s) { run(s, v); })
       ->Unit(benchmark::kMicrosecond)
       ->Iterations(std::max<benchmark::IterationCount>(period_steps, 1));
@@ -128,7 +135,7 @@ main(int argc, char **argv)
   // Each run (repetitions included) by its variant: the longest name it begins with.
   const auto variant = [&](const std::string &name) {
     int v = -1;
-    for (int k = 0; k < 3; ++k)
+    for (int k = 0; k < n_variants; ++k)
       if (name.rfind(names[k], 0) == 0 && (v < 0 || std::string(names[k]).size() > std::string(names[v]).size()))
         v = k;
     return v;
@@ -139,10 +146,10 @@ main(int argc, char **argv)
       newton = us;
   for (const auto &[name, us] : collector.times)
     if (const int v = variant(name); v >= 0)
-      std::printf("  %-32s %9.1f us  ratio to Newton %.3f  %.2f iterations, %.2f tangents, %.2f factorizations per step\n",
+      std::printf("  %-46s %9.1f us  ratio to Newton %.3f  %.2f iterations, %.2f tangents, %.2f factorizations per step\n",
                   names[v], us, newton > 0 ? us / newton : 0.0, g_counts[v].iterations, g_counts[v].tangents,
                   g_counts[v].factorizations);
-  for (int v = 0; v < 3; ++v)
-    std::printf("  %-32s the last step's coordinates sum to %.17g\n", names[v], g_counts[v].state_sum);
+  for (int v = 0; v < n_variants; ++v)
+    std::printf("  %-46s the last step's coordinates sum to %.17g\n", names[v], g_counts[v].state_sum);
   return 0;
 }
