@@ -474,17 +474,25 @@ TEST(Runtime, SurfaceProductKernelsAgreeWithAnExactSum)
         x = static_cast<float>(dist(gen));
       for (auto &x : a)
         x = dist(gen);
-      std::vector<double> exact(nout), scale(nout);
-      for (size_t j = 0; j < nout; ++j)
-        {
-          long double s = 0, g = 0;
-          for (size_t m = 0; m < M; ++m)
-            {
-              s += static_cast<long double>(shapes[j * M + m]) * a[m];
-              g += std::abs(static_cast<long double>(shapes[j * M + m]) * a[m]);
-            }
-          exact[j] = static_cast<double>(s), scale[j] = static_cast<double>(g);
-        }
+      // Each row's (or, transposed, each column's) product with x in long double, and the sum
+      // of its terms' magnitudes.
+      const auto exact_sums = [&](const std::vector<double> &x, const bool transposed, std::vector<double> &sum,
+                                  std::vector<double> &magnitude) {
+        const size_t n = transposed ? M : nout, terms = transposed ? nout : M;
+        sum.assign(n, 0), magnitude.assign(n, 0);
+        for (size_t i = 0; i < n; ++i)
+          {
+            long double t = 0, g = 0;
+            for (size_t k = 0; k < terms; ++k)
+              {
+                const long double term = static_cast<long double>(transposed ? shapes[k * M + i] : shapes[i * M + k]) * x[k];
+                t += term, g += std::abs(term);
+              }
+            sum[i] = static_cast<double>(t), magnitude[i] = static_cast<double>(g);
+          }
+      };
+      std::vector<double> exact, scale;
+      exact_sums(a, false, exact, scale);
       // Any summation order of n terms in a precision of unit round-off r is within
       // n r (1 + O(n r)) of the sum of the magnitudes. Double: n = M. Single: a rounded to float
       // (1), the lane sums of about M / 8 FMAs per block of 512 modes, three adds across the
@@ -513,17 +521,8 @@ TEST(Runtime, SurfaceProductKernelsAgreeWithAnExactSum)
       // Two products in one pass (a, and a in reverse order), summed in double: each within
       // M r of its sum of magnitudes, as the double kernels.
       const std::vector<double> b(a.rbegin(), a.rend());
-      std::vector<double>       u2(nout), v2(nout), b_exact(nout), b_scale(nout);
-      for (size_t j = 0; j < nout; ++j)
-        {
-          long double t = 0, g = 0;
-          for (size_t m = 0; m < M; ++m)
-            {
-              t += static_cast<long double>(shapes[j * M + m]) * b[m];
-              g += std::abs(static_cast<long double>(shapes[j * M + m]) * b[m]);
-            }
-          b_exact[j] = static_cast<double>(t), b_scale[j] = static_cast<double>(g);
-        }
+      std::vector<double>       u2(nout), v2(nout), b_exact, b_scale;
+      exact_sums(b, false, b_exact, b_scale);
       for (const bool avx2 : {false, true})
         {
           if (avx2 && !detail::surface_product_avx2_available())
@@ -542,19 +541,10 @@ TEST(Runtime, SurfaceProductKernelsAgreeWithAnExactSum)
         }
       // The transposed product, g = rows^T f (the forces back onto the basis): summed in
       // double, so within n_rows r of the sum of the magnitudes.
-      std::vector<double> f(nout), g(M), g_exact(M), g_scale(M);
+      std::vector<double> f(nout), g(M), g_exact, g_scale;
       for (auto &x : f)
         x = dist(gen);
-      for (size_t m = 0; m < M; ++m)
-        {
-          long double t = 0, a_sum = 0;
-          for (size_t j = 0; j < nout; ++j)
-            {
-              t += static_cast<long double>(shapes[j * M + m]) * f[j];
-              a_sum += std::abs(static_cast<long double>(shapes[j * M + m]) * f[j]);
-            }
-          g_exact[m] = static_cast<double>(t), g_scale[m] = static_cast<double>(a_sum);
-        }
+      exact_sums(f, true, g_exact, g_scale);
       const auto check_transposed = [&](const char *kernel) {
         for (size_t m = 0; m < M; ++m)
           ASSERT_LE(std::abs(g[m] - g_exact[m]), 1.01 * nout * r_double * g_scale[m])

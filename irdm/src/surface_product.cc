@@ -81,98 +81,6 @@ namespace irdm::detail
   }
 
 #ifdef IRDM_HAVE_AVX2_KERNEL
-  namespace
-  {
-    __attribute__((target("avx2,fma"))) inline __m256d
-    lane_sums4(const __m256d r0, const __m256d r1, const __m256d r2, const __m256d r3)
-    {
-      const __m256d s01 = _mm256_hadd_pd(r0, r1);
-      const __m256d s23 = _mm256_hadd_pd(r2, r3);
-      return _mm256_add_pd(_mm256_permute2f128_pd(s01, s23, 0x20),
-                           _mm256_permute2f128_pd(s01, s23, 0x31));
-    }
-  } // namespace
-
-  // Four rows a pass, each widened once and taken into both sums: eight independent FMA
-  // chains.
-  __attribute__((target("avx2,fma"))) void
-  rows_product2_avx2(const float *rows, const std::size_t M, const std::size_t n_rows,
-                     const double *a, const double *b, double *u, double *v)
-  {
-    const std::size_t M4 = M - M % 4;
-    std::size_t       j  = 0;
-    for (; j + 4 <= n_rows; j += 4)
-      {
-        const float *row = rows + j * M;
-        __m256d      au[4], av[4];
-        for (int r = 0; r < 4; ++r)
-          au[r] = _mm256_setzero_pd(), av[r] = _mm256_setzero_pd();
-        for (std::size_t m = 0; m < M4; m += 4)
-          {
-            const __m256d am = _mm256_loadu_pd(a + m), bm = _mm256_loadu_pd(b + m);
-            #pragma GCC unroll 4
-            for (int r = 0; r < 4; ++r)
-              {
-                const __m256d w = _mm256_cvtps_pd(_mm_loadu_ps(row + r * M + m));
-                au[r]           = _mm256_fmadd_pd(w, am, au[r]);
-                av[r]           = _mm256_fmadd_pd(w, bm, av[r]);
-              }
-          }
-        __m256d su = lane_sums4(au[0], au[1], au[2], au[3]);
-        __m256d sv = lane_sums4(av[0], av[1], av[2], av[3]);
-        if (M4 < M)
-          {
-            alignas(32) double tu[4] = {}, tv[4] = {};
-            for (int r = 0; r < 4; ++r)
-              for (std::size_t m = M4; m < M; ++m)
-                tu[r] += static_cast<double>(row[r * M + m]) * a[m],
-                  tv[r] += static_cast<double>(row[r * M + m]) * b[m];
-            su = _mm256_add_pd(su, _mm256_load_pd(tu));
-            sv = _mm256_add_pd(sv, _mm256_load_pd(tv));
-          }
-        _mm256_storeu_pd(u + j, su);
-        _mm256_storeu_pd(v + j, sv);
-      }
-    for (; j < n_rows; ++j) // the last n_rows % 4 rows
-      {
-        double su = 0, sv = 0;
-        for (std::size_t m = 0; m < M; ++m)
-          su += static_cast<double>(rows[j * M + m]) * a[m], sv += static_cast<double>(rows[j * M + m]) * b[m];
-        u[j] = su, v[j] = sv;
-      }
-  }
-
-  // Four rows a pass over g: each load and store of g carries four FMAs.
-  __attribute__((target("avx2,fma"))) void
-  transposed_rows_product_avx2(const float *rows, const std::size_t M, const std::size_t n_rows,
-                               const double *f, double *g)
-  {
-    const std::size_t M4 = M - M % 4;
-    std::fill(g, g + M, 0.0);
-    std::size_t j = 0;
-    for (; j + 4 <= n_rows; j += 4)
-      {
-        const float  *row = rows + j * M;
-        const __m256d f0 = _mm256_set1_pd(f[j]), f1 = _mm256_set1_pd(f[j + 1]),
-                      f2 = _mm256_set1_pd(f[j + 2]), f3 = _mm256_set1_pd(f[j + 3]);
-        for (std::size_t m = 0; m < M4; m += 4)
-          {
-            __m256d gm = _mm256_loadu_pd(g + m);
-            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + m)), f0, gm);
-            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + M + m)), f1, gm);
-            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + 2 * M + m)), f2, gm);
-            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + 3 * M + m)), f3, gm);
-            _mm256_storeu_pd(g + m, gm);
-          }
-        for (std::size_t m = M4; m < M; ++m)
-          for (int r = 0; r < 4; ++r)
-            g[m] += static_cast<double>(row[r * M + m]) * f[j + r];
-      }
-    for (; j < n_rows; ++j) // the last n_rows % 4 rows
-      for (std::size_t m = 0; m < M; ++m)
-        g[m] += static_cast<double>(rows[j * M + m]) * f[j];
-  }
-
   bool
   surface_product_avx2_available()
   {
@@ -311,6 +219,86 @@ namespace irdm::detail
             u[j] += static_cast<double>(s);
           }
       }
+  }
+
+  // Four rows a pass, each widened once and taken into both sums: eight independent FMA
+  // chains.
+  __attribute__((target("avx2,fma"))) void
+  rows_product2_avx2(const float *rows, const std::size_t M, const std::size_t n_rows,
+                     const double *a, const double *b, double *u, double *v)
+  {
+    const std::size_t M4 = M - M % 4;
+    std::size_t       j  = 0;
+    for (; j + 4 <= n_rows; j += 4)
+      {
+        const float *row = rows + j * M;
+        __m256d      au[4], av[4];
+        for (int r = 0; r < 4; ++r)
+          au[r] = _mm256_setzero_pd(), av[r] = _mm256_setzero_pd();
+        for (std::size_t m = 0; m < M4; m += 4)
+          {
+            const __m256d am = _mm256_loadu_pd(a + m), bm = _mm256_loadu_pd(b + m);
+            #pragma GCC unroll 4
+            for (int r = 0; r < 4; ++r)
+              {
+                const __m256d w = _mm256_cvtps_pd(_mm_loadu_ps(row + r * M + m));
+                au[r]           = _mm256_fmadd_pd(w, am, au[r]);
+                av[r]           = _mm256_fmadd_pd(w, bm, av[r]);
+              }
+          }
+        __m256d su = lane_sums(au[0], au[1], au[2], au[3]);
+        __m256d sv = lane_sums(av[0], av[1], av[2], av[3]);
+        if (M4 < M)
+          {
+            alignas(32) double tu[4] = {}, tv[4] = {};
+            for (int r = 0; r < 4; ++r)
+              for (std::size_t m = M4; m < M; ++m)
+                tu[r] += static_cast<double>(row[r * M + m]) * a[m],
+                  tv[r] += static_cast<double>(row[r * M + m]) * b[m];
+            su = _mm256_add_pd(su, _mm256_load_pd(tu));
+            sv = _mm256_add_pd(sv, _mm256_load_pd(tv));
+          }
+        _mm256_storeu_pd(u + j, su);
+        _mm256_storeu_pd(v + j, sv);
+      }
+    for (; j < n_rows; ++j) // the last n_rows % 4 rows
+      {
+        double su = 0, sv = 0;
+        for (std::size_t m = 0; m < M; ++m)
+          su += static_cast<double>(rows[j * M + m]) * a[m], sv += static_cast<double>(rows[j * M + m]) * b[m];
+        u[j] = su, v[j] = sv;
+      }
+  }
+
+  // Four rows a pass over g: each load and store of g carries four FMAs.
+  __attribute__((target("avx2,fma"))) void
+  transposed_rows_product_avx2(const float *rows, const std::size_t M, const std::size_t n_rows,
+                               const double *f, double *g)
+  {
+    const std::size_t M4 = M - M % 4;
+    std::fill(g, g + M, 0.0);
+    std::size_t j = 0;
+    for (; j + 4 <= n_rows; j += 4)
+      {
+        const float  *row = rows + j * M;
+        const __m256d f0 = _mm256_set1_pd(f[j]), f1 = _mm256_set1_pd(f[j + 1]),
+                      f2 = _mm256_set1_pd(f[j + 2]), f3 = _mm256_set1_pd(f[j + 3]);
+        for (std::size_t m = 0; m < M4; m += 4)
+          {
+            __m256d gm = _mm256_loadu_pd(g + m);
+            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + m)), f0, gm);
+            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + M + m)), f1, gm);
+            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + 2 * M + m)), f2, gm);
+            gm = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(row + 3 * M + m)), f3, gm);
+            _mm256_storeu_pd(g + m, gm);
+          }
+        for (std::size_t m = M4; m < M; ++m)
+          for (int r = 0; r < 4; ++r)
+            g[m] += static_cast<double>(row[r * M + m]) * f[j + r];
+      }
+    for (; j < n_rows; ++j) // the last n_rows % 4 rows
+      for (std::size_t m = 0; m < M; ++m)
+        g[m] += static_cast<double>(rows[j * M + m]) * f[j];
   }
 #else
   bool

@@ -42,27 +42,45 @@ namespace irdm::elastic
     return G;
   }
 
+  /// The law at one point, from H = grad u: F, A = F^{-T}, ln J and the first Piola stress P
+  /// (Pa). J - 1 = tr H + (tr(H)^2 - tr(H^2)) / 2 + det H, formed from H so that small
+  /// strains lose no digits. False (nothing else set) if J <= 0.
+  struct NeoHookeanStress
+  {
+    Eigen::Matrix3d F, A, P;
+    double          lnJ = 0;
+  };
+  inline bool
+  neo_hookean_stress(const Eigen::Matrix3d &H, const double mu, const double lambda, NeoHookeanStress &s)
+  {
+    const double tH        = H.trace();
+    const double J_minus_1 = tH + 0.5 * (tH * tH - (H * H).trace()) + H.determinant();
+    if (!(J_minus_1 > -1))
+      return false;
+    s.lnJ = std::log1p(J_minus_1);
+    s.F   = Eigen::Matrix3d::Identity() + H;
+    s.A   = s.F.inverse().transpose();
+    s.P   = mu * (H + H.transpose() * s.A) + lambda * s.lnJ * s.A;
+    return true;
+  }
+
   /// The element's internal force (N, 12) at nodal displacements u and, if K is given, its
   /// tangent (N/m). Returns false if the element is inverted (J <= 0); energy (J) if given.
   inline bool
   neo_hookean_force(const Tetrahedron &t, const Vector12 &u, const double mu, const double lambda,
                     Vector12 &f, Matrix12 *K = nullptr, double *energy = nullptr)
   {
-    const Eigen::Matrix3d H  = nodal_gradient(t, u);
-    const double          tH = H.trace();
-    // J - 1 = tr H + (tr(H)^2 - tr(H^2)) / 2 + det H.
-    const double J_minus_1 = tH + 0.5 * (tH * tH - (H * H).trace()) + H.determinant();
-    if (!(J_minus_1 > -1))
+    const Eigen::Matrix3d H = nodal_gradient(t, u);
+    NeoHookeanStress      s;
+    if (!neo_hookean_stress(H, mu, lambda, s))
       return false;
-    const double          lnJ = std::log1p(J_minus_1);
-    const Eigen::Matrix3d F   = Eigen::Matrix3d::Identity() + H;
-    const Eigen::Matrix3d A   = F.inverse().transpose(); // F^{-T}
-    const Eigen::Matrix3d P   = mu * (H + H.transpose() * A) + lambda * lnJ * A;
-    const Matrix34        PG  = P * t.grad;
+    const double           lnJ = s.lnJ;
+    const Eigen::Matrix3d &A   = s.A;
+    const Matrix34         PG  = s.P * t.grad;
     for (int i = 0; i < 4; ++i)
       f.segment<3>(3 * i) = t.volume * PG.col(i);
     if (energy)
-      *energy = t.volume * (0.5 * mu * (2 * tH + H.squaredNorm()) - mu * lnJ + 0.5 * lambda * lnJ * lnJ);
+      *energy = t.volume * (0.5 * mu * (2 * H.trace() + H.squaredNorm()) - mu * lnJ + 0.5 * lambda * lnJ * lnJ);
     if (!K)
       return true;
     // K(ia, jb) = V [mu d_ab g_i.g_j + (mu - lambda ln J)(A g_j)_a (A g_i)_b
@@ -82,6 +100,18 @@ namespace irdm::elastic
     return true;
   }
 
+  /// The damping's second Piola stress S_d = lambda tr(E') I + 2 mu E', E' = sym(F^T grad v).
+  inline Eigen::Matrix3d
+  damping_stress(const Eigen::Matrix3d &F, const Eigen::Matrix3d &grad_v, const double mu,
+                 const double lambda)
+  {
+    const Eigen::Matrix3d FtG   = F.transpose() * grad_v;
+    const Eigen::Matrix3d E_dot = 0.5 * (FtG + FtG.transpose());
+    Eigen::Matrix3d       S     = 2 * mu * E_dot;
+    S.diagonal().array() += lambda * E_dot.trace();
+    return S;
+  }
+
   /// The objective damping force per unit beta (N s / s = N, 12) at displacement u and
   /// velocity v, and if D is given its tangent with respect to v (at this u; its dependence on
   /// u is left out, as a Newton step may).
@@ -89,12 +119,8 @@ namespace irdm::elastic
   objective_damping_force(const Tetrahedron &t, const Vector12 &u, const Vector12 &v,
                           const double mu, const double lambda, Vector12 &f, Matrix12 *D = nullptr)
   {
-    const Eigen::Matrix3d F     = Eigen::Matrix3d::Identity() + nodal_gradient(t, u);
-    const Eigen::Matrix3d FtG   = F.transpose() * nodal_gradient(t, v);
-    const Eigen::Matrix3d E_dot = 0.5 * (FtG + FtG.transpose());
-    Eigen::Matrix3d       S     = 2 * mu * E_dot;
-    S.diagonal().array() += lambda * E_dot.trace();
-    const Matrix34 PG = (F * S) * t.grad;
+    const Eigen::Matrix3d F  = Eigen::Matrix3d::Identity() + nodal_gradient(t, u);
+    const Matrix34        PG = (F * damping_stress(F, nodal_gradient(t, v), mu, lambda)) * t.grad;
     for (int i = 0; i < 4; ++i)
       f.segment<3>(3 * i) = t.volume * PG.col(i);
     if (!D)
@@ -117,20 +143,10 @@ namespace irdm::elastic
   damped_neo_hookean_force(const Tetrahedron &t, const Vector12 &u, const Vector12 &v,
                            const double mu, const double lambda, const double beta, Vector12 &f)
   {
-    const Eigen::Matrix3d H  = nodal_gradient(t, u);
-    const double          tH = H.trace();
-    const double J_minus_1 = tH + 0.5 * (tH * tH - (H * H).trace()) + H.determinant();
-    if (!(J_minus_1 > -1))
+    NeoHookeanStress s;
+    if (!neo_hookean_stress(nodal_gradient(t, u), mu, lambda, s))
       return false;
-    const double          lnJ = std::log1p(J_minus_1);
-    const Eigen::Matrix3d F   = Eigen::Matrix3d::Identity() + H;
-    const Eigen::Matrix3d A   = F.inverse().transpose();
-    const Eigen::Matrix3d FtG   = F.transpose() * nodal_gradient(t, v);
-    const Eigen::Matrix3d E_dot = 0.5 * (FtG + FtG.transpose());
-    Eigen::Matrix3d       S     = 2 * mu * E_dot;
-    S.diagonal().array() += lambda * E_dot.trace();
-    const Eigen::Matrix3d P  = mu * (H + H.transpose() * A) + lambda * lnJ * A + beta * (F * S);
-    const Matrix34        PG = P * t.grad;
+    const Matrix34 PG = (s.P + beta * (s.F * damping_stress(s.F, nodal_gradient(t, v), mu, lambda))) * t.grad;
     for (int i = 0; i < 4; ++i)
       f.segment<3>(3 * i) = t.volume * PG.col(i);
     return true;
