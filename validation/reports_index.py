@@ -6,6 +6,7 @@ Usage: reports_index.py [reports folder]   (default: the reports/ beside this sc
 Run with Debian's /usr/bin/python3.
 """
 import csv
+import glob
 import os
 import re
 import sys
@@ -122,6 +123,17 @@ def reduced_step_cost_headline(folder):
     return ("the reduced step with the tangent kept, by vertex against element by element: "
             + "; ".join(f"{r['model, method'].split(',')[0].strip('`')} {r['by vertex'].split(';')[0]} "
                         f"against {r['element by element'].split(';')[0]}" for r in kept))
+
+
+def reduced_step_rate_headline(folder):
+    def p50(model, commit):
+        values = []
+        for run in sorted(glob.glob(os.path.join(folder, "play_ab", f"{model}_{commit}_*", "summary.csv"))):
+            values += [float(r["deformation_step_p50_us"]) / 1000 for r in rows(run)]
+        return span(values, lambda x: f"{x:.2f} ms")
+    return ("`irdm play`, the accurate reduced model (r = 222): deformation step p50 "
+            f"{p50('cat_top_r222', '6f43997')} (goal 1 ms) against {p50('cat_top_r222', '780b41c')} before "
+            "the kept factorization and the rows in float")
 
 
 def free_step_headline(folder):
@@ -273,6 +285,9 @@ STUDIES = [
                "validation/src/nonlinear_*", "scripts/reduced_report.sh"]),
     ("The reduced nonlinear step by vertex: its cost, and what 1 ms would need",
      "reduced/step_cost/README.md", None, reduced_step_cost_headline,
+     RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
+    ("The reduced step at the force loop's rate: the kept factorization and U's rows in float",
+     "reduced/step_rate/README.md", None, reduced_step_rate_headline,
      RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
     ("Reduced nonlinear models of the free cat (50 kPa)", "reduced/free/report.md",
      None, reduced_free_headline,
