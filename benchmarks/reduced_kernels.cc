@@ -33,7 +33,8 @@ namespace
 
   struct Counts
   {
-    double state_sum = 0; // the sum of the last step's coordinates: two builds took the same steps where it agrees
+    double state_sum = 0; // the sum of the last step's coordinates: where two builds' (or two
+                          // variants') agree to the last digit, they took the same steps
     double iterations = 0, tangents = 0, factorizations = 0;
   };
   constexpr int n_variants = 5;

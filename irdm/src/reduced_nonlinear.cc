@@ -318,7 +318,7 @@ namespace irdm
         element_blocks_.push_back(places);
       }
     stiffness_blocks_.assign(block_column_.size(), Eigen::Matrix3d::Zero());
-    if (options_.single_precision_rows) // the double rows rounded too: every use reads the same basis
+    if (options_.single_precision_rows) // the double rows rounded too: the residual, the planes and the tangent read one basis
       {
         vertex_rows_  = vertex_basis_.cast<float>();
         vertex_basis_ = vertex_rows_.cast<double>();
@@ -684,27 +684,21 @@ namespace irdm
         if (damped)
           gather(vertex_v_, l, v_e);
         const auto &t = element_[k];
-        if (!T) // the residual alone: one kernel for both forces
-          {
-            if (!(damped ? elastic::damped_neo_hookean_force(t, u_e, v_e, m_.mu, m_.lambda, m_.rayleigh_beta, f_e)
-                         : elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, f_e)))
-              {
-                ok = false;
-                continue;
-              }
-          }
-        else if (!elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, f_e, &K_e))
+        // The force from one kernel, the law's and the damping's at once, with the tangent or
+        // without (a residual rounds alike either way); the tangent's kernels give K and D.
+        if (!(damped ? elastic::damped_neo_hookean_force(t, u_e, v_e, m_.mu, m_.lambda, m_.rayleigh_beta, f_e)
+                     : elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, f_e, T ? &K_e : nullptr)))
           {
             ok = false;
             continue;
           }
-        else if (damped)
+        if (T && damped)
           {
+            elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, d_e, &K_e);
             elastic::objective_damping_force(t, u_e, v_e, m_.mu, m_.lambda, d_e, &D_e);
-            f_e += m_.rayleigh_beta * d_e;
             K_e = (1 - af) * K_e + m_.rayleigh_beta * c_c * D_e;
           }
-        else
+        else if (T)
           K_e *= 1 - af;
         for (int a = 0; a < 4; ++a)
           vertex_f_.segment<3>(3 * Eigen::Index(l[a])) += weight_[k] * f_e.segment<3>(3 * a);
@@ -847,7 +841,8 @@ namespace irdm
         // vertices, each at its own time level: A_af (g - C w) = (1 - af) (A_1 g_c1 - tau_1)
         // + af (A_0 g_c0 - tau_0), the step start's term kept from the carry, so the rigid
         // rows give A q'' = tau_c. The elastic rows are left as they are: a correction along A
-        // itself would take stiffness out with it. With every mode, nothing changes. (The
+        // itself would take stiffness out with it. With every mode, nothing changes (with U's own rows:
+        // rounded ones hold e x (U q) to their rounding only). (The
         // probes' forces, in g_c here, would need their torque too: a floating body takes none.)
         angular_momentum_map(x);
         const Eigen::Vector3d leak = contact_torque_trial_ - momentum_map_.transpose() * g_c;
@@ -870,7 +865,7 @@ namespace irdm
     // vertices touch which plane, each one's stiffness and the plane's normal: the matrix is
     // kept while those stay (bit for bit what it would be made again), and with it the
     // factorization. A probe's coupling depends on the part's length: made every time.
-    bool same = contact_key_valid_ && n_probes_ == 0 && n_contacts_ == key_contacts_;
+    bool same = options_.keep_factorization && contact_key_valid_ && n_probes_ == 0 && n_contacts_ == key_contacts_;
     for (size_t c = 0; same && c < n_contacts_; ++c)
       same = key_vertex_[c] == contact_vertex_[c] && key_weight_[c] == contact_weight_[c] &&
              key_normal_[c] == planes[contact_plane_[c]].normal;
@@ -1035,7 +1030,8 @@ namespace irdm
             converged = true;
             break;
           }
-        if (!options_.keep_factorization || factorized_version_ != tangent_version_ || factorized_h_ != h_)
+        // (A part of another length evaluates the body's tangent afresh, so its version moves.)
+        if (!options_.keep_factorization || factorized_version_ != tangent_version_)
           {
             tangent_.triangularView<Eigen::Lower>() = body_tangent_ + contact_tangent_;
             solver_.compute(tangent_);

@@ -1,12 +1,14 @@
 #pragma once
-// The modal surface update's matrix-vector product u = Phi_M a, Phi_M stored [output][mode]
-// row-major in single precision (ModalModel::shapes), a and u in double.
-// It is the full surface update's cost (100 modes x 1554 outputs): streaming Phi_M, so the
-// shapes are floats (half the bytes). Three kernels: the portable one that the build's own
-// flags give (x86-64: SSE2 only) and an AVX2/FMA one, both summing in double, and the one the
-// runtime takes where the CPU has AVX2 and FMA: AVX2/FMA summing in single precision (eight
-// modes per instruction; its rounding is of the order of the shapes' own storage). All three
-// are here so that a test can hold them to an exact sum and a benchmark to each other.
+// Products of a row-major matrix stored in single precision with vectors in double.
+// The modal surface update's u = Phi_M a (ModalModel::shapes, [output][mode]) is the full
+// surface update's cost (100 modes x 1554 outputs): streaming Phi_M, so the shapes are floats
+// (half the bytes). Three kernels: the portable one that the build's own flags give (x86-64:
+// SSE2 only) and an AVX2/FMA one, both summing in double, and the one the runtime takes where
+// the CPU has AVX2 and FMA: AVX2/FMA summing in single precision (eight modes per instruction;
+// its rounding is of the order of the shapes' own storage). The reduced nonlinear model's rows
+// of U take the kernels that sum in double (rows_product, rows_product2 and the transposed
+// product): Newton drives its residual far below float's rounding. Every kernel is here so that
+// a test can hold them to an exact sum and a benchmark to each other.
 #include <cstddef>
 
 namespace irdm::detail

@@ -135,9 +135,10 @@ namespace irdm
     // iteration evaluates it (Newton's method proper).
     bool   reuse_tangent         = true;
     double tangent_refresh_ratio = 0.1;
-    // Keep the factorization of the step's tangent while neither the body's tangent nor the
-    // planes' contacts change (the same matrix: the same steps, bit for bit). false: factorize
-    // at every iteration.
+    // Keep the planes' tangent while their contacts stay, and the factorization of the step's
+    // tangent while neither the body's tangent nor the planes' change (the same matrices: the
+    // same steps, bit for bit). false: the planes' tangent made at every residual and the
+    // factorization at every iteration.
     bool keep_factorization = true;
     // U's rows at the cubature's and the surface's vertices rounded to float, and read in
     // single precision with the sums in double (half the bytes a residual streams): the
