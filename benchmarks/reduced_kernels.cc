@@ -5,8 +5,8 @@
 // be timed over another part of the press). Newton's
 // method with the body's tangent at every iteration beside the modified Newton method that
 // keeps it (the runtime's default), the latter with a stop 100 times looser, and with each of
-// two of its savings undone (a factorization at every iteration; U's rows and the tangent in
-// double); the ratios and each one's iterations, tangent evaluations and factorizations per
+// two of its savings undone (the planes' tangent made at every residual and a factorization at
+// every iteration; U's rows and the tangent in double); the ratios and each one's iterations, tangent evaluations and factorizations per
 // step are printed at the end, side by side in one run.
 //
 //   irdm_reduced_kernels REDUCED_MODEL.h5 [DEPTH_M] [google-benchmark flags]
@@ -57,7 +57,8 @@ namespace
   run(benchmark::State &state, const int variant)
   {
     // 0: Newton; 1: the kept tangent; 2: the kept tangent and a looser stop; 3: the kept
-    // tangent, factorized at every iteration; 4: the kept tangent, U's rows in double.
+    // tangent, the planes' tangent and the factorization made every time; 4: the kept
+    // tangent, U's rows in double.
     irdm::ReducedBodyOptions o;
     o.reuse_tangent = variant > 0;
     if (variant == 2)
