@@ -715,7 +715,8 @@ namespace irdm
       {
         // As below, on the rows rounded to float and in float arithmetic (twice the numbers
         // per instruction): the tangent only steers Newton and is kept over many iterations,
-        // so a relative 1e-6 in it changes the convergence, not the root.
+        // so its float sums' rounding (a few 1e-6 of the terms' magnitudes) changes the
+        // convergence, not the root.
         for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)
           {
             KU_row_.setZero();
@@ -841,9 +842,9 @@ namespace irdm
         // vertices, each at its own time level: A_af (g - C w) = (1 - af) (A_1 g_c1 - tau_1)
         // + af (A_0 g_c0 - tau_0), the step start's term kept from the carry, so the rigid
         // rows give A q'' = tau_c. The elastic rows are left as they are: a correction along A
-        // itself would take stiffness out with it. With every mode, nothing changes (with U's own rows:
-        // rounded ones hold e x (U q) to their rounding only). (The
-        // probes' forces, in g_c here, would need their torque too: a floating body takes none.)
+        // itself would take stiffness out with it. With every mode, nothing changes (with U's
+        // own rows: rounded ones hold e x (U q) to their rounding only). (The probes' forces,
+        // in g_c here, would need their torque too: a floating body takes none.)
         angular_momentum_map(x);
         const Eigen::Vector3d leak = contact_torque_trial_ - momentum_map_.transpose() * g_c;
         contact_leak_trial_ = leak;
