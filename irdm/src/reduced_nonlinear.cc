@@ -325,8 +325,9 @@ namespace irdm
       }
     for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_})
       x->setZero(3 * Eigen::Index(n_local));
+    KU_row_.setZero(3, r_);
     if (options_.single_precision_rows)
-      KU_rows_.setZero(3 * Eigen::Index(n_local), r_), tangent_rows_.setZero(r_, r_), KU_row_.setZero(3, r_);
+      KU_rows_.setZero(3 * Eigen::Index(n_local), r_), tangent_rows_.setZero(r_, r_);
     else
       KU_.setZero(3 * Eigen::Index(n_local), r_);
     // Eigen's product keeps its packed operands on the stack up to EIGEN_STACK_ALLOCATION_LIMIT
@@ -711,42 +712,39 @@ namespace irdm
       detail::transposed_rows_product(vertex_rows_.data(), r_, rows, vertex_f_.data(), g_int_.data());
     else
       g_int_.noalias() = vertex_basis_.transpose() * vertex_f_;
-    if (T && options_.single_precision_rows)
+    if (T)
       {
-        // As below, on the rows rounded to float and in float arithmetic (twice the numbers
-        // per instruction): the tangent only steers Newton and is kept over many iterations,
-        // so its float sums' rounding (a few 1e-6 of the terms' magnitudes) changes the
-        // convergence, not the root.
+        // K U by block rows (in double), then U^T (K U), symmetric: the lower triangle alone,
+        // in slices. Where the rows are rounded to float, U^T (K U) is formed in float
+        // arithmetic (twice the numbers per instruction): the tangent only steers Newton and
+        // is kept over many iterations, so its float sums' rounding (a few 1e-6 of the terms'
+        // magnitudes) changes the convergence, not the root.
+        const bool single = options_.single_precision_rows;
         for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)
           {
             KU_row_.setZero();
             for (unsigned s = block_row_start_[i]; s < block_row_start_[i + 1]; ++s)
               KU_row_.noalias() += stiffness_blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
-            KU_rows_.middleRows<3>(3 * Eigen::Index(i)) = KU_row_.cast<float>();
+            if (single)
+              KU_rows_.middleRows<3>(3 * Eigen::Index(i)) = KU_row_.cast<float>();
+            else
+              KU_.middleRows<3>(3 * Eigen::Index(i)) = KU_row_;
           }
-        tangent_rows_.setZero();
-        for (Eigen::Index c = 0; c < KU_rows_.rows(); c += slice_)
+        const auto add_slices = [this](auto &lower, const auto &U, const auto &KU) {
+          for (Eigen::Index c = 0; c < KU.rows(); c += slice_)
+            {
+              const Eigen::Index n = std::min(slice_, KU.rows() - c);
+              lower.template triangularView<Eigen::Lower>() += U.middleRows(c, n).transpose() * KU.middleRows(c, n);
+            }
+        };
+        if (single)
           {
-            const Eigen::Index n = std::min(slice_, KU_rows_.rows() - c);
-            tangent_rows_.triangularView<Eigen::Lower>() += vertex_rows_.middleRows(c, n).transpose() * KU_rows_.middleRows(c, n);
+            tangent_rows_.setZero();
+            add_slices(tangent_rows_, vertex_rows_, KU_rows_);
+            T->triangularView<Eigen::Lower>() += tangent_rows_.cast<double>();
           }
-        T->triangularView<Eigen::Lower>() += tangent_rows_.cast<double>();
-      }
-    else if (T)
-      {
-        // K U by block rows, then U^T (K U), symmetric: the lower triangle alone.
-        for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)
-          {
-            auto Y = KU_.middleRows<3>(3 * Eigen::Index(i));
-            Y.setZero();
-            for (unsigned s = block_row_start_[i]; s < block_row_start_[i + 1]; ++s)
-              Y.noalias() += stiffness_blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
-          }
-        for (Eigen::Index c = 0; c < KU_.rows(); c += slice_)
-          {
-            const Eigen::Index n = std::min(slice_, KU_.rows() - c);
-            T->triangularView<Eigen::Lower>() += vertex_basis_.middleRows(c, n).transpose() * KU_.middleRows(c, n);
-          }
+        else
+          add_slices(*T, vertex_basis_, KU_);
       }
     return ok;
   }

@@ -363,7 +363,7 @@ namespace irdm
     // The same in float where the rows are (single_precision_rows), and U^T (K U) in float.
     Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> KU_rows_;
     Eigen::MatrixXf                                                       tangent_rows_;
-    Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>             KU_row_; // one vertex's, in double
+    Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>             KU_row_; // one vertex's rows of K U, in double
     Eigen::Index                          slice_ = 3;
     // Per surface vertex with a free DoF: U_s (its 3 rows of surface_basis_, rows of fixed
     // DoFs zero), X_s, area; every one's displacement at the latest residual's iterate (one
