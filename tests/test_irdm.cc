@@ -20,6 +20,7 @@
 
 #include "irdm_test_util.h"
 #include "surface_product.h"
+#include "tangent_product.h"
 
 #include <cmath>
 #include <limits>
@@ -558,6 +559,97 @@ TEST(Runtime, SurfaceProductKernelsAgreeWithAnExactSum)
           std::fill(g.begin(), g.end(), 1e300);
           detail::transposed_rows_product_avx2(shapes.data(), M, nout, f.data(), g.data());
           check_transposed("transposed, AVX2");
+        }
+    }
+}
+
+// The reduced tangent's two float products (tangent_product.h) against exact sums: K U by a
+// block-CSR matrix of 3 x 3 blocks, and A^T B's lower triangle; every entry written, nothing
+// written past the output, and each within the rounding of a float sum of its terms.
+TEST(Runtime, TangentProductKernelsAgreeWithAnExactSum)
+{
+  std::mt19937                           gen(11);
+  std::uniform_real_distribution<double> dist(-1, 1);
+  const double                           r_single = std::numeric_limits<float>::epsilon() / 2;
+  constexpr float                        guard    = 1e30f; // past the output: must stay
+  // Widths around the kernels' vector (8), tile (16, 32) and row-chunk (128) sizes.
+  for (const auto &[n_vertices, M] : {std::pair<size_t, size_t>{1, 1}, {2, 7}, {5, 8}, {7, 17}, {13, 32},
+                                      {11, 45}, {60, 100}, {50, 222}})
+    {
+      // Block rows: each vertex coupled to itself and a few random others.
+      std::vector<unsigned> row_start{0}, column;
+      for (size_t i = 0; i < n_vertices; ++i)
+        {
+          std::set<unsigned> c{static_cast<unsigned>(i)};
+          for (int k = 0; k < 5; ++k)
+            c.insert(static_cast<unsigned>(gen() % n_vertices));
+          column.insert(column.end(), c.begin(), c.end());
+          row_start.push_back(static_cast<unsigned>(column.size()));
+        }
+      std::vector<double> blocks(9 * column.size());
+      for (auto &x : blocks)
+        x = 1e3 * dist(gen); // a stiffness's scale: the blocks are rounded to float
+      std::vector<float> rows(3 * n_vertices * M);
+      for (auto &x : rows)
+        x = static_cast<float>(dist(gen));
+      const detail::BlockRows K{blocks.data(), row_start.data(), column.data(), n_vertices};
+      const size_t            n_out = 3 * n_vertices * M;
+      for (const bool avx2 : {false, true})
+        {
+          if (avx2 && !detail::surface_product_avx2_available())
+            {
+              std::cout << "note: no AVX2/FMA on this CPU; only the portable kernels checked\n";
+              continue;
+            }
+          const char *kernel = avx2 ? "AVX2" : "portable";
+          // K U: each entry a float sum of 3 (blocks in the row) terms, each block entry rounded
+          // to float (one more rounding each).
+          std::vector<float> KU(n_out + 64, guard);
+          (avx2 ? detail::block_rows_product_avx2 : detail::block_rows_product_portable)(K, rows.data(), M, KU.data());
+          for (size_t i = 0; i < n_vertices; ++i)
+            for (size_t a = 0; a < 3; ++a)
+              for (size_t m = 0; m < M; ++m)
+                {
+                  long double t = 0, g = 0;
+                  for (unsigned s = row_start[i]; s < row_start[i + 1]; ++s)
+                    for (size_t b = 0; b < 3; ++b)
+                      {
+                        const long double term = static_cast<long double>(blocks[9 * s + a + 3 * b]) *
+                                                 rows[(3 * column[s] + b) * M + m];
+                        t += term, g += std::abs(term);
+                      }
+                  const double n_terms = 3.0 * (row_start[i + 1] - row_start[i]);
+                  ASSERT_LE(std::abs(KU[(3 * i + a) * M + m] - static_cast<double>(t)),
+                            1.01 * (n_terms + 1) * r_single * static_cast<double>(g))
+                    << kernel << " K U, " << n_vertices << " vertices x " << M << ", row " << 3 * i + a << ", column " << m;
+                }
+          for (size_t k = n_out; k < KU.size(); ++k)
+            ASSERT_EQ(KU[k], guard) << kernel << " K U wrote past its end";
+          // A^T B's lower triangle, A the rows and B = K U: sums of n rows in float, in chunks
+          // of 128 rows added in.
+          const size_t       n = 3 * n_vertices;
+          std::vector<float> lower(M * M + 64, 0.0f);
+          std::fill(lower.begin() + long(M * M), lower.end(), guard);
+          for (size_t i = 0; i < M; ++i)
+            for (size_t j = 0; j <= i; ++j)
+              lower[i * M + j] = 0.5f; // added to, not overwritten
+          (avx2 ? detail::lower_transposed_product_avx2 : detail::lower_transposed_product_portable)(
+            rows.data(), KU.data(), n, M, lower.data());
+          for (size_t i = 0; i < M; ++i)
+            for (size_t j = 0; j <= i; ++j)
+              {
+                long double t = 0.5L, g = 0.5L;
+                for (size_t k = 0; k < n; ++k)
+                  {
+                    const long double term = static_cast<long double>(rows[k * M + i]) * KU[k * M + j];
+                    t += term, g += std::abs(term);
+                  }
+                const double n_terms = double(n) + std::ceil(double(n) / 128) + 1;
+                ASSERT_LE(std::abs(lower[i * M + j] - static_cast<double>(t)), 1.01 * n_terms * r_single * static_cast<double>(g))
+                  << kernel << " lower, " << n << " rows x " << M << ", entry " << i << ", " << j;
+              }
+          for (size_t k = M * M; k < lower.size(); ++k)
+            ASSERT_EQ(lower[k], guard) << kernel << " lower wrote past its end";
         }
     }
 }

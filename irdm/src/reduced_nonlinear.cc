@@ -4,6 +4,7 @@
 #include <irdm_common/h5.h>
 
 #include "surface_product.h"
+#include "tangent_product.h"
 
 #include <algorithm>
 #include <cmath>
@@ -325,11 +326,10 @@ namespace irdm
       }
     for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_})
       x->setZero(3 * Eigen::Index(n_local));
-    KU_row_.setZero(3, r_);
     if (options_.single_precision_rows)
       KU_rows_.setZero(3 * Eigen::Index(n_local), r_), tangent_rows_.setZero(r_, r_);
     else
-      KU_.setZero(3 * Eigen::Index(n_local), r_);
+      KU_.setZero(3 * Eigen::Index(n_local), r_), KU_row_.setZero(3, r_);
     // Eigen's product keeps its packed operands on the stack up to EIGEN_STACK_ALLOCATION_LIMIT
     // (128 KiB): a slice of s rows packs at most s r doubles of each (its blocks are at most the
     // slice deep and r wide); (r + 16) s doubles within 96 KiB leaves room. Past r = 4096 the
@@ -714,37 +714,37 @@ namespace irdm
       g_int_.noalias() = vertex_basis_.transpose() * vertex_f_;
     if (T)
       {
-        // K U by block rows (in double), then U^T (K U), symmetric: the lower triangle alone,
-        // in slices. Where the rows are rounded to float, U^T (K U) is formed in float
-        // arithmetic (twice the numbers per instruction): the tangent only steers Newton and
-        // is kept over many iterations, so its float sums' rounding (a few 1e-6 of the terms'
-        // magnitudes) changes the convergence, not the root.
-        const bool single = options_.single_precision_rows;
-        for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)
+        // K U by block rows, then U^T (K U), symmetric: the lower triangle alone. Where the
+        // rows are rounded to float, both products are formed in float arithmetic by kernels
+        // of their own (tangent_product.h): the tangent only steers Newton and is kept over
+        // many iterations, so its float sums' rounding changes the convergence, not the root.
+        // In double, K U a vertex's rows at a time and U^T (K U) in slices of slice_ rows.
+        if (options_.single_precision_rows)
           {
-            KU_row_.setZero();
-            for (unsigned s = block_row_start_[i]; s < block_row_start_[i + 1]; ++s)
-              KU_row_.noalias() += stiffness_blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
-            if (single)
-              KU_rows_.middleRows<3>(3 * Eigen::Index(i)) = KU_row_.cast<float>();
-            else
-              KU_.middleRows<3>(3 * Eigen::Index(i)) = KU_row_;
-          }
-        const auto add_slices = [this](auto &lower, const auto &U, const auto &KU) {
-          for (Eigen::Index c = 0; c < KU.rows(); c += slice_)
-            {
-              const Eigen::Index n = std::min(slice_, KU.rows() - c);
-              lower.template triangularView<Eigen::Lower>() += U.middleRows(c, n).transpose() * KU.middleRows(c, n);
-            }
-        };
-        if (single)
-          {
+            static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double), "blocks read as an array");
+            const detail::BlockRows K{stiffness_blocks_.data()->data(), block_row_start_.data(),
+                                      block_column_.data(), block_row_start_.size() - 1};
+            detail::block_rows_product(K, vertex_rows_.data(), r_, KU_rows_.data());
             tangent_rows_.setZero();
-            add_slices(tangent_rows_, vertex_rows_, KU_rows_);
+            detail::lower_transposed_product(vertex_rows_.data(), KU_rows_.data(), rows, r_,
+                                             tangent_rows_.data());
             T->triangularView<Eigen::Lower>() += tangent_rows_.cast<double>();
           }
         else
-          add_slices(*T, vertex_basis_, KU_);
+          {
+            for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)
+              {
+                KU_row_.setZero();
+                for (unsigned s = block_row_start_[i]; s < block_row_start_[i + 1]; ++s)
+                  KU_row_.noalias() += stiffness_blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
+                KU_.middleRows<3>(3 * Eigen::Index(i)) = KU_row_;
+              }
+            for (Eigen::Index c = 0; c < KU_.rows(); c += slice_)
+              {
+                const Eigen::Index n = std::min(slice_, KU_.rows() - c);
+                T->triangularView<Eigen::Lower>() += vertex_basis_.middleRows(c, n).transpose() * KU_.middleRows(c, n);
+              }
+          }
       }
     return ok;
   }

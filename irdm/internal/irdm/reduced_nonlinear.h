@@ -353,17 +353,17 @@ namespace irdm
     std::vector<double>                   weight_;
     Vector vertex_u_, vertex_v_, vertex_f_; // 3 per cubature vertex: displacement, velocity, force
     // The body's tangent as U^T (K U): K the weighted elements' stiffness assembled by vertex
-    // pair (3 x 3 blocks, rows of a block CSR; each element's 16 blocks' places), K U into
-    // KU_ (3 per vertex x r), then U^T (K U) in slices of slice_ rows (Eigen's product then
-    // keeps its work space on the stack: nothing allocated).
+    // pair (3 x 3 blocks, rows of a block CSR; each element's 16 blocks' places), then K U and
+    // U^T (K U). In double: K U into KU_ (3 per vertex x r) a vertex's rows (KU_row_) at a
+    // time, U^T (K U) in slices of slice_ rows (Eigen's product then keeps its work space on
+    // the stack: nothing allocated). In float where the rows are (single_precision_rows): K U
+    // into KU_rows_, U^T (K U)'s lower triangle into tangent_rows_ (tangent_product.h).
     std::vector<unsigned>                 block_row_start_, block_column_;
     std::vector<std::array<unsigned, 16>> element_blocks_;
     std::vector<Eigen::Matrix3d>          stiffness_blocks_;
     RowMatrix                             KU_;
-    // The same in float where the rows are (single_precision_rows), and U^T (K U) in float.
-    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> KU_rows_;
-    Eigen::MatrixXf                                                       tangent_rows_;
-    Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>             KU_row_; // one vertex's rows of K U, in double
+    Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>             KU_row_;
+    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> KU_rows_, tangent_rows_;
     Eigen::Index                          slice_ = 3;
     // Per surface vertex with a free DoF: U_s (its 3 rows of surface_basis_, rows of fixed
     // DoFs zero), X_s, area; every one's displacement at the latest residual's iterate (one
