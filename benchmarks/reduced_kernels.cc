@@ -7,7 +7,10 @@
 // keeps it (the runtime's default), the latter with a stop 100 times looser, and with each of
 // two of its savings undone (the planes' tangent made at every residual and a factorization at
 // every iteration; U's rows and the tangent in double); the ratios and each one's iterations, tangent evaluations and factorizations per
-// step are printed at the end, side by side in one run.
+// step are printed at the end, side by side in one run. Then the tangent's U^T (K U) alone at
+// the model's size (its cubature vertices' rows, r wide; random rows): the float kernel the
+// step takes beside Eigen's float product in slices (the route before it), with each one's
+// multiply-adds per nanosecond.
 //
 //   irdm_reduced_kernels REDUCED_MODEL.h5 [DEPTH_M] [google-benchmark flags]
 // REDUCED_MODEL.h5: irdm precompute SCENE --reduced (docs/reduced-model.md); DEPTH_M default
@@ -17,12 +20,18 @@
 
 #include <benchmark/benchmark.h>
 
+#include "tangent_product.h"
 #include "time_collector.h"
+
+#include <Eigen/Dense>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <random>
+#include <set>
+#include <vector>
 #include <string>
 
 namespace
@@ -95,6 +104,39 @@ namespace
     state.counters["factorizations"] = c.factorizations;
     state.counters["failed"]     = double(body.failed_steps());
   }
+
+  std::size_t g_cubature_rows = 0; // 3 per cubature vertex
+
+  /// U^T (K U)'s lower triangle over the cubature's rows, random A and B of the model's size:
+  /// the float kernel (kernel) or Eigen's float product in the slices the step took before it.
+  void
+  tangent_product(benchmark::State &state, const bool kernel)
+  {
+    using RowMatrixF  = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const auto    M   = static_cast<Eigen::Index>(g_model->size);
+    const auto    n   = static_cast<Eigen::Index>(g_cubature_rows);
+    std::mt19937  gen(3);
+    std::uniform_real_distribution<float> dist(-1, 1);
+    RowMatrixF A(n, M), B(n, M), lower(M, M);
+    for (RowMatrixF *X : {&A, &B})
+      for (Eigen::Index k = 0; k < X->size(); ++k)
+        X->data()[k] = dist(gen);
+    const Eigen::Index slice = std::max<Eigen::Index>(3, (96 * 1024 / 8) / (M + 16) / 3 * 3);
+    for (auto _ : state)
+      {
+        lower.setZero();
+        if (kernel)
+          irdm::detail::lower_transposed_product(A.data(), B.data(), std::size_t(n), std::size_t(M), lower.data());
+        else
+          for (Eigen::Index c = 0; c < n; c += slice)
+            {
+              const Eigen::Index s = std::min(slice, n - c);
+              lower.triangularView<Eigen::Lower>() += A.middleRows(c, s).transpose() * B.middleRows(c, s);
+            }
+        benchmark::DoNotOptimize(lower.data());
+        benchmark::ClobberMemory();
+      }
+  }
 } // namespace
 
 int
@@ -129,11 +171,21 @@ main(int argc, char **argv)
     benchmark::RegisterBenchmark(names[v], [v](benchmark::State &s) { run(s, v); })
       ->Unit(benchmark::kMicrosecond)
       ->Iterations(std::max<benchmark::IterationCount>(period_steps, 1));
+  // The cubature's distinct vertices: a residual's products take 3 rows of U each.
+  std::set<unsigned> cubature_vertices;
+  for (const unsigned e : g_model->cubature_elements)
+    cubature_vertices.insert(g_model->tetrahedra[e].begin(), g_model->tetrahedra[e].end());
+  g_cubature_rows = 3 * cubature_vertices.size();
+  const char *product_names[2] = {"tangent U^T (K U), Eigen float product in slices",
+                                  "tangent U^T (K U), float kernel"};
+  for (int k = 0; k < 2; ++k)
+    benchmark::RegisterBenchmark(product_names[k], [k](benchmark::State &s) { tangent_product(s, k == 1); })
+      ->Unit(benchmark::kMicrosecond);
   irdm_bench::TimeCollector collector;
   benchmark::RunSpecifiedBenchmarks(&collector);
-  std::printf("\nreduced model: r = %u, %zu of %zu elements, tau = %g s, top press to %g m\n",
+  std::printf("\nreduced model: r = %u, %zu of %zu elements (%zu vertices), tau = %g s, top press to %g m\n",
               g_model->size, g_model->cubature_elements.size(), g_model->tetrahedra.size(),
-              g_model->time_step, g_depth);
+              cubature_vertices.size(), g_model->time_step, g_depth);
   // Each run (repetitions included) by its variant: the longest name it begins with.
   const auto variant = [&](const std::string &name) {
     int v = -1;
@@ -153,5 +205,12 @@ main(int argc, char **argv)
                   g_counts[v].factorizations);
   for (int v = 0; v < n_variants; ++v)
     std::printf("  %-46s the last step's coordinates sum to %.17g\n", names[v], g_counts[v].state_sum);
+  // The lower triangle's multiply-adds (its tiles across the diagonal do a little more).
+  const double fmas = double(g_cubature_rows) * g_model->size * (g_model->size + 1) / 2;
+  for (const auto &[name, us] : collector.times)
+    for (const char *p : product_names)
+      if (name.rfind(p, 0) == 0)
+        std::printf("  %-50s %9.1f us  %.1f million multiply-adds, %.1f per ns\n", p, us, fmas / 1e6,
+                    fmas / (us * 1e3));
   return 0;
 }
