@@ -270,8 +270,9 @@ namespace irdm
   ReducedNonlinearBody::prepare_cubature()
   {
     // The distinct vertices, in the mesh's order, and each element's among them.
-    std::vector<unsigned> local(m_.n_vertices, ~0u);
-    unsigned              n_local = 0;
+    std::vector<unsigned> &local = vertex_local_;
+    local.assign(m_.n_vertices, ~0u);
+    unsigned n_local = 0;
     for (const unsigned e : m_.cubature_elements)
       for (const unsigned v : m_.tetrahedra[e])
         local[v] = 0;
@@ -324,7 +325,7 @@ namespace irdm
         vertex_rows_  = vertex_basis_.cast<float>();
         vertex_basis_ = vertex_rows_.cast<double>();
       }
-    for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_})
+    for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_, &vertex_x_, &vertex_q_, &vertex_w_})
       x->setZero(3 * Eigen::Index(n_local));
     if (options_.single_precision_rows)
       KU_rows_.setZero(3 * Eigen::Index(n_local), r_), tangent_rows_.setZero(r_, r_);
@@ -363,12 +364,23 @@ namespace irdm
         surface_area_.push_back(m_.lumped_area[s]);
       }
     if (options_.single_precision_rows)
+      surface_basis_ = surface_basis_.cast<float>().cast<double>();
+    for (size_t k = 0; k < surface_index_.size(); ++k)
       {
-        surface_rows_f_ = surface_basis_.cast<float>();
-        surface_basis_  = surface_rows_f_.cast<double>();
+        const unsigned v = vertex_local_[m_.surface_vertex[surface_index_[k]]];
+        if (v != ~0u && surface_rows(k) == vertex_basis_.middleRows<3>(3 * Eigen::Index(v)))
+          surface_shared_.push_back({static_cast<unsigned>(k), v});
+        else
+          surface_other_.push_back(static_cast<unsigned>(k));
       }
+    surface_other_basis_.resize(3 * Eigen::Index(surface_other_.size()), r_);
+    for (size_t i = 0; i < surface_other_.size(); ++i)
+      surface_other_basis_.middleRows<3>(3 * Eigen::Index(i)) = surface_rows(surface_other_[i]);
+    if (options_.single_precision_rows)
+      surface_other_rows_ = surface_other_basis_.cast<float>();
+    surface_other_u_.setZero(surface_other_basis_.rows());
     surface_u_.setZero(surface_basis_.rows());
-    for (Vector *x : {&q_, &v_, &a_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
+    for (Vector *x : {&q_, &v_, &a_, &w_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
                       &r_trial_, &dq_, &g_c_trial_, &best_, &g_int_, &Un_, &g_f_, &g_f_new_, &g_f_end_, &body_force_, &q0_, &v0_, &a0_, &g_c0_, &g_f0_})
       x->setZero(r_);
     for (Matrix *T : {&body_tangent_, &contact_tangent_, &tangent_})
@@ -650,27 +662,36 @@ namespace irdm
     return true;
   }
 
-  bool
-  ReducedNonlinearBody::internal_force(Matrix *T, const double af, const double c_c)
+  void
+  ReducedNonlinearBody::part_start_rows()
   {
-    // Every cubature vertex's displacement and velocity; the elements then gather theirs and
-    // give back their forces, assembled by vertex.
+    // w = v_af at x = q: a1 = -v / (beta h) - (1 / (2 beta) - 1) a, v1 = v + h ((1 - gamma) a
+    // + gamma a1) = (1 - gamma / beta) v + h (1 - gamma / (2 beta)) a, w = (1 - af) v1 + af v.
+    const double h = h_, af = m_.alpha_f, b = m_.beta, g = m_.gamma;
+    w_ = ((1 - af) * (1 - g / b) + af) * v_ + ((1 - af) * h * (1 - g / (2 * b))) * a_;
+    const auto rows = static_cast<std::size_t>(vertex_basis_.rows());
+    if (options_.single_precision_rows)
+      detail::rows_product2(vertex_rows_.data(), r_, rows, q_.data(), w_.data(), vertex_q_.data(),
+                            vertex_w_.data());
+    else
+      vertex_q_.noalias() = vertex_basis_ * q_, vertex_w_.noalias() = vertex_basis_ * w_;
+  }
+
+  bool
+  ReducedNonlinearBody::internal_force(const Vector &x, Matrix *T, const double af, const double c_c)
+  {
+    // Every cubature vertex's displacement and velocity, from one product (U x) and the
+    // part's start; the elements then gather theirs and give back their forces, assembled by
+    // vertex.
     const bool damped = m_.rayleigh_beta != 0;
     const auto rows = static_cast<std::size_t>(vertex_basis_.rows());
     if (options_.single_precision_rows)
-      {
-        if (damped)
-          detail::rows_product2(vertex_rows_.data(), r_, rows, q_af_.data(), v_af_.data(),
-                                vertex_u_.data(), vertex_v_.data());
-        else
-          detail::rows_product(vertex_rows_.data(), r_, rows, q_af_.data(), vertex_u_.data());
-      }
+      detail::rows_product(vertex_rows_.data(), r_, rows, x.data(), vertex_x_.data());
     else
-      {
-        vertex_u_.noalias() = vertex_basis_ * q_af_;
-        if (damped)
-          vertex_v_.noalias() = vertex_basis_ * v_af_;
-      }
+      vertex_x_.noalias() = vertex_basis_ * x;
+    vertex_u_ = (1 - af) * vertex_x_ + af * vertex_q_;
+    if (damped) // c_c = (1 - af) gamma / (beta h): v_af's rate in x
+      vertex_v_ = c_c * (vertex_x_ - vertex_q_) + vertex_w_;
     vertex_f_.setZero();
     if (T)
       for (auto &B : stiffness_blocks_)
@@ -769,7 +790,7 @@ namespace irdm
         T->setZero();
         T->diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
       }
-    const bool ok = internal_force(T, af, c_c);
+    const bool ok = internal_force(x, T, af, c_c);
     // The planes' penalty at the surface vertices (the FEM's P1 rule: each vertex's lumped
     // area, force k A g n where it has passed the plane by g).
     g_c.setZero();
@@ -778,10 +799,18 @@ namespace irdm
     const Eigen::Vector3d arm_origin = floating_ ? Eigen::Vector3d(center0_ + translation_loads_.transpose() * x / m_.mass)
                                                  : Eigen::Vector3d::Zero();
     contact_torque_trial_.setZero();
-    if (n > 0 && options_.single_precision_rows)
-      detail::rows_product(surface_rows_f_.data(), r_, static_cast<std::size_t>(surface_rows_f_.rows()), x.data(), surface_u_.data());
-    else if (n > 0)
-      surface_u_.noalias() = surface_basis_ * x;
+    if (n > 0)
+      {
+        for (const auto &[k, v] : surface_shared_)
+          surface_u_.segment<3>(3 * Eigen::Index(k)) = vertex_x_.segment<3>(3 * Eigen::Index(v));
+        if (options_.single_precision_rows)
+          detail::rows_product(surface_other_rows_.data(), r_, static_cast<std::size_t>(surface_other_rows_.rows()),
+                               x.data(), surface_other_u_.data());
+        else
+          surface_other_u_.noalias() = surface_other_basis_ * x;
+        for (size_t i = 0; i < surface_other_.size(); ++i)
+          surface_u_.segment<3>(3 * Eigen::Index(surface_other_[i])) = surface_other_u_.segment<3>(3 * Eigen::Index(i));
+      }
     for (int p = 0; p < n; ++p)
       {
         force[p]    = {0, 0, 0};
@@ -1004,6 +1033,7 @@ namespace irdm
   {
     // The body's tangent of an earlier step serves while it was made for this step length.
     const bool fresh = !options_.reuse_tangent || body_tangent_h_ != h_;
+    part_start_rows();
     // Constant-velocity predictor, as the FEM's.
     x_ = q_ + h_ * v_ + (0.5 * h_ * h_) * a_;
     if (!evaluate(planes, n, fresh))

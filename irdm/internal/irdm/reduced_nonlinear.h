@@ -352,6 +352,12 @@ namespace irdm
     std::vector<elastic::Tetrahedron>     element_;
     std::vector<double>                   weight_;
     Vector vertex_u_, vertex_v_, vertex_f_; // 3 per cubature vertex: displacement, velocity, force
+    // q_af and v_af are linear in the iterate x, so a residual takes one product over the
+    // rows, U x (vertex_x_), and the part's start gives the rest: U q_af = (1 - af) U x + af U q
+    // and U v_af = c (U x - U q) + U w, c = (1 - af) gamma / (beta h), w the v_af of x = q
+    // (vertex_q_, vertex_w_; part_start_rows()).
+    Vector vertex_x_, vertex_q_, vertex_w_, w_;
+    std::vector<unsigned> vertex_local_; // per mesh vertex: its cubature vertex, or ~0u
     // The body's tangent as U^T (K U): K the weighted elements' stiffness assembled by vertex
     // pair (3 x 3 blocks, rows of a block CSR; each element's 16 blocks' places), then K U and
     // U^T (K U). In double: K U into KU_ (3 per vertex x r) a vertex's rows (KU_row_) at a
@@ -366,10 +372,17 @@ namespace irdm
     Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> KU_rows_, tangent_rows_;
     Eigen::Index                          slice_ = 3;
     // Per surface vertex with a free DoF: U_s (its 3 rows of surface_basis_, rows of fixed
-    // DoFs zero), X_s, area; every one's displacement at the latest residual's iterate (one
-    // product a residual, whatever the planes).
+    // DoFs zero), X_s, area; every one's displacement at the latest residual's iterate. A
+    // vertex whose rows are a cubature vertex's own, bit for bit, takes its displacement from
+    // vertex_x_ (surface_shared_: surface vertex, cubature vertex); the others' rows
+    // (surface_other_, compact in surface_other_basis_ and, in float, surface_other_rows_)
+    // take one product a residual, whatever the planes.
     RowMatrix                    surface_basis_;
-    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> surface_rows_f_; // where single_precision_rows
+    std::vector<std::array<unsigned, 2>> surface_shared_;
+    std::vector<unsigned>        surface_other_;
+    RowMatrix                    surface_other_basis_;
+    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> surface_other_rows_;
+    Vector                       surface_other_u_;
     std::vector<Eigen::Vector3d> surface_rest_;
     std::vector<double>          surface_area_;
     std::vector<unsigned>        surface_index_; // into the model's
@@ -509,11 +522,14 @@ namespace irdm
     // triangle), made again only where those contacts changed (tangent_version_ then moves).
     void
     contact_tangent(const ReducedPlane *planes, Matrix &C);
-    // The cubature's internal force (elastic and damping) at q_af_, v_af_ into g_int_, and its
-    // tangent (times 1 - af, the damping's by c_c) added to T's lower triangle where given.
-    // False if an element inverted.
+    // U q and U w at the part's start (vertex_q_, vertex_w_), from q_, v_, a_ and h_.
+    void
+    part_start_rows();
+    // The cubature's internal force (elastic and damping) at the iterate x (q_af, v_af) into
+    // g_int_, and its tangent (times 1 - af, the damping's by c_c) added to T's lower
+    // triangle where given; U x into vertex_x_. False if an element inverted.
     bool
-    internal_force(Matrix *T, double af, double c_c);
+    internal_force(const Vector &x, Matrix *T, double af, double c_c);
     // The residual at x_ into residual_, its planes' tangent, and the body's tangent where
     // `body` (counted). False if an element inverted.
     bool
