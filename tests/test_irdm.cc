@@ -19,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "irdm_test_util.h"
+#include "element_forces.h"
 #include "surface_product.h"
 #include "tangent_product.h"
 
@@ -1633,6 +1634,86 @@ TEST(ReducedRuntime, TheDampedElementKernelIsTheSumOfItsParts)
   flat.segment<3>(3) = -2 * X.col(0); // node 1 through node 0: inverted
   EXPECT_FALSE(irdm::elastic::damped_neo_hookean_force(t, flat, v, mu, lambda, beta, f));
   EXPECT_FALSE(irdm::elastic::neo_hookean_force(t, flat, mu, lambda, f_law));
+}
+
+// The residual's four-lane element kernel (element_forces.h) against the one-element kernel:
+// the weighted forces of random stretched and turned tetrahedra, added by vertex, to round-off
+// of the force scale, with and without damping, the portable build and the AVX2 one; an inverted
+// element counted and its force left out, and the last group's padding adding nothing.
+TEST(ReducedRuntime, TheFourLaneElementKernelIsTheOneElementKernel)
+{
+  std::mt19937                           gen(5);
+  std::uniform_real_distribution<double> dist(-1, 1);
+  constexpr unsigned                     n_vertices = 6;
+  constexpr size_t                       n_elements = 7; // two groups, the second padded
+  std::vector<irdm::elastic::Tetrahedron> elements(n_elements);
+  std::vector<double>                     weights(n_elements);
+  std::vector<std::array<unsigned, 4>>    vertices(n_elements);
+  for (size_t k = 0; k < n_elements; ++k)
+    {
+      Eigen::Matrix3d X = 0.01 * Eigen::Matrix3d::Identity();
+      for (int i = 0; i < 9; ++i)
+        X(i / 3, i % 3) += 0.003 * dist(gen);
+      const Eigen::Matrix3d Xinv = X.inverse();
+      elements[k].grad.rightCols<3>() = Xinv.transpose();
+      elements[k].grad.col(0)         = -elements[k].grad.rightCols<3>().rowwise().sum();
+      elements[k].volume              = std::abs(X.determinant()) / 6;
+      weights[k]                      = 1 + dist(gen);
+      std::array<unsigned, 6> pick{0, 1, 2, 3, 4, 5};
+      std::shuffle(pick.begin(), pick.end(), gen);
+      vertices[k] = {pick[0], pick[1], pick[2], pick[3]};
+    }
+  Eigen::VectorXd u(3 * n_vertices), v(3 * n_vertices);
+  for (Eigen::Index i = 0; i < u.size(); ++i)
+    u(i) = 3e-3 * dist(gen), v(i) = 0.05 * dist(gen);
+  const auto groups = irdm::detail::pack_element_lanes(elements, weights, vertices);
+  ASSERT_EQ(groups.size(), 2u);
+  const double mu = 700, lambda = 3000;
+  for (const double beta : {0.0, 0.004})
+    for (const bool avx2 : {false, true})
+      {
+        if (avx2 && !detail::surface_product_avx2_available())
+          continue;
+        const auto kernel = avx2 ? detail::damped_neo_hookean_forces_avx2 : detail::damped_neo_hookean_forces_portable;
+        // As the residual added them before: each element's one-kernel force times its weight.
+        const auto expected = [&](const Eigen::VectorXd &uu, int &inverted) {
+          Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * n_vertices);
+          inverted          = 0;
+          for (size_t k = 0; k < n_elements; ++k)
+            {
+              irdm::elastic::Vector12 u_e, v_e, f_e;
+              for (int a = 0; a < 4; ++a)
+                u_e.segment<3>(3 * a) = uu.segment<3>(3 * vertices[k][a]), v_e.segment<3>(3 * a) = v.segment<3>(3 * vertices[k][a]);
+              const bool ok = beta != 0 ? irdm::elastic::damped_neo_hookean_force(elements[k], u_e, v_e, mu, lambda, beta, f_e)
+                                        : irdm::elastic::neo_hookean_force(elements[k], u_e, mu, lambda, f_e);
+              if (!ok)
+                {
+                  ++inverted;
+                  continue;
+                }
+              for (int a = 0; a < 4; ++a)
+                f.segment<3>(3 * vertices[k][a]) += weights[k] * f_e.segment<3>(3 * a);
+            }
+          return f;
+        };
+        const char *name = avx2 ? "AVX2" : "portable";
+        int         inverted = 0;
+        Eigen::VectorXd f_ref = expected(u, inverted);
+        ASSERT_EQ(inverted, 0);
+        Eigen::VectorXd f = Eigen::VectorXd::Constant(3 * n_vertices, 0.25); // added to
+        EXPECT_EQ(kernel(groups.data(), groups.size(), u.data(), v.data(), mu, lambda, beta, f.data()), 0u) << name;
+        EXPECT_LT((f.array() - 0.25 - f_ref.array()).abs().maxCoeff(), 1e-12 * f_ref.lpNorm<Eigen::Infinity>())
+          << name << ", beta " << beta;
+        // Element 5 (the second group's second lane) turned inside out: counted, its force out.
+        Eigen::VectorXd flat = u;
+        const auto     &t5   = vertices[5];
+        flat.segment<3>(3 * t5[1]) = flat.segment<3>(3 * t5[0]) - 2 * (elements[5].grad.rightCols<3>().transpose().inverse().col(0));
+        f_ref = expected(flat, inverted);
+        ASSERT_GE(inverted, 1) << "the test's inverted element";
+        f.setZero();
+        EXPECT_EQ(kernel(groups.data(), groups.size(), flat.data(), v.data(), mu, lambda, beta, f.data()), unsigned(inverted)) << name;
+        EXPECT_LT((f - f_ref).lpNorm<Eigen::Infinity>(), 1e-12 * f_ref.lpNorm<Eigen::Infinity>()) << name << ", inverted";
+      }
 }
 
 // Newton never calls a residual that is not finite converged (its stop is relative to the

@@ -3,6 +3,7 @@
 #include <irdm_common/error.h>
 #include <irdm_common/h5.h>
 
+#include "element_forces.h"
 #include "surface_product.h"
 #include "tangent_product.h"
 
@@ -320,6 +321,7 @@ namespace irdm
         element_blocks_.push_back(places);
       }
     stiffness_blocks_.assign(block_column_.size(), Eigen::Matrix3d::Zero());
+    element_lanes_ = detail::pack_element_lanes(element_, weight_, element_vertices_);
     if (options_.single_precision_rows) // the double rows rounded too: the residual, the planes and the tangent read one basis
       {
         vertex_rows_  = vertex_basis_.cast<float>();
@@ -692,42 +694,37 @@ namespace irdm
     vertex_u_ = (1 - af) * vertex_x_ + af * vertex_q_;
     if (damped) // c_c = (1 - af) gamma / (beta h): v_af's rate in x
       vertex_v_ = c_c * (vertex_x_ - vertex_q_) + vertex_w_;
+    // Every element's force by the four-lane kernel, with the tangent or without (a residual
+    // rounds alike either way); the one-element kernels give the tangent's K and D.
     vertex_f_.setZero();
+    const bool ok = detail::damped_neo_hookean_forces(element_lanes_.data(), element_lanes_.size(), vertex_u_.data(),
+                                                      vertex_v_.data(), m_.mu, m_.lambda, m_.rayleigh_beta,
+                                                      vertex_f_.data()) == 0;
     if (T)
-      for (auto &B : stiffness_blocks_)
-        B.setZero();
-    bool              ok = true;
-    elastic::Vector12 u_e, v_e, f_e, d_e;
-    elastic::Matrix12 K_e, D_e;
-    for (size_t k = 0; k < element_.size(); ++k)
       {
-        const auto &l = element_vertices_[k];
-        gather(vertex_u_, l, u_e);
-        if (damped)
-          gather(vertex_v_, l, v_e);
-        const auto &t = element_[k];
-        // The force from one kernel, the law's and the damping's at once, with the tangent or
-        // without (a residual rounds alike either way); the tangent's kernels give K and D.
-        if (!(damped ? elastic::damped_neo_hookean_force(t, u_e, v_e, m_.mu, m_.lambda, m_.rayleigh_beta, f_e)
-                     : elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, f_e, T ? &K_e : nullptr)))
+        for (auto &B : stiffness_blocks_)
+          B.setZero();
+        elastic::Vector12 u_e, v_e, f_e;
+        elastic::Matrix12 K_e, D_e;
+        for (size_t k = 0; k < element_.size(); ++k)
           {
-            ok = false;
-            continue;
+            const auto &l = element_vertices_[k];
+            const auto &t = element_[k];
+            gather(vertex_u_, l, u_e);
+            if (!elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, f_e, &K_e))
+              continue;
+            if (damped)
+              {
+                gather(vertex_v_, l, v_e);
+                elastic::objective_damping_force(t, u_e, v_e, m_.mu, m_.lambda, f_e, &D_e);
+                K_e = (1 - af) * K_e + m_.rayleigh_beta * c_c * D_e;
+              }
+            else
+              K_e *= 1 - af;
+            for (int a = 0; a < 4; ++a)
+              for (int b = 0; b < 4; ++b)
+                stiffness_blocks_[element_blocks_[k][4 * a + b]] += weight_[k] * K_e.block<3, 3>(3 * a, 3 * b);
           }
-        if (T && damped)
-          {
-            elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, d_e, &K_e);
-            elastic::objective_damping_force(t, u_e, v_e, m_.mu, m_.lambda, d_e, &D_e);
-            K_e = (1 - af) * K_e + m_.rayleigh_beta * c_c * D_e;
-          }
-        else if (T)
-          K_e *= 1 - af;
-        for (int a = 0; a < 4; ++a)
-          vertex_f_.segment<3>(3 * Eigen::Index(l[a])) += weight_[k] * f_e.segment<3>(3 * a);
-        if (T)
-          for (int a = 0; a < 4; ++a)
-            for (int b = 0; b < 4; ++b)
-              stiffness_blocks_[element_blocks_[k][4 * a + b]] += weight_[k] * K_e.block<3, 3>(3 * a, 3 * b);
       }
     if (options_.single_precision_rows)
       detail::transposed_rows_product(vertex_rows_.data(), r_, rows, vertex_f_.data(), g_int_.data());

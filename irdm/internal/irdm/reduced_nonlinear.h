@@ -32,6 +32,7 @@
 // - X~, velocity and acceleration turned by Q, projected on the basis by the nine blocks
 // J_ab = U_a^T M_s U_b. The frame's turn is exact, so the body's strain does not grow with
 // it; every inertial force of the moving frame follows from the carried state.
+#include <irdm/element_lanes.h>
 #include <irdm_common/neo_hookean_tet.h>
 
 #include <Eigen/Dense>
@@ -351,6 +352,7 @@ namespace irdm
     std::vector<std::array<unsigned, 4>>  element_vertices_;
     std::vector<elastic::Tetrahedron>     element_;
     std::vector<double>                   weight_;
+    std::vector<detail::ElementLanes>     element_lanes_; // the same, four a group (element_forces.h)
     Vector vertex_u_, vertex_v_, vertex_f_; // 3 per cubature vertex: displacement, velocity, force
     // q_af and v_af are linear in the iterate x, so a residual takes one product over the
     // rows, U x (vertex_x_), and the part's start gives the rest: U q_af = (1 - af) U x + af U q
