@@ -46,6 +46,9 @@ namespace irdm::play
     // (N/m) and damper (N s/m), unilateral on the coupled force. Both 0: the rigid probe.
     double coupling_stiffness = 0;
     double coupling_damping   = 0;
+    // A reduced nonlinear model's Newton stop: the residual within this fraction of its
+    // largest force (ReducedBodyOptions::tolerance).
+    double newton_tolerance = 1e-8;
   };
 
   /// Runs the two loops and writes DIR/forces.csv, histogram.csv, play.md and

@@ -45,6 +45,7 @@ namespace irdm::play
     {
       Trajectory            trajectory;
       ReducedNonlinearModel model;
+      ReducedBodyOptions    options; // every body's: the Newton stop of --newton-tolerance
       double                tau = 0, rate = 0, duration = 0;
       long                  n_ticks = 0, n_steps = 0;
       unsigned              vertex = 0; // into the model's surface
@@ -67,6 +68,7 @@ namespace irdm::play
       if (!o.quiet)
         out << "loading " << o.model << "\n" << std::flush;
       s.model = load_reduced_nonlinear_model(o.model);
+      s.options.tolerance = o.newton_tolerance;
       if (s.model.rigid_modes > 0)
         throw InputError("play: '" + o.model + "' is a free body's reduced model; play runs a "
                          "grounded one (a free one runs in irdm validate-free)");
@@ -260,7 +262,7 @@ namespace irdm::play
     offline_forces(const ReducedSetup &s)
     {
       OfflineForces        f{std::vector<Vec3>(s.n_steps), std::vector<Vec3>(s.n_steps)};
-      ReducedNonlinearBody split(s.model), one_loop(s.model);
+      ReducedNonlinearBody split(s.model, s.options), one_loop(s.model, s.options);
       LocalCompliance      c;
       std::vector<Vec3>    tick(s.n_ticks);
       long                 from = 0;
@@ -379,6 +381,7 @@ namespace irdm::play
          {"missed", std::to_string(r.missed)},
          {"missed_percent", fmt(100 * missed)},
          {"failed", std::to_string(body.failed_steps())},
+         {"newton_tolerance", fmt(s.options.tolerance)},
          {"cut", std::to_string(body.cut_steps())},
          {"checked", offline ? "1" : ""},
          {"lockstep_error", fmt(lockstep)},
@@ -402,7 +405,7 @@ namespace irdm::play
     ReducedSetup s;
     prepare_reduced(s, o, out);
     ReducedRecords       r(s);
-    ReducedNonlinearBody body(s.model);
+    ReducedNonlinearBody body(s.model, s.options);
     if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 && !o.quiet)
       out << "note: memory not locked (mlockall refused); page faults may add latency\n";
     if (!o.quiet)

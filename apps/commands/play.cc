@@ -64,6 +64,11 @@ namespace irdm::cli
     play->add_option("--coupling-damping", po->coupling_damping,
                      "virtual coupling damper, N s/m")
       ->check(CLI::Range(0.0, 1e12));
+    play->add_option("--newton-tolerance", po->newton_tolerance,
+                     "a reduced nonlinear model's Newton stop: the residual within this fraction of "
+                     "its largest force")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-14, 1e-2));
     play->add_option("--out", po->out_dir, "output folder")->capture_default_str();
     play->add_flag("!--no-check", po->check, "skip the offline replay with the exact model");
     play->add_flag("!--no-pin", po->pin, "do not pin the threads to CPUs");

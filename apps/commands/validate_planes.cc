@@ -97,6 +97,11 @@ namespace irdm::cli
                                 "reduced nonlinear models of the scene's body (irdm precompute "
                                 "--reduced), each a method reduced_<file stem> on every case")
       ->check(CLI::ExistingFile);
+    validate_planes->add_option("--reduced-newton-tolerance", vp->reduced_newton_tolerance,
+                                "the reduced models' Newton stop: the residual within this "
+                                "fraction of its largest force")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-14, 1e-2));
     validate_planes->add_option("--cases", vp->cases,
                                 "only these cases, each a case name (press_top_5mm) or a kind "
                                 "(press_top_and_side, slide_side); default: every case");

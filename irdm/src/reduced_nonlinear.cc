@@ -389,6 +389,8 @@ namespace irdm
       T->setZero(r_, r_);
     for (auto &B : probe_basis_)
       B.setZero(3, r_);
+    for (auto &B : key_probe_basis_)
+      B.setZero(3, r_);
     point_basis_.setZero(3, r_);
     point_solve_.setZero(r_, 3);
     contact_vertex_.assign(surface_index_.size() * max_planes, 0);
@@ -887,13 +889,20 @@ namespace irdm
   ReducedNonlinearBody::contact_tangent(const ReducedPlane *planes, Matrix &C)
   {
     // The planes' penalty is linear in the depth, so their tangent depends only on which
-    // vertices touch which plane, each one's stiffness and the plane's normal: the matrix is
-    // kept while those stay (bit for bit what it would be made again), and with it the
-    // factorization. A probe's coupling depends on the part's length: made every time.
-    bool same = options_.keep_factorization && contact_key_valid_ && n_probes_ == 0 && n_contacts_ == key_contacts_;
+    // vertices touch which plane, each one's stiffness and the plane's normal; a probe's
+    // coupling only on its patch's rows U_p and its weight (1 - af) (k + c gamma / (beta h)),
+    // zero where it is inactive. The matrix is kept while all of those stay (bit for bit what
+    // it would be made again), and with it the factorization.
+    const double coupling_rate = m_.gamma / (m_.beta * h_);
+    for (int p = 0; p < n_probes_; ++p)
+      probe_weight_[p] = probe_active_[p] ? (1 - m_.alpha_f) * (probes_[p].stiffness + probes_[p].damping * coupling_rate) : 0.0;
+    bool same = options_.keep_factorization && contact_key_valid_ && n_contacts_ == key_contacts_ &&
+                n_probes_ == key_probes_;
     for (size_t c = 0; same && c < n_contacts_; ++c)
       same = key_vertex_[c] == contact_vertex_[c] && key_weight_[c] == contact_weight_[c] &&
              key_normal_[c] == planes[contact_plane_[c]].normal;
+    for (int p = 0; same && p < n_probes_; ++p)
+      same = key_probe_weight_[p] == probe_weight_[p] && key_probe_basis_[p] == probe_basis_[p];
     if (same)
       return;
     C.setZero();
@@ -906,13 +915,16 @@ namespace irdm
         key_weight_[c] = contact_weight_[c];
         key_normal_[c] = nrm;
       }
-    const double coupling_rate = m_.gamma / (m_.beta * h_);
     for (int p = 0; p < n_probes_; ++p)
-      if (probe_active_[p])
-        C.selfadjointView<Eigen::Lower>().rankUpdate(probe_basis_[p].transpose(),
-                                                     (1 - m_.alpha_f) * (probes_[p].stiffness + probes_[p].damping * coupling_rate));
+      {
+        if (probe_weight_[p] != 0)
+          C.selfadjointView<Eigen::Lower>().rankUpdate(probe_basis_[p].transpose(), probe_weight_[p]);
+        key_probe_weight_[p] = probe_weight_[p];
+        key_probe_basis_[p]  = probe_basis_[p];
+      }
     key_contacts_      = n_contacts_;
-    contact_key_valid_ = n_probes_ == 0;
+    key_probes_        = n_probes_;
+    contact_key_valid_ = true;
     ++tangent_version_;
   }
 

@@ -498,7 +498,8 @@ namespace irdm::validation::planes
     /// same node-based penalty): its surface put in the truth's order by node tag.
     void
     run_reduced(MethodResult &m, std::array<unsigned long, 2> &cut_failed, const Truth &truth,
-                const Row &row, const ReducedNonlinearModel &model, const double penalty)
+                const Row &row, const ReducedNonlinearModel &model, const double penalty,
+                const double newton_tolerance)
     {
       const Case         &c       = truth.c;
       const size_t        n_walls = c.d.size();
@@ -515,7 +516,9 @@ namespace irdm::validation::planes
                              "(a vertex the truth's surface does not have)");
           order.push_back(it->second);
         }
-      ReducedNonlinearBody body(model);
+      ReducedBodyOptions options;
+      options.tolerance = newton_tolerance;
+      ReducedNonlinearBody body(model, options);
       std::array<ReducedPlane, ReducedNonlinearBody::max_planes> walls;
       std::vector<double> u(3 * model.node_tags.size()), u_truth_order(3 * surface.node_tags.size());
       score(
@@ -824,7 +827,7 @@ namespace irdm::validation::planes
         row.reduced.emplace_back(models.reduced_names[k], MethodResult());
         row.reduced_cut_failed.emplace_back();
         run_reduced(row.reduced.back().second, row.reduced_cut_failed.back(), truth, row,
-                    models.reduced[k], penalty);
+                    models.reduced[k], penalty, o.reduced_newton_tolerance);
         log << " " << models.reduced_names[k] << " " << 100 * row.reduced.back().second.force_error
             << " % force, " << 100 * row.reduced.back().second.displacement_error << " % shape ("
             << row.reduced_cut_failed.back()[0] << " steps cut, " << row.reduced_cut_failed.back()[1]

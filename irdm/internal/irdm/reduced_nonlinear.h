@@ -461,6 +461,11 @@ namespace irdm
     size_t                             key_contacts_      = 0;
     bool                               contact_key_valid_ = false;
     std::array<bool, max_probes>       probe_active_{};
+    // Each probe's coupling weight in the tangent (0: inactive), and the probes that made
+    // contact_tangent_: their weights and U_p.
+    std::array<double, max_probes>     probe_weight_{}, key_probe_weight_{};
+    std::array<Eigen::Matrix<double, 3, Eigen::Dynamic>, max_probes> key_probe_basis_;
+    int                                key_probes_ = 0;
     Eigen::Vector3d              torque_ = Eigen::Vector3d::Zero(); // external_torque()
     // The planes' torque about the centre of mass (the step's frame), and what the projected
     // force's torque A U^T f misses of it (keep_angular_momentum): at the latest residual, at

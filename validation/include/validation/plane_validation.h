@@ -57,6 +57,9 @@ namespace irdm::validation
     // Reduced nonlinear models (irdm precompute --reduced) of this scene's body, each run on
     // every case beside the other methods as the method reduced_<its file's stem>.
     std::vector<std::string> reduced_models;
+    // Their Newton stop: the residual within this fraction of its largest force
+    // (ReducedBodyOptions::tolerance).
+    double reduced_newton_tolerance = 1e-8;
     // Only these cases (each a case name, such as press_top_5mm, or a kind, such as
     // press_top_and_side or slide_side); empty: every case of the run.
     std::vector<std::string> cases;
