@@ -742,7 +742,7 @@ namespace irdm
         if (options_.single_precision_rows)
           {
             static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double), "blocks read as an array");
-            const detail::BlockRows K{stiffness_blocks_.data()->data(), block_row_start_.data(),
+            const detail::BlockRows K{reinterpret_cast<const double *>(stiffness_blocks_.data()), block_row_start_.data(),
                                       block_column_.data(), block_row_start_.size() - 1};
             detail::block_rows_product(K, vertex_rows_.data(), r_, KU_rows_.data());
             tangent_rows_.setZero();
@@ -890,7 +890,7 @@ namespace irdm
   {
     // The planes' penalty is linear in the depth, so their tangent depends only on which
     // vertices touch which plane, each one's stiffness and the plane's normal; a probe's
-    // coupling only on its patch's rows U_p and its weight (1 - af) (k + c gamma / (beta h)),
+    // coupling only on its patch's rows U_p and its weight (1 - af) (k + b gamma / (beta h)),
     // zero where it is inactive. The matrix is kept while all of those stay (bit for bit what
     // it would be made again), and with it the factorization.
     const double coupling_rate = m_.gamma / (m_.beta * h_);

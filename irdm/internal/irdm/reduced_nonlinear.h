@@ -136,17 +136,18 @@ namespace irdm
     // iteration evaluates it (Newton's method proper).
     bool   reuse_tangent         = true;
     double tangent_refresh_ratio = 0.1;
-    // Keep the planes' tangent while their contacts stay, and the factorization of the step's
-    // tangent while neither the body's tangent nor the planes' change (the same matrices: the
-    // same steps, bit for bit). false: the planes' tangent made at every residual and the
-    // factorization at every iteration.
+    // Keep the planes' and probes' tangent while their contacts (a probe's patch rows and
+    // coupling weight) stay, and the factorization of the step's tangent while neither the
+    // body's tangent nor that contact tangent change (the same matrices: the same steps, bit
+    // for bit). false: the contact tangent made at every residual and the factorization at
+    // every iteration.
     bool keep_factorization = true;
     // U's rows at the cubature's and the surface's vertices rounded to float, and read in
     // single precision with the sums in double (half the bytes a residual streams): the
     // elastic, damping and plane forces are then the Galerkin projection on U so rounded
     // (relative 6e-8; the inertia, loads and probes keep U's own). The body's tangent
-    // U^T (K U) is formed in float arithmetic on those rows (relative about 1e-6: Newton
-    // converges to the residual's root all the same). false: U's own rows and a tangent in
+    // U^T (K U) is formed in float arithmetic on those rows (float sums: Newton converges to
+    // the residual's root all the same). false: U's own rows and a tangent in
     // double.
     bool single_precision_rows = true;
     // Newton's stop: the residual's norm at most this fraction of the largest force in it
