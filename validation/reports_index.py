@@ -136,6 +136,18 @@ def reduced_step_rate_headline(folder):
             "the kept factorization and the rows in float")
 
 
+def reduced_step_kernels_headline(folder):
+    def p99(variant):
+        values = []
+        for run in sorted(glob.glob(os.path.join(folder, "play_ab", f"{variant}_[0-9]", "summary.csv"))):
+            values += [float(r["deformation_step_p99_us"]) / 1000 for r in rows(run)]
+        within = sum(v <= 1 for v in values)
+        return f"{span(values, lambda x: f'{x:.2f} ms')} ({within} of {len(values)} runs within 1 ms)"
+    return ("`irdm play`, r = 222 within the top presses' goals: deformation step p99 "
+            f"{p99('cat_top_r222_c05_new_tol1e-6')} (696-element cubature, stop 1e-6), "
+            f"{p99('cat_top_r222_new')} (997 elements), against {p99('cat_top_r222_old')} before the kernels")
+
+
 def free_step_headline(folder):
     def first_force(step, method):
         path = os.path.join(folder, "check", f"tau_{step}", "linearization.csv")
@@ -288,6 +300,9 @@ STUDIES = [
      RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
     ("The reduced step at the force loop's rate: the kept factorization and U's rows in float",
      "reduced/step_rate/README.md", None, reduced_step_rate_headline,
+     RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
+    ("The reduced step's kernels: the tangent's products, one product a residual, four elements at once",
+     "reduced/step_kernels/README.md", None, reduced_step_kernels_headline,
      RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
     ("Reduced nonlinear models of the free cat (50 kPa)", "reduced/free/report.md",
      None, reduced_free_headline,
