@@ -49,6 +49,9 @@ namespace irdm::play
     // A reduced nonlinear model's Newton stop: the residual within this fraction of its
     // largest force (ReducedBodyOptions::tolerance).
     double newton_tolerance = 1e-8;
+    // A reduced nonlinear model's tangent made over this many deformation steps where Newton
+    // asks for a new one (ReducedBodyOptions::tangent_steps; 0: inside the step).
+    unsigned tangent_steps = 0;
   };
 
   /// Runs the two loops and writes DIR/forces.csv, histogram.csv, play.md and

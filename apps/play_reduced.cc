@@ -68,7 +68,8 @@ namespace irdm::play
       if (!o.quiet)
         out << "loading " << o.model << "\n" << std::flush;
       s.model = load_reduced_nonlinear_model(o.model);
-      s.options.tolerance = o.newton_tolerance;
+      s.options.tolerance     = o.newton_tolerance;
+      s.options.tangent_steps = o.tangent_steps;
       if (s.model.rigid_modes > 0)
         throw InputError("play: '" + o.model + "' is a free body's reduced model; play runs a "
                          "grounded one (a free one runs in irdm validate-free)");
@@ -176,6 +177,7 @@ namespace irdm::play
       std::vector<Vec3>   force;                       // per tick, N
       std::vector<double> force_us, late_us;           // per tick
       std::vector<double> step_us, lag_ms, iterations; // per deformation step
+      std::vector<double> tangents, staged_tangents;   // per deformation step: made in it, taken into use
       std::vector<Vec3>   step_force;                  // per deformation step, N
       std::vector<Vec3>   probed_u;                    // per deformation step, m
       long                missed = 0;
@@ -184,7 +186,8 @@ namespace irdm::play
 
       explicit ReducedRecords(const ReducedSetup &s)
         : force(s.n_ticks), force_us(s.n_ticks), late_us(s.n_ticks), step_us(s.n_steps),
-          lag_ms(s.n_steps), iterations(s.n_steps), step_force(s.n_steps), probed_u(s.n_steps),
+          lag_ms(s.n_steps), iterations(s.n_steps), tangents(s.n_steps), staged_tangents(s.n_steps),
+          step_force(s.n_steps), probed_u(s.n_steps),
           force_seen(static_cast<size_t>(s.n_ticks) * 4)
       {}
     };
@@ -234,7 +237,8 @@ namespace irdm::play
             const long to = s.window_end[k];
             while (ticks_done.load(std::memory_order_acquire) < to)
               std::this_thread::sleep_for(std::chrono::microseconds(20));
-            const std::int64_t t0 = now_ns();
+            const unsigned long made = body.tangent_evaluations(), staged = body.staged_tangent_evaluations();
+            const std::int64_t  t0   = now_ns();
             r.step_force[k]       = mean_force(r.force, from, to, k > 0 ? r.step_force[k - 1] : Vec3{0, 0, 0});
             deformation_step(body, s, k, r.step_force[k], exchange.back());
             r.probed_u[k] = exchange.back().u;
@@ -243,6 +247,8 @@ namespace irdm::play
             r.step_us[k]          = 1e-3 * static_cast<double>(t1 - t0);
             r.lag_ms[k]           = 1e-6 * static_cast<double>(t1 - (start + to * period_ns));
             r.iterations[k]       = body.newton_iterations();
+            r.tangents[k]         = static_cast<double>(body.tangent_evaluations() - made);
+            r.staged_tangents[k]  = static_cast<double>(body.staged_tangent_evaluations() - staged);
             from                  = to;
           }
       });
@@ -320,10 +326,11 @@ namespace irdm::play
                  component(r.force, 0), component(r.force, 1), component(r.force, 2), r.force_us, r.late_us});
       write_csv((dir / "deformation.csv").string(),
                 {"step", "time_s", "deformation_step_us", "lag_ms", "newton_iterations", "force_x_N",
-                 "force_y_N", "force_z_N", "probed_u_x_m", "probed_u_y_m", "probed_u_z_m"},
+                 "force_y_N", "force_z_N", "probed_u_x_m", "probed_u_y_m", "probed_u_z_m", "tangents_made",
+                 "staged_tangents_taken"},
                 {step, step_time, r.step_us, r.lag_ms, r.iterations, component(r.step_force, 0),
                  component(r.step_force, 1), component(r.step_force, 2), component(r.probed_u, 0),
-                 component(r.probed_u, 1), component(r.probed_u, 2)});
+                 component(r.probed_u, 1), component(r.probed_u, 2), r.tangents, r.staged_tangents});
       double peak = 0;
       for (const Vec3 &f : r.force)
         peak = std::max(peak, std::hypot(f[0], f[1], f[2]));
@@ -337,13 +344,15 @@ namespace irdm::play
                  "force_step_max_us", "deformation_step_p50_us", "deformation_step_p99_us",
                  "deformation_step_max_us", "lag_p99_ms", "lag_max_ms", "peak_force_N",
                  "lockstep_force_error", "implicit_force_error", "split_force_error", "failed_steps",
-                 "cut_steps"},
+                 "cut_steps", "tangent_evaluations", "staged_tangent_evaluations", "tangent_steps"},
                 {one(s.rate), one(static_cast<double>(s.n_ticks)), one(static_cast<double>(s.n_steps)),
                  one(static_cast<double>(r.missed)), one(percentile(r.force_us, 0.5)), one(percentile(r.force_us, 0.99)),
                  one(percentile(r.force_us, 1.0)), one(percentile(r.step_us, 0.5)), one(percentile(r.step_us, 0.99)),
                  one(percentile(r.step_us, 1.0)), one(percentile(r.lag_ms, 0.99)), one(percentile(r.lag_ms, 1.0)),
                  one(peak), one(lockstep), one(implicit), one(split), one(static_cast<double>(body.failed_steps())),
-                 one(static_cast<double>(body.cut_steps()))});
+                 one(static_cast<double>(body.cut_steps())), one(static_cast<double>(body.tangent_evaluations())),
+                 one(static_cast<double>(body.staged_tangent_evaluations())),
+                 one(static_cast<double>(s.options.tangent_steps))});
       const auto pct = [](const std::vector<double> &x) {
         return fmt(percentile(x, 0.5)) + " | " + fmt(percentile(x, 0.99)) + " | " + fmt(percentile(x, 0.999)) +
                " | " + fmt(percentile(x, 1.0));
@@ -383,6 +392,10 @@ namespace irdm::play
          {"failed", std::to_string(body.failed_steps())},
          {"newton_tolerance", fmt(s.options.tolerance)},
          {"cut", std::to_string(body.cut_steps())},
+         {"tangents", std::to_string(body.tangent_evaluations())},
+         {"staged", std::to_string(body.staged_tangent_evaluations())},
+         {"tangent_steps", std::to_string(s.options.tangent_steps)},
+         {"staged_mode", s.options.tangent_steps > 0 ? "1" : ""},
          {"checked", offline ? "1" : ""},
          {"lockstep_error", fmt(lockstep)},
          {"implicit_error", fmt(implicit)},
@@ -413,6 +426,8 @@ namespace irdm::play
           << " deformation steps of " << fmt(1e3 * s.tau) << " ms (" << fmt(s.duration) << " s), coupled to surface vertex "
           << s.vertex << "\n"
           << std::flush;
+    // The first step's tangent (at rest, as that step would make it) before the loops start.
+    body.prepare_tangent();
     run_reduced_loops(s, r, o, body);
     munlockall();
     const OfflineForces offline = o.check ? offline_forces(s) : OfflineForces{};

@@ -703,11 +703,36 @@ TEST(Cli, PlayRunsTheReducedModelsTwoLoops)
   std::ifstream deformation(fs::path(dir) / "deformation.csv");
   ASSERT_TRUE(std::getline(deformation, header));
   EXPECT_EQ(header, "step,time_s,deformation_step_us,lag_ms,newton_iterations,force_x_N,force_y_N,"
-                    "force_z_N,probed_u_x_m,probed_u_y_m,probed_u_z_m");
-  long rows = 0;
-  for (std::string line; std::getline(deformation, line);)
-    ++rows;
+                    "force_z_N,probed_u_x_m,probed_u_y_m,probed_u_z_m,tangents_made,staged_tangents_taken");
+  long   rows = 0;
+  double made = 0; // tangents made in the steps
+  for (std::string line; std::getline(deformation, line); ++rows)
+    {
+      std::stringstream fields(line);
+      std::string       field;
+      for (int c = 0; c < 12 && std::getline(fields, field, ','); ++c)
+        ;
+      made += std::stod(field); // column 12, tangents_made
+    }
   EXPECT_EQ(rows, 100);
+  EXPECT_EQ(v["tangent_evaluations"], made + 1) << "the steps' and the one before the loops";
+  EXPECT_EQ(v["tangent_steps"], 0);
+  EXPECT_EQ(v["staged_tangent_evaluations"], 0);
+  // The tangent made over 3 steps: the same columns, the split as close to its reference.
+  const std::string staged = dir + "_staged";
+  fs::remove_all(staged);
+  const int s3 = status(std::string(IRDM_CLI) + " play " + ro.output + " --trajectory " + trajectory +
+                        " --rate-hz 1000 --quiet --coupling-stiffness 100 --coupling-damping 0.2 --tangent-steps 3 --out " +
+                        staged);
+  EXPECT_TRUE(s3 == 0 || s3 == 3) << s3;
+  std::map<std::string, double> w = play_summary(staged);
+  ASSERT_FALSE(w.empty()) << "no summary.csv";
+  EXPECT_EQ(w["tangent_steps"], 3);
+  EXPECT_EQ(w["failed_steps"], 0);
+  EXPECT_LT(w["split_force_error"], 0.05);
+  EXPECT_NE(status(std::string(IRDM_CLI) + " play " + ro.output + " --trajectory " + trajectory +
+                   " --coupling-stiffness 100 --tangent-steps -1 --out " + staged),
+            0);
   std::ifstream forces(fs::path(dir) / "forces.csv");
   ASSERT_TRUE(std::getline(forces, header));
   EXPECT_EQ(header.rfind("step,time_s,device_x_m,device_y_m,device_z_m,present,force_x_N,", 0), 0u);

@@ -1257,34 +1257,45 @@ namespace
 } // namespace
 
 // The reduced nonlinear model's step (Newton, cubature, planes, vertex forces, a coupled probe,
-// and a step cut into parts), its surface and a force loop's local compliance allocate nothing.
+// and a step cut into parts), its surface and a force loop's local compliance allocate nothing,
+// with the tangent made in the step or over steps.
 TEST(ReducedRuntime, StepAndSurfaceAllocateNothing)
 {
   const irdm::ReducedNonlinearModel &m = reduced_beam();
-  irdm::ReducedNonlinearBody         body(m);
-  std::vector<double>                u(3 * m.surface_vertex.size());
-  irdm::ReducedPlane                 plane;
-  plane.normal = {0, 0, -1};
-  const irdm::ReducedVertexForce push{static_cast<unsigned>(m.surface_vertex.size() - 1), {0, 0, -1e-3}};
-  int    most = 0;
-  double uc[3], vc[3], ac[3], W[9];
-  for (int k = 0; k < 40; ++k)
+  for (const unsigned tangent_steps : {0u, 3u})
     {
-      // The plane jumps 5 mm into the beam's top at step 20 (the step that needs parts) and
-      // goes on down 0.5 mm a step.
-      plane.point                    = {0, 0, 0.01 - (k < 20 ? -1e-3 : 5e-3 + 5e-4 * (k - 20))};
-      const irdm::ReducedProbe probe = tip_coupling(m, k, 0.5);
-      g_allocations                  = 0;
-      g_count_allocations            = true;
-      body.step(&plane, 1, &push, 1, &probe, k < 20 ? 1 : 0);
-      body.surface_displacement(u.data());
-      body.point_state(probe.vertices.data(), probe.weights.data(), 1, uc, vc, ac, W);
-      g_count_allocations = false;
-      EXPECT_EQ(g_allocations, 0) << "step " << k;
-      most = std::max(most, body.plane_vertices(0));
+      irdm::ReducedBodyOptions   o;
+      o.tangent_steps         = tangent_steps;
+      o.tangent_refresh_ratio = tangent_steps > 0 ? 0 : o.tangent_refresh_ratio; // staged at every step that iterates
+      irdm::ReducedNonlinearBody body(m, o);
+      std::vector<double>        u(3 * m.surface_vertex.size());
+      irdm::ReducedPlane         plane;
+      plane.normal = {0, 0, -1};
+      const irdm::ReducedVertexForce push{static_cast<unsigned>(m.surface_vertex.size() - 1), {0, 0, -1e-3}};
+      int    most = 0;
+      double uc[3], vc[3], ac[3], W[9];
+      for (int k = 0; k < 40; ++k)
+        {
+          // The plane jumps 5 mm into the beam's top at step 20 (the step that needs parts) and
+          // goes on down 0.5 mm a step.
+          plane.point                    = {0, 0, 0.01 - (k < 20 ? -1e-3 : 5e-3 + 5e-4 * (k - 20))};
+          const irdm::ReducedProbe probe = tip_coupling(m, k, 0.5);
+          g_allocations                  = 0;
+          g_count_allocations            = true;
+          body.step(&plane, 1, &push, 1, &probe, k < 20 ? 1 : 0);
+          body.surface_displacement(u.data());
+          body.point_state(probe.vertices.data(), probe.weights.data(), 1, uc, vc, ac, W);
+          g_count_allocations = false;
+          EXPECT_EQ(g_allocations, 0) << "step " << k;
+          most = std::max(most, body.plane_vertices(0));
+        }
+      EXPECT_GT(most, 0) << "the plane reached the beam";
+      EXPECT_GT(body.cut_steps(), 0u) << "the jump was solved in parts";
+      if (tangent_steps > 0)
+        {
+          EXPECT_GT(body.staged_tangent_evaluations(), 0u) << "tangents made over steps";
+        }
     }
-  EXPECT_GT(most, 0) << "the plane reached the beam";
-  EXPECT_GT(body.cut_steps(), 0u) << "the jump was solved in parts";
 }
 
 // A planes' tangent kept while the contacts stay, and a factorization kept while the tangent
@@ -1382,6 +1393,95 @@ TEST(ReducedRuntime, AKeptPlanesTangentFollowsATurningPlane)
         ASSERT_EQ(kept.coordinates()(i), each.coordinates()(i)) << "step " << k << ", coordinate " << i;
     }
   EXPECT_GE(steady, 10) << "the turning plane's contacts stayed over some steps";
+}
+
+// A tangent made over steps (tangent_steps) is the tangent made at once at the state where the
+// step that asked for it ended: each time one is taken into use, N steps after that step, it
+// equals prepare_tangent()'s (a step's own evaluation, at its iterate x = q) at that state, on
+// a body given the same inputs up to there (the same steps, bit for bit), to float rounding
+// (more than one range of rows changes the float kernel's order of summation). The beam, its tip pressed 4 mm and let go, asks at every iterating step
+// (tangent_refresh_ratio 0). A piece left out, or a tangent made at a state a step late, is
+// off by orders of magnitude more than the rounding.
+TEST(ReducedRuntime, ATangentMadeOverStepsIsTheTangentMadeAtOnce)
+{
+  const irdm::ReducedNonlinearModel &m = reduced_beam();
+  const auto inputs = [&](irdm::ReducedNonlinearBody &body, const int k) {
+    const irdm::ReducedProbe probe = tip_coupling(m, k, 0.5);
+    body.step(nullptr, 0, nullptr, 0, &probe, k < 45 ? 1 : 0);
+  };
+  for (const unsigned pieces : {1u, 2u, 5u})
+    {
+      irdm::ReducedBodyOptions o;
+      o.tangent_steps         = pieces;
+      o.tangent_refresh_ratio = 0;
+      irdm::ReducedNonlinearBody staged(m, o);
+      int                        checked = 0;
+      double                     worst = 0, moved = 0;
+      for (int k = 0; k < 70; ++k)
+        {
+          const Eigen::MatrixXd before = staged.body_tangent();
+          const auto            taken  = staged.staged_tangent_evaluations();
+          inputs(staged, k);
+          if (staged.staged_tangent_evaluations() == taken)
+            continue;
+          // Made at the end of step k - pieces: the same inputs up to there, then at once.
+          irdm::ReducedNonlinearBody reference(m, o);
+          for (int j = 0; j <= k - int(pieces); ++j)
+            inputs(reference, j);
+          reference.prepare_tangent();
+          const Eigen::MatrixXd T = reference.body_tangent().triangularView<Eigen::Lower>();
+          const Eigen::MatrixXd S = staged.body_tangent().triangularView<Eigen::Lower>();
+          const Eigen::MatrixXd B = before.triangularView<Eigen::Lower>();
+          const double          scale = T.cwiseAbs().maxCoeff();
+          worst = std::max(worst, (S - T).cwiseAbs().maxCoeff() / scale);
+          moved = std::max(moved, (B - T).cwiseAbs().maxCoeff() / scale);
+          ++checked;
+        }
+      EXPECT_GE(checked, 5) << pieces << " pieces: tangents made over steps and taken";
+      EXPECT_LT(worst, 1e-6) << pieces << " pieces";
+      EXPECT_GT(moved, 1e-4) << pieces << " pieces: the tangent in use before differs (the check can fail)";
+      std::cout << pieces << " pieces: " << checked << " tangents, largest difference " << worst
+                << " of the largest entry, the one before it differs by up to " << moved << "\n";
+    }
+}
+
+// Newton's root is the residual's, whichever tangent steers it: a body whose tangent is made
+// over 4 steps ends every step where one making it at once does, within the stop; it makes
+// fewer at once, and none after prepare_tangent(), which changes no step (the rest tangent is
+// the one the first step makes).
+TEST(ReducedRuntime, ATangentMadeOverStepsLeavesTheSteps)
+{
+  const irdm::ReducedNonlinearModel &m = reduced_beam();
+  irdm::ReducedBodyOptions           o;
+  o.tangent_steps = 4;
+  irdm::ReducedNonlinearBody at_once(m), prepared(m), staged(m, o);
+  prepared.prepare_tangent();
+  staged.prepare_tangent();
+  double worst = 0;
+  for (int k = 0; k < 120; ++k)
+    {
+      // Pressed 4 mm, held, let go at step 45; then a plane pushes 3 mm into the top and out.
+      const irdm::ReducedProbe probe = tip_coupling(m, k, 0.5);
+      irdm::ReducedPlane       plane;
+      plane.normal   = {0, 0, -1};
+      plane.point    = {0, 0, 0.01 - (k < 70 ? -1e-3 : 3e-3 * std::sin(M_PI * (k - 70) / 50.0))};
+      const int n_probes = k < 45 ? 1 : 0;
+      for (auto *b : {&at_once, &prepared, &staged})
+        b->step(&plane, 1, nullptr, 0, &probe, n_probes);
+      if (k == 0)
+        {
+          EXPECT_EQ(prepared.tangent_evaluations(), 1u) << "the first step made none";
+        }
+      for (Eigen::Index i = 0; i < at_once.coordinates().size(); ++i)
+        ASSERT_EQ(prepared.coordinates()(i), at_once.coordinates()(i)) << "step " << k;
+      worst = std::max(worst, (staged.coordinates() - at_once.coordinates()).norm() / at_once.coordinates().norm());
+    }
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_GT(staged.staged_tangent_evaluations(), 0u);
+  EXPECT_LT(staged.tangent_evaluations(), at_once.tangent_evaluations());
+  EXPECT_EQ(at_once.failed_steps() + staged.failed_steps(), 0u);
+  std::cout << "tangents at once: " << at_once.tangent_evaluations() << "; over steps " << staged.staged_tangent_evaluations()
+            << " and at once " << staged.tangent_evaluations() << "; largest relative difference of q " << worst << "\n";
 }
 
 // The allocation count sees both routes to the heap: a new-expression, and Eigen's storage
@@ -1495,7 +1595,7 @@ TEST(ReducedRuntime, PointComplianceIsTheStepsDerivative)
   for (const bool damped : {false, true})
     {
       const irdm::ReducedNonlinearModel &m = reduced_beam(damped);
-      irdm::ReducedBodyOptions           o;
+      irdm::ReducedBodyOptions   o;
       o.reuse_tangent = false;
       irdm::ReducedNonlinearBody body(m, o);
       const irdm::ReducedProbe   probe = tip_coupling(m, 0, 0);

@@ -69,6 +69,12 @@ namespace irdm::cli
                      "its largest force")
       ->capture_default_str()
       ->check(CLI::Range(1e-14, 1e-2));
+    play->add_option("--tangent-steps", po->tangent_steps,
+                     "a reduced nonlinear model's tangent, where Newton asks for a new one, made over "
+                     "this many deformation steps, a piece a step, instead of inside the step (0: "
+                     "inside the step)")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 1000u));
     play->add_option("--out", po->out_dir, "output folder")->capture_default_str();
     play->add_flag("!--no-check", po->check, "skip the offline replay with the exact model");
     play->add_flag("!--no-pin", po->pin, "do not pin the threads to CPUs");

@@ -250,17 +250,6 @@ namespace irdm
     return m;
   }
 
-  namespace
-  {
-    // An element's 12 values from the per-vertex ones, by its four vertices.
-    void
-    gather(const Eigen::VectorXd &per_vertex, const std::array<unsigned, 4> &vertices, elastic::Vector12 &x)
-    {
-      for (int a = 0; a < 4; ++a)
-        x.segment<3>(3 * a) = per_vertex.segment<3>(3 * Eigen::Index(vertices[a]));
-    }
-  } // namespace
-
   Eigen::Map<const Eigen::RowVectorXd>
   ReducedNonlinearBody::basis_row(const unsigned v, const int d) const
   {
@@ -327,7 +316,7 @@ namespace irdm
         vertex_rows_  = vertex_basis_.cast<float>();
         vertex_basis_ = vertex_rows_.cast<double>();
       }
-    for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_, &vertex_x_, &vertex_q_, &vertex_w_})
+    for (Vector *x : {&vertex_u_, &vertex_v_, &vertex_f_, &vertex_x_, &vertex_q_, &vertex_w_, &staged_u_, &staged_v_})
       x->setZero(3 * Eigen::Index(n_local));
     if (options_.single_precision_rows)
       KU_rows_.setZero(3 * Eigen::Index(n_local), r_), tangent_rows_.setZero(r_, r_);
@@ -385,7 +374,7 @@ namespace irdm
     for (Vector *x : {&q_, &v_, &a_, &w_, &g_c_, &x_, &a1_, &v1_, &q_af_, &v_af_, &residual_, &trial_,
                       &r_trial_, &dq_, &g_c_trial_, &best_, &g_int_, &Un_, &g_f_, &g_f_new_, &g_f_end_, &body_force_, &q0_, &v0_, &a0_, &g_c0_, &g_f0_})
       x->setZero(r_);
-    for (Matrix *T : {&body_tangent_, &contact_tangent_, &tangent_})
+    for (Matrix *T : {&body_tangent_, &contact_tangent_, &tangent_, &staged_tangent_})
       T->setZero(r_, r_);
     for (auto &B : probe_basis_)
       B.setZero(3, r_);
@@ -703,68 +692,16 @@ namespace irdm
                                                       vertex_v_.data(), m_.mu, m_.lambda, m_.rayleigh_beta,
                                                       vertex_f_.data()) == 0;
     if (T)
-      {
-        for (auto &B : stiffness_blocks_)
-          B.setZero();
-        elastic::Vector12 u_e, v_e, f_e;
-        elastic::Matrix12 K_e, D_e;
-        for (size_t k = 0; k < element_.size(); ++k)
-          {
-            const auto &l = element_vertices_[k];
-            const auto &t = element_[k];
-            gather(vertex_u_, l, u_e);
-            if (!elastic::neo_hookean_force(t, u_e, m_.mu, m_.lambda, f_e, &K_e))
-              continue;
-            if (damped)
-              {
-                gather(vertex_v_, l, v_e);
-                elastic::objective_damping_force(t, u_e, v_e, m_.mu, m_.lambda, f_e, &D_e);
-                K_e = (1 - af) * K_e + m_.rayleigh_beta * c_c * D_e;
-              }
-            else
-              K_e *= 1 - af;
-            for (int a = 0; a < 4; ++a)
-              for (int b = 0; b < 4; ++b)
-                stiffness_blocks_[element_blocks_[k][4 * a + b]] += weight_[k] * K_e.block<3, 3>(3 * a, 3 * b);
-          }
-      }
+      element_stiffness(vertex_u_, vertex_v_, af, c_c);
     if (options_.single_precision_rows)
       detail::transposed_rows_product(vertex_rows_.data(), r_, rows, vertex_f_.data(), g_int_.data());
     else
       g_int_.noalias() = vertex_basis_.transpose() * vertex_f_;
     if (T)
       {
-        // K U by block rows, then U^T (K U), symmetric: the lower triangle alone. Where the
-        // rows are rounded to float, both products are formed in float arithmetic by kernels
-        // of their own (tangent_product.h): the tangent only steers Newton and is kept over
-        // many iterations, so its float sums' rounding changes the convergence, not the root.
-        // In double, K U a vertex's rows at a time and U^T (K U) in slices of slice_ rows.
-        if (options_.single_precision_rows)
-          {
-            static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double), "blocks read as an array");
-            const detail::BlockRows K{reinterpret_cast<const double *>(stiffness_blocks_.data()), block_row_start_.data(),
-                                      block_column_.data(), block_row_start_.size() - 1};
-            detail::block_rows_product(K, vertex_rows_.data(), r_, KU_rows_.data());
-            tangent_rows_.setZero();
-            detail::lower_transposed_product(vertex_rows_.data(), KU_rows_.data(), rows, r_,
-                                             tangent_rows_.data());
-            T->triangularView<Eigen::Lower>() += tangent_rows_.cast<double>();
-          }
-        else
-          {
-            for (size_t i = 0; i + 1 < block_row_start_.size(); ++i)
-              {
-                KU_row_.setZero();
-                for (unsigned s = block_row_start_[i]; s < block_row_start_[i + 1]; ++s)
-                  KU_row_.noalias() += stiffness_blocks_[s] * vertex_basis_.middleRows<3>(3 * Eigen::Index(block_column_[s]));
-                KU_.middleRows<3>(3 * Eigen::Index(i)) = KU_row_;
-              }
-            for (Eigen::Index c = 0; c < KU_.rows(); c += slice_)
-              {
-                const Eigen::Index n = std::min(slice_, KU_.rows() - c);
-                T->triangularView<Eigen::Lower>() += vertex_basis_.middleRows(c, n).transpose() * KU_.middleRows(c, n);
-              }
-          }
+        begin_tangent_sum();
+        tangent_rows(0, block_row_start_.size() - 1, *T);
+        end_tangent_sum(*T);
       }
     return ok;
   }
@@ -1000,6 +937,8 @@ namespace irdm
     h_ = m_.time_step;
     if (!converged)
       ++failed_steps_;
+    if (options_.tangent_steps > 0)
+      advance_staged_tangent();
     if (floating_)
       {
         sum_external_torque(forces, n_forces);
@@ -1029,6 +968,8 @@ namespace irdm
   {
     if (body)
       {
+        // Fresher than one in the making, which shares its work space.
+        staging_ = tangent_wanted_ = false;
         ++tangent_evaluations_;
         ++tangent_version_;
         body_tangent_h_ = h_;
@@ -1139,11 +1080,19 @@ namespace irdm
             break;
           }
         // Newton's method evaluates the body's tangent at every iterate; a kept tangent is
-        // evaluated again where the contraction was slow.
+        // evaluated again where the contraction was slow, at once or over the next steps; but
+        // at once past half the iterations a step may take, so that going on with the kept
+        // one never costs a step its convergence (and the step's cut into parts).
         if (!options_.reuse_tangent || r_norm > options_.tangent_refresh_ratio * previous)
           {
-            evaluate(planes, n, true);
-            tangent_at_x = true;
+            if (options_.reuse_tangent && options_.tangent_steps > 0 && h_ == m_.time_step &&
+                it + 1 < max_iterations / 2)
+              tangent_wanted_ = true;
+            else
+              {
+                evaluate(planes, n, true);
+                tangent_at_x = true;
+              }
           }
       }
     last_iterations_ = it;

@@ -136,6 +136,16 @@ namespace irdm
     // iteration evaluates it (Newton's method proper).
     bool   reuse_tangent         = true;
     double tangent_refresh_ratio = 0.1;
+    // With the kept tangent: where an iteration contracts slowly, the tangent is not made
+    // inside that step but over the next tangent_steps steps, a piece a step (the elements'
+    // stiffness, then U^T (K U) by ranges of the cubature's vertex rows), at the state where
+    // the slow step ended, and taken from the step after its last piece. The slow step and
+    // those in between go on with the tangent they have (the residual decides the root, the
+    // tangent only how fast Newton gets there), so no step carries a whole evaluation. A
+    // step whose line search finds no decrease with the kept tangent, a step past half its
+    // iteration limit, and a step or part of another length still make it at once. 0: made
+    // at once in the step that asks for it.
+    unsigned tangent_steps = 0;
     // Keep the planes' and probes' tangent while their contacts (a probe's patch rows and
     // coupling weight) stay, and the factorization of the step's tangent while neither the
     // body's tangent nor that contact tangent change (the same matrices: the same steps, bit
@@ -191,6 +201,12 @@ namespace irdm
     bool
     step(const ReducedPlane *planes, int n, const ReducedVertexForce *forces = nullptr,
          int n_forces = 0, const ReducedProbe *probes = nullptr, int n_probes = 0);
+
+    /// The body's tangent at the latest state for a step of the model's length, made now (a
+    /// real-time loop calls it before it starts, so that its first step does not make one).
+    /// Counted in tangent_evaluations(). Allocates nothing.
+    void
+    prepare_tangent();
 
     /// Before the first step: a uniform acceleration field on the body from now on (m/s^2,
     /// model frame; gravity, the reduced load U^T M (1 (x) g)), the vertex forces at t = 0
@@ -312,11 +328,25 @@ namespace irdm
     {
       return cut_steps_;
     }
-    /// Evaluations of the body's tangent so far (each O(vertices r^2)).
+    /// Evaluations of the body's tangent made at once so far (each O(vertices r^2)): inside a
+    /// step, or by prepare_tangent().
     unsigned long
     tangent_evaluations() const
     {
       return tangent_evaluations_;
+    }
+    /// Evaluations of the body's tangent made over steps (tangent_steps) and taken into use.
+    unsigned long
+    staged_tangent_evaluations() const
+    {
+      return staged_tangents_;
+    }
+    /// The body's tangent in use (r x r, its lower triangle; the inertia's, damping's and
+    /// internal force's rates in q at the step's length).
+    const Eigen::MatrixXd &
+    body_tangent() const
+    {
+      return body_tangent_;
     }
     /// Factorizations of the step's tangent so far (each O(r^3)); one is kept while neither
     /// the body's tangent nor the planes' contacts change.
@@ -420,6 +450,15 @@ namespace irdm
     // with), the planes' part, and their sum as factorized.
     Matrix body_tangent_, contact_tangent_, tangent_;
     double body_tangent_h_ = 0; // 0: none yet
+    // A tangent made over steps (tangent_steps): asked for by the step being solved, in the
+    // making (its state U q and U v at the cubature's vertices, the next piece: 0 the
+    // elements, then ranges of block rows), the sum so far (lower triangle; swapped with
+    // body_tangent_ when done).
+    bool          tangent_wanted_ = false, staging_ = false;
+    unsigned      staged_piece_   = 0;
+    Vector        staged_u_, staged_v_;
+    Matrix        staged_tangent_;
+    unsigned long staged_tangents_ = 0;
     unsigned long tangent_evaluations_ = 0, factorizations_ = 0;
     // Changes whenever body_tangent_ or contact_tangent_ does; solver_ holds the one of
     // factorized_version_.
@@ -538,6 +577,29 @@ namespace irdm
     // triangle where given; U x into vertex_x_. False if an element inverted.
     bool
     internal_force(const Vector &x, Matrix *T, double af, double c_c);
+    // The tangent's parts (reduced_tangent.cc). The weighted elements' stiffness at the
+    // cubature vertices' displacement u and velocity v (the latter read where damped) into
+    // stiffness_blocks_, times 1 - af, the damping's by c_c.
+    void
+    element_stiffness(const Vector &u, const Vector &v, double af, double c_c);
+    // U^T (K U) over block rows [i0, i1): K U's rows, then their share of U^T (K U) summed
+    // into T's lower triangle (in double) or into tangent_rows_ (in float; cleared by
+    // begin_tangent_sum(), added to T by end_tangent_sum()).
+    void
+    tangent_rows(size_t i0, size_t i1, Matrix &T);
+    void
+    begin_tangent_sum();
+    void
+    end_tangent_sum(Matrix &T);
+    // The tangent made over steps: at the latest state (stage_tangent()), then one piece of
+    // `pieces` (true when it is done and in use).
+    void
+    stage_tangent();
+    bool
+    tangent_piece(unsigned pieces);
+    // At a step's end: the next piece, or a new tangent staged where the step asked for one.
+    void
+    advance_staged_tangent();
     // The residual at x_ into residual_, its planes' tangent, and the body's tangent where
     // `body` (counted). False if an element inverted.
     bool
