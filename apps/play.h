@@ -50,8 +50,9 @@ namespace irdm::play
     // largest force (ReducedBodyOptions::tolerance).
     double newton_tolerance = 1e-8;
     // A reduced nonlinear model's tangent made over this many deformation steps where Newton
-    // asks for a new one (ReducedBodyOptions::tangent_steps; 0: inside the step).
-    unsigned tangent_steps = 0;
+    // asks for a new one (ReducedBodyOptions::tangent_steps; 0: inside the step): a real-time
+    // loop's step then never carries a whole evaluation.
+    unsigned tangent_steps = 8;
   };
 
   /// Runs the two loops and writes DIR/forces.csv, histogram.csv, play.md and

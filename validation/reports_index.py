@@ -148,6 +148,17 @@ def reduced_step_kernels_headline(folder):
             f"{p99('cat_top_r222_new')} (997 elements), against {p99('cat_top_r222_old')} before the kernels")
 
 
+def reduced_tangent_steps_headline(folder):
+    def slowest(variant):
+        values = []
+        for run in sorted(glob.glob(os.path.join(folder, "play", f"cat_top_r222_tol1e-8_{variant}_[0-9]", "summary.csv"))):
+            values += [float(r["deformation_step_max_us"]) / 1000 for r in rows(run)]
+        return span(values, lambda x: f"{x:.1f} ms")
+    return ("`irdm play`, r = 222: slowest deformation step "
+            f"{slowest('steps8')} with the tangent made over 8 steps, {slowest('steps0')} made in the step "
+            "(goal 1 ms)")
+
+
 def free_step_headline(folder):
     def first_force(step, method):
         path = os.path.join(folder, "check", f"tau_{step}", "linearization.csv")
@@ -303,6 +314,9 @@ STUDIES = [
      RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
     ("The reduced step's kernels: the tangent's products, one product a residual, four elements at once",
      "reduced/step_kernels/README.md", None, reduced_step_kernels_headline,
+     RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
+    ("The reduced step's tangent made over steps: no step carries a whole evaluation",
+     "reduced/tangent_steps/README.md", None, reduced_tangent_steps_headline,
      RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
     ("Reduced nonlinear models of the free cat (50 kPa)", "reduced/free/report.md",
      None, reduced_free_headline,
