@@ -53,6 +53,10 @@ namespace irdm::play
     // asks for a new one (ReducedBodyOptions::tangent_steps; 0: inside the step): a real-time
     // loop's step then never carries a whole evaluation.
     unsigned tangent_steps = 8;
+    // A reduced nonlinear model's offline check again with the force loop working on the
+    // state this many deformation steps old, each value a run (lag.csv): how much lag the
+    // split holds.
+    std::vector<unsigned> lag_steps;
   };
 
   /// Runs the two loops and writes DIR/forces.csv, histogram.csv, play.md and

@@ -257,28 +257,58 @@ namespace irdm::play
     }
 
     /// The same split offline in lockstep (each window's ticks on the state just before it,
-    /// no lag), and the coupling solved inside the Newton step at the deformation rate (one
-    /// loop, the reference): each one's force per deformation step (N).
+    /// no lag), the split with its force loop on states a given number of steps older, and
+    /// the coupling solved inside the Newton step at the deformation rate (one loop, the
+    /// reference): each one's force per deformation step (N).
+    struct LaggedSplit
+    {
+      unsigned          lag = 0; // deformation steps
+      std::vector<Vec3> force;
+      unsigned long     failed = 0, cut = 0;
+      unsigned          most_iterations = 0;
+    };
     struct OfflineForces
     {
-      std::vector<Vec3> lockstep, implicit;
+      std::vector<Vec3>        lockstep, implicit;
+      std::vector<LaggedSplit> lagged;
     };
 
-    OfflineForces
-    offline_forces(const ReducedSetup &s)
+    /// The split offline: each window's ticks on the state published `lag` steps before the
+    /// one just before it (lag 0: lockstep).
+    LaggedSplit
+    split_forces(const ReducedSetup &s, const unsigned lag)
     {
-      OfflineForces        f{std::vector<Vec3>(s.n_steps), std::vector<Vec3>(s.n_steps)};
-      ReducedNonlinearBody split(s.model, s.options), one_loop(s.model, s.options);
-      LocalCompliance      c;
-      std::vector<Vec3>    tick(s.n_ticks);
-      long                 from = 0;
+      LaggedSplit                  r{lag, std::vector<Vec3>(s.n_steps)};
+      ReducedNonlinearBody         body(s.model, s.options);
+      std::vector<LocalCompliance> published(lag + 1); // [k % (lag + 1)]: after step k - 1
+      std::vector<Vec3>            tick(s.n_ticks);
+      long                         from = 0;
       for (long k = 0; k < s.n_steps; ++k)
         {
-          const long to = s.window_end[k];
+          const long             to = s.window_end[k];
+          const LocalCompliance &c  = published[(k + 1) % (lag + 1)]; // after step k - 1 - lag
           for (long n = from; n < to; ++n)
             tick[n] = s.present[n] > 0 ? coupling_force(c, predicted_time(s, n, c), s.targets[n]) : Vec3{0, 0, 0};
-          f.lockstep[k] = mean_force(tick, from, to, k > 0 ? f.lockstep[k - 1] : Vec3{0, 0, 0});
-          deformation_step(split, s, k, f.lockstep[k], c);
+          r.force[k] = mean_force(tick, from, to, k > 0 ? r.force[k - 1] : Vec3{0, 0, 0});
+          deformation_step(body, s, k, r.force[k], published[(k + 1) % (lag + 1)]);
+          r.most_iterations = std::max(r.most_iterations, body.newton_iterations());
+          from              = to;
+        }
+      r.failed = body.failed_steps(), r.cut = body.cut_steps();
+      return r;
+    }
+
+    OfflineForces
+    offline_forces(const ReducedSetup &s, const std::vector<unsigned> &lags)
+    {
+      OfflineForces f{{}, std::vector<Vec3>(s.n_steps), {split_forces(s, 0)}};
+      f.lockstep = f.lagged[0].force;
+      for (const unsigned lag : lags)
+        f.lagged.push_back(split_forces(s, lag));
+      ReducedNonlinearBody one_loop(s.model, s.options);
+      for (long k = 0; k < s.n_steps; ++k)
+        {
+          const long   to = s.window_end[k];
           ReducedProbe probe;
           probe.n_patch     = 1;
           probe.vertices[0] = s.vertex;
@@ -289,7 +319,6 @@ namespace irdm::play
           const bool present = to > 0 && s.present[to - 1] > 0;
           one_loop.step(nullptr, 0, nullptr, 0, &probe, present ? 1 : 0);
           f.implicit[k] = present ? one_loop.probe_force(0) : Vec3{0, 0, 0};
-          from          = to;
         }
       return f;
     }
@@ -301,6 +330,34 @@ namespace irdm::play
       for (size_t k = 0; k < x.size(); ++k)
         c[k] = x[k][d];
       return c;
+    }
+
+    /// lag.csv: per lag of the offline split (0 first), its force's distance from the coupling
+    /// solved in the step and from the lockstep split, its peak, and its Newton's counts; and
+    /// the same in a sentence for play.md.
+    std::string
+    write_lag_table(const fs::path &path, const ReducedSetup &s, const OfflineForces &offline)
+    {
+      std::vector<double> lag, lag_ms, error, from_lockstep, peak, failed, cut, iterations;
+      std::string         text;
+      for (const LaggedSplit &l : offline.lagged)
+        {
+          double p = 0;
+          for (const Vec3 &f : l.force)
+            p = std::max(p, std::hypot(f[0], f[1], f[2]));
+          lag.push_back(l.lag), lag_ms.push_back(1e3 * l.lag * s.tau);
+          error.push_back(relative_l2(l.force, offline.implicit));
+          from_lockstep.push_back(relative_l2(l.force, offline.lockstep));
+          peak.push_back(p), failed.push_back(static_cast<double>(l.failed));
+          cut.push_back(static_cast<double>(l.cut)), iterations.push_back(l.most_iterations);
+          text += (text.empty() ? "" : "; ") + std::to_string(l.lag) + " (" + fmt(lag_ms.back()) + " ms) " +
+                  fmt(error.back()) + ", peak " + fmt(p) + " N";
+        }
+      write_csv(path.string(),
+                {"lag_steps", "lag_ms", "force_error", "lockstep_difference", "peak_force_N", "failed_steps",
+                 "cut_steps", "most_newton_iterations"},
+                {lag, lag_ms, error, from_lockstep, peak, failed, cut, iterations});
+      return text;
     }
 
     /// forces.csv (per tick), deformation.csv (per deformation step), summary.csv and play.md.
@@ -337,6 +394,11 @@ namespace irdm::play
       const double lockstep = offline ? relative_l2(r.step_force, offline->lockstep) : -1;
       const double implicit = offline ? relative_l2(r.step_force, offline->implicit) : -1;
       const double split    = offline ? relative_l2(offline->lockstep, offline->implicit) : -1;
+      std::string  lag_text;
+      if (offline && offline->lagged.size() > 1)
+        lag_text = write_lag_table(dir / "lag.csv", s, *offline);
+      else if (std::error_code ec; fs::exists(dir / "lag.csv", ec))
+        fs::remove(dir / "lag.csv"); // an earlier run's, not this one's
       const double missed   = static_cast<double>(r.missed) / static_cast<double>(s.n_ticks);
       const auto   one      = [](const double v) { return std::vector<double>{v}; };
       write_csv((dir / "summary.csv").string(),
@@ -397,6 +459,8 @@ namespace irdm::play
          {"tangent_steps", std::to_string(s.options.tangent_steps)},
          {"staged_mode", s.options.tangent_steps > 0 ? "1" : ""},
          {"checked", offline ? "1" : ""},
+         {"lagged", lag_text.empty() ? "" : "1"},
+         {"lag_errors", lag_text},
          {"lockstep_error", fmt(lockstep)},
          {"implicit_error", fmt(implicit)},
          {"split_error", fmt(split)},
@@ -412,7 +476,7 @@ namespace irdm::play
   {
     check_output_folder("--out", o.out_dir);
     const fs::path dir(o.out_dir);
-    for (const auto &name : {"forces.csv", "deformation.csv", "summary.csv", "play.md"})
+    for (const auto &name : {"forces.csv", "deformation.csv", "summary.csv", "play.md", "lag.csv"})
       check_output_file("--out", (dir / name).string(), {o.model, o.trajectory});
     OutputLock   lock((dir / "play").string());
     ReducedSetup s;
@@ -430,7 +494,7 @@ namespace irdm::play
     body.prepare_tangent();
     run_reduced_loops(s, r, o, body);
     munlockall();
-    const OfflineForces offline = o.check ? offline_forces(s) : OfflineForces{};
+    const OfflineForces offline = o.check ? offline_forces(s, o.lag_steps) : OfflineForces{};
     return write_reduced_outputs(dir, s, r, o, body, o.check ? &offline : nullptr, out);
   }
 } // namespace irdm::play

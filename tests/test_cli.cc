@@ -730,14 +730,36 @@ TEST(Cli, PlayRunsTheReducedModelsTwoLoops)
   EXPECT_EQ(w["failed_steps"], 0);
   EXPECT_LT(w["split_force_error"], 0.05);
   fs::remove_all(staged);
+  // In the step, and the split's offline check again with its force loop 1 and 2 steps behind
+  // (lag.csv: lag 0 first, the lockstep split itself).
   const int s0 = status(std::string(IRDM_CLI) + " play " + ro.output + " --trajectory " + trajectory +
-                        " --rate-hz 1000 --quiet --coupling-stiffness 100 --coupling-damping 0.2 --tangent-steps 0 --out " +
-                        staged);
+                        " --rate-hz 1000 --quiet --coupling-stiffness 100 --coupling-damping 0.2 --tangent-steps 0 "
+                        "--lag-steps 1 2 --out " + staged);
   EXPECT_TRUE(s0 == 0 || s0 == 3) << s0;
   w = play_summary(staged);
   EXPECT_EQ(w["tangent_steps"], 0);
   EXPECT_EQ(w["staged_tangent_evaluations"], 0);
   EXPECT_LT(w["split_force_error"], 0.05);
+  std::ifstream lag(fs::path(staged) / "lag.csv");
+  ASSERT_TRUE(std::getline(lag, header)) << "no lag.csv";
+  EXPECT_EQ(header, "lag_steps,lag_ms,force_error,lockstep_difference,peak_force_N,failed_steps,cut_steps,"
+                    "most_newton_iterations");
+  std::vector<std::vector<double>> lags;
+  for (std::string line; std::getline(lag, line);)
+    {
+      std::stringstream        fields(line);
+      std::vector<double>      row;
+      for (std::string field; std::getline(fields, field, ',');)
+        row.push_back(std::stod(field));
+      lags.push_back(row);
+    }
+  ASSERT_EQ(lags.size(), 3u);
+  EXPECT_EQ(lags[0][0], 0);
+  EXPECT_EQ(lags[2][0], 2);
+  EXPECT_DOUBLE_EQ(lags[2][1], 4) << "2 steps of 2 ms";
+  EXPECT_NEAR(lags[0][2], w["split_force_error"], 1e-12 + 1e-6 * w["split_force_error"]) << "lag 0: the lockstep split";
+  EXPECT_EQ(lags[0][3], 0);
+  EXPECT_GT(lags[1][3], 0) << "a lag changes the forces";
   EXPECT_NE(status(std::string(IRDM_CLI) + " play " + ro.output + " --trajectory " + trajectory +
                    " --coupling-stiffness 100 --tangent-steps -1 --out " + staged),
             0);

@@ -1266,8 +1266,16 @@ TEST(ReducedRuntime, StepAndSurfaceAllocateNothing)
     {
       irdm::ReducedBodyOptions   o;
       o.tangent_steps         = tangent_steps;
-      o.tangent_refresh_ratio = tangent_steps > 0 ? 0 : o.tangent_refresh_ratio; // staged at every step that iterates
+      // Staged: asking at every step that iterates, and going on with the kept tangent where
+      // it hardly steers (the jump is then solved in parts, as it is with it made at once).
+      o.tangent_refresh_ratio = tangent_steps > 0 ? 0 : o.tangent_refresh_ratio;
+      o.tangent_at_once_ratio = tangent_steps > 0 ? 1e300 : o.tangent_at_once_ratio;
       irdm::ReducedNonlinearBody body(m, o);
+      g_allocations       = 0;
+      g_count_allocations = true;
+      body.prepare_tangent();
+      g_count_allocations = false;
+      EXPECT_EQ(g_allocations, 0) << "prepare_tangent";
       std::vector<double>        u(3 * m.surface_vertex.size());
       irdm::ReducedPlane         plane;
       plane.normal = {0, 0, -1};
@@ -1398,10 +1406,11 @@ TEST(ReducedRuntime, AKeptPlanesTangentFollowsATurningPlane)
 // A tangent made over steps (tangent_steps) is the tangent made at once at the state where the
 // step that asked for it ended: each time one is taken into use, N steps after that step, it
 // equals prepare_tangent()'s (a step's own evaluation, at its iterate x = q) at that state, on
-// a body given the same inputs up to there (the same steps, bit for bit), to float rounding
-// (more than one range of rows changes the float kernel's order of summation). The beam, its tip pressed 4 mm and let go, asks at every iterating step
-// (tangent_refresh_ratio 0). A piece left out, or a tangent made at a state a step late, is
-// off by orders of magnitude more than the rounding.
+// a body given the same inputs up to there (the same steps, bit for bit), to the rounding of
+// the order of summation (float rows; double with U's rows in double), with one element piece
+// and one range of rows, with several of each. The beam, its tip pressed 4 mm and let go, asks
+// at every iterating step (tangent_refresh_ratio 0). The tangent it replaces differs by far
+// more than that rounding: a piece left out or a state taken at another step would show.
 TEST(ReducedRuntime, ATangentMadeOverStepsIsTheTangentMadeAtOnce)
 {
   const irdm::ReducedNonlinearModel &m = reduced_beam();
@@ -1409,40 +1418,77 @@ TEST(ReducedRuntime, ATangentMadeOverStepsIsTheTangentMadeAtOnce)
     const irdm::ReducedProbe probe = tip_coupling(m, k, 0.5);
     body.step(nullptr, 0, nullptr, 0, &probe, k < 45 ? 1 : 0);
   };
-  for (const unsigned pieces : {1u, 2u, 5u})
+  for (const bool in_float : {true, false})
+    for (const unsigned pieces : {1u, 2u, 5u, 9u})
+      {
+        irdm::ReducedBodyOptions o;
+        o.tangent_steps         = pieces;
+        o.tangent_refresh_ratio = 0;
+        o.single_precision_rows = in_float;
+        irdm::ReducedNonlinearBody staged(m, o);
+        int                        checked = 0;
+        double                     worst = 0, moved = 0;
+        for (int k = 0; k < 70; ++k)
+          {
+            const Eigen::MatrixXd before = staged.body_tangent();
+            const auto            taken  = staged.staged_tangent_evaluations();
+            inputs(staged, k);
+            if (staged.staged_tangent_evaluations() == taken)
+              continue;
+            // Made at the end of step k - pieces: the same inputs up to there, then at once.
+            irdm::ReducedNonlinearBody reference(m, o);
+            for (int j = 0; j <= k - int(pieces); ++j)
+              inputs(reference, j);
+            reference.prepare_tangent();
+            const Eigen::MatrixXd T = reference.body_tangent().triangularView<Eigen::Lower>();
+            const Eigen::MatrixXd S = staged.body_tangent().triangularView<Eigen::Lower>();
+            const Eigen::MatrixXd B = before.triangularView<Eigen::Lower>();
+            const double          scale = T.cwiseAbs().maxCoeff();
+            worst = std::max(worst, (S - T).cwiseAbs().maxCoeff() / scale);
+            moved = std::max(moved, (B - T).cwiseAbs().maxCoeff() / scale);
+            ++checked;
+          }
+        const std::string what = std::to_string(pieces) + (in_float ? " pieces, float" : " pieces, double");
+        EXPECT_GE(checked, 4) << what << ": tangents made over steps and taken";
+        EXPECT_LT(worst, in_float ? 1e-6 : 1e-12) << what;
+        EXPECT_GT(moved, 1e-4) << what << ": the tangent in use before differs (the check can fail)";
+        std::cout << what << ": " << checked << " tangents, largest difference " << worst
+                  << " of the largest entry, the one before it differs by up to " << moved << "\n";
+      }
+}
+
+// A tangent made at once cancels the one in the making, which shares its work space: otherwise
+// that one's pieces would be summed on blocks the evaluation at once overwrote, and taken into
+// use on its schedule. Two bodies given the same inputs, asking at every step, their tangent
+// over 12 steps: the one given prepare_tangent() at step 6 takes no tangent made over steps
+// before step 18, where the other takes the one asked for at step 0, at step 12.
+TEST(ReducedRuntime, ATangentMadeAtOnceCancelsTheOneInTheMaking)
+{
+  const irdm::ReducedNonlinearModel &m = reduced_beam();
+  irdm::ReducedBodyOptions           o;
+  o.tangent_steps         = 12;
+  o.tangent_refresh_ratio = 0;
+  o.tangent_at_once_ratio = 1e300; // no step makes one at once for its contraction
+  irdm::ReducedNonlinearBody interrupted(m, o), calm(m, o);
+  unsigned long              taken_early = 0, calm_taken_at = 0;
+  for (int k = 0; k < 40; ++k)
     {
-      irdm::ReducedBodyOptions o;
-      o.tangent_steps         = pieces;
-      o.tangent_refresh_ratio = 0;
-      irdm::ReducedNonlinearBody staged(m, o);
-      int                        checked = 0;
-      double                     worst = 0, moved = 0;
-      for (int k = 0; k < 70; ++k)
-        {
-          const Eigen::MatrixXd before = staged.body_tangent();
-          const auto            taken  = staged.staged_tangent_evaluations();
-          inputs(staged, k);
-          if (staged.staged_tangent_evaluations() == taken)
-            continue;
-          // Made at the end of step k - pieces: the same inputs up to there, then at once.
-          irdm::ReducedNonlinearBody reference(m, o);
-          for (int j = 0; j <= k - int(pieces); ++j)
-            inputs(reference, j);
-          reference.prepare_tangent();
-          const Eigen::MatrixXd T = reference.body_tangent().triangularView<Eigen::Lower>();
-          const Eigen::MatrixXd S = staged.body_tangent().triangularView<Eigen::Lower>();
-          const Eigen::MatrixXd B = before.triangularView<Eigen::Lower>();
-          const double          scale = T.cwiseAbs().maxCoeff();
-          worst = std::max(worst, (S - T).cwiseAbs().maxCoeff() / scale);
-          moved = std::max(moved, (B - T).cwiseAbs().maxCoeff() / scale);
-          ++checked;
-        }
-      EXPECT_GE(checked, 5) << pieces << " pieces: tangents made over steps and taken";
-      EXPECT_LT(worst, 1e-6) << pieces << " pieces";
-      EXPECT_GT(moved, 1e-4) << pieces << " pieces: the tangent in use before differs (the check can fail)";
-      std::cout << pieces << " pieces: " << checked << " tangents, largest difference " << worst
-                << " of the largest entry, the one before it differs by up to " << moved << "\n";
+      const irdm::ReducedProbe probe = tip_coupling(m, k, 0.5);
+      if (k == 6)
+        interrupted.prepare_tangent();
+      const auto taken = calm.staged_tangent_evaluations();
+      interrupted.step(nullptr, 0, nullptr, 0, &probe, 1);
+      calm.step(nullptr, 0, nullptr, 0, &probe, 1);
+      if (calm_taken_at == 0 && calm.staged_tangent_evaluations() > taken)
+        calm_taken_at = k;
+      if (k < 18)
+        taken_early = interrupted.staged_tangent_evaluations();
     }
+  EXPECT_EQ(calm.tangent_evaluations(), 1u) << "the first step's alone at once";
+  EXPECT_EQ(calm_taken_at, 12u) << "asked at step 0, made at steps 1 to 12";
+  EXPECT_EQ(interrupted.tangent_evaluations(), 2u);
+  EXPECT_EQ(taken_early, 0u) << "the one in the making at step 6 was cancelled";
+  EXPECT_GE(interrupted.staged_tangent_evaluations(), 1u) << "and later ones are made";
 }
 
 // Newton's root is the residual's, whichever tangent steers it: a body whose tangent is made
@@ -1457,6 +1503,9 @@ TEST(ReducedRuntime, ATangentMadeOverStepsLeavesTheSteps)
   irdm::ReducedNonlinearBody at_once(m), prepared(m), staged(m, o);
   prepared.prepare_tangent();
   staged.prepare_tangent();
+  EXPECT_EQ(prepared.tangent_evaluations(), 1u);
+  const Eigen::MatrixXd rest_tangent = prepared.body_tangent();
+  EXPECT_GT(rest_tangent.norm(), 0) << "made";
   double worst = 0;
   for (int k = 0; k < 120; ++k)
     {
@@ -1471,17 +1520,22 @@ TEST(ReducedRuntime, ATangentMadeOverStepsLeavesTheSteps)
       if (k == 0)
         {
           EXPECT_EQ(prepared.tangent_evaluations(), 1u) << "the first step made none";
+          EXPECT_EQ(at_once.tangent_evaluations(), 1u) << "the first step made one";
+          const Eigen::MatrixXd first = at_once.body_tangent().triangularView<Eigen::Lower>();
+          EXPECT_EQ(first, Eigen::MatrixXd(rest_tangent.triangularView<Eigen::Lower>())) << "the same";
         }
       for (Eigen::Index i = 0; i < at_once.coordinates().size(); ++i)
         ASSERT_EQ(prepared.coordinates()(i), at_once.coordinates()(i)) << "step " << k;
-      worst = std::max(worst, (staged.coordinates() - at_once.coordinates()).norm() / at_once.coordinates().norm());
+      const double off = (staged.coordinates() - at_once.coordinates()).norm();
+      worst            = std::max(worst, off / at_once.coordinates().norm());
     }
   EXPECT_LT(worst, 1e-6);
   EXPECT_GT(staged.staged_tangent_evaluations(), 0u);
   EXPECT_LT(staged.tangent_evaluations(), at_once.tangent_evaluations());
   EXPECT_EQ(at_once.failed_steps() + staged.failed_steps(), 0u);
-  std::cout << "tangents at once: " << at_once.tangent_evaluations() << "; over steps " << staged.staged_tangent_evaluations()
-            << " and at once " << staged.tangent_evaluations() << "; largest relative difference of q " << worst << "\n";
+  std::cout << "tangents at once: " << at_once.tangent_evaluations() << "; over steps "
+            << staged.staged_tangent_evaluations() << " and at once " << staged.tangent_evaluations()
+            << "; largest relative difference of q " << worst << "\n";
 }
 
 // The allocation count sees both routes to the heap: a new-expression, and Eigen's storage

@@ -75,6 +75,10 @@ namespace irdm::cli
                      "inside the step)")
       ->capture_default_str()
       ->check(CLI::Range(0u, 1000u));
+    play->add_option("--lag-steps", po->lag_steps,
+                     "a reduced nonlinear model: the offline check again with the force loop on the "
+                     "state this many deformation steps old, each value a run (lag.csv)")
+      ->check(CLI::Range(1u, 1000u));
     play->add_option("--out", po->out_dir, "output folder")->capture_default_str();
     play->add_flag("!--no-check", po->check, "skip the offline replay with the exact model");
     play->add_flag("!--no-pin", po->pin, "do not pin the threads to CPUs");

@@ -668,6 +668,9 @@ namespace irdm
                             vertex_w_.data());
     else
       vertex_q_.noalias() = vertex_basis_ * q_, vertex_w_.noalias() = vertex_basis_ * w_;
+    if (stage_at_start_ && h_ == m_.time_step)
+      stage_tangent();
+    stage_at_start_ = false;
   }
 
   bool
@@ -692,7 +695,7 @@ namespace irdm
                                                       vertex_v_.data(), m_.mu, m_.lambda, m_.rayleigh_beta,
                                                       vertex_f_.data()) == 0;
     if (T)
-      element_stiffness(vertex_u_, vertex_v_, af, c_c);
+      element_stiffness(vertex_u_, vertex_v_, af, c_c, 0, element_.size());
     if (options_.single_precision_rows)
       detail::transposed_rows_product(vertex_rows_.data(), r_, rows, vertex_f_.data(), g_int_.data());
     else
@@ -937,8 +940,6 @@ namespace irdm
     h_ = m_.time_step;
     if (!converged)
       ++failed_steps_;
-    if (options_.tangent_steps > 0)
-      advance_staged_tangent();
     if (floating_)
       {
         sum_external_torque(forces, n_forces);
@@ -949,6 +950,8 @@ namespace irdm
           }
         carry_into_new_frame(forces, n_forces);
       }
+    if (options_.tangent_steps > 0) // after the carry: the state the next step starts from
+      advance_staged_tangent();
     for (int p = 0; p < n; ++p)
       last_planes_[p] = planes[p];
     last_n_ = n;
@@ -969,7 +972,7 @@ namespace irdm
     if (body)
       {
         // Fresher than one in the making, which shares its work space.
-        staging_ = tangent_wanted_ = false;
+        staging_ = tangent_wanted_ = stage_at_start_ = false;
         ++tangent_evaluations_;
         ++tangent_version_;
         body_tangent_h_ = h_;
@@ -1081,12 +1084,13 @@ namespace irdm
           }
         // Newton's method evaluates the body's tangent at every iterate; a kept tangent is
         // evaluated again where the contraction was slow, at once or over the next steps; but
-        // at once past half the iterations a step may take, so that going on with the kept
-        // one never costs a step its convergence (and the step's cut into parts).
+        // at once where the kept one hardly steers any more, and past half the iterations a
+        // step may take, so that going on with it never costs a step its convergence (and the
+        // step's cut into parts).
         if (!options_.reuse_tangent || r_norm > options_.tangent_refresh_ratio * previous)
           {
             if (options_.reuse_tangent && options_.tangent_steps > 0 && h_ == m_.time_step &&
-                it + 1 < max_iterations / 2)
+                r_norm <= options_.tangent_at_once_ratio * previous && it + 1 < max_iterations / 2)
               tangent_wanted_ = true;
             else
               {

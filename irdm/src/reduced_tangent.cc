@@ -23,14 +23,16 @@ namespace irdm
   } // namespace
 
   void
-  ReducedNonlinearBody::element_stiffness(const Vector &u, const Vector &v, const double af, const double c_c)
+  ReducedNonlinearBody::element_stiffness(const Vector &u, const Vector &v, const double af, const double c_c,
+                                          const size_t e0, const size_t e1)
   {
     const bool damped = m_.rayleigh_beta != 0;
-    for (auto &B : stiffness_blocks_)
-      B.setZero();
+    if (e0 == 0)
+      for (auto &B : stiffness_blocks_)
+        B.setZero();
     elastic::Vector12 u_e, v_e, f_e;
     elastic::Matrix12 K_e, D_e;
-    for (size_t k = 0; k < element_.size(); ++k)
+    for (size_t k = e0; k < std::min(e1, element_.size()); ++k)
       {
         const auto &l = element_vertices_[k];
         const auto &t = element_[k];
@@ -104,10 +106,8 @@ namespace irdm
   void
   ReducedNonlinearBody::stage_tangent()
   {
-    // The tangent the next step would make at its iterate x = q: the alpha level's
-    // displacement U q, its velocity U w (part_start_rows()'s w at the model's step).
-    h_ = m_.time_step;
-    part_start_rows();
+    // The tangent this step would make at its iterate x = q: the alpha level's displacement
+    // U q and velocity U w, as part_start_rows() has just made them at the model's step.
     staged_u_ = vertex_q_, staged_v_ = vertex_w_;
     staging_      = true;
     staged_piece_ = 0;
@@ -116,47 +116,52 @@ namespace irdm
   bool
   ReducedNonlinearBody::tangent_piece(const unsigned pieces)
   {
-    // Piece 0 the elements' stiffness (and every row where there is one piece), then the
-    // block rows in pieces - 1 ranges.
-    const double h = m_.time_step, am = m_.alpha_m, af = m_.alpha_f, b = m_.beta, g = m_.gamma;
-    const size_t block_rows = block_row_start_.size() - 1;
-    const unsigned ranges   = std::max(pieces, 2u) - 1;
-    if (staged_piece_ == 0)
+    // The elements' stiffness in the first quarter of the pieces (at least one), then U^T
+    // (K U) over the block rows in the rest (one piece: all of it). A quarter, not a share by
+    // count: the elements' law kernels run one element at a time, the row products near the
+    // core's peak, so by time the elements are a good part of the whole.
+    const double   h = m_.time_step, am = m_.alpha_m, af = m_.alpha_f, b = m_.beta, g = m_.gamma;
+    const double   c_m = (1 - am) / (b * h * h), c_c = (1 - af) * g / (b * h);
+    const size_t   block_rows = block_row_start_.size() - 1, elements = element_.size();
+    const unsigned element_pieces = std::max(1u, pieces / 4);
+    const unsigned ranges         = pieces > element_pieces ? pieces - element_pieces : 1;
+    const unsigned p              = staged_piece_++;
+    if (p < element_pieces)
       {
-        const double c_m = (1 - am) / (b * h * h), c_c = (1 - af) * g / (b * h);
-        element_stiffness(staged_u_, staged_v_, af, c_c);
-        staged_tangent_.setZero();
-        staged_tangent_.diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
-        begin_tangent_sum();
-      }
-    if (staged_piece_ > 0 || pieces <= 1)
-      {
-        const unsigned j = pieces <= 1 ? 0 : staged_piece_ - 1;
-        tangent_rows(block_rows * j / ranges, block_rows * (j + 1) / ranges, staged_tangent_);
-        if (j + 1 == ranges)
+        if (p == 0)
           {
-            end_tangent_sum(staged_tangent_);
-            body_tangent_.swap(staged_tangent_);
-            body_tangent_h_ = h;
-            ++tangent_version_;
-            staging_ = false;
-            return true;
+            staged_tangent_.setZero();
+            staged_tangent_.diagonal().setConstant(c_m + c_c * m_.rayleigh_alpha);
+            begin_tangent_sum();
           }
+        element_stiffness(staged_u_, staged_v_, af, c_c, elements * p / element_pieces,
+                          elements * (p + 1) / element_pieces);
+        if (pieces > element_pieces)
+          return false;
       }
-    ++staged_piece_;
-    return false;
+    const unsigned j = pieces > element_pieces ? p - element_pieces : 0;
+    tangent_rows(block_rows * j / ranges, block_rows * (j + 1) / ranges, staged_tangent_);
+    if (j + 1 < ranges)
+      return false;
+    end_tangent_sum(staged_tangent_);
+    body_tangent_.swap(staged_tangent_);
+    body_tangent_h_ = h;
+    ++tangent_version_;
+    staging_ = false;
+    return true;
   }
 
   void
   ReducedNonlinearBody::advance_staged_tangent()
   {
+    // A request while one is in the making is dropped: that one comes first.
     if (staging_)
       {
         if (tangent_piece(options_.tangent_steps))
           ++staged_tangents_;
       }
     else if (tangent_wanted_ && body_tangent_h_ == m_.time_step)
-      stage_tangent();
+      stage_at_start_ = true; // at the next step's start, where U q and U w are made anyway
     tangent_wanted_ = false;
   }
 
@@ -168,5 +173,6 @@ namespace irdm
     part_start_rows();
     x_ = q_;
     evaluate(nullptr, 0, true);
+    stage_at_start_ = false;
   }
 } // namespace irdm

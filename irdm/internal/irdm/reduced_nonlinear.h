@@ -141,11 +141,13 @@ namespace irdm
     // stiffness, then U^T (K U) by ranges of the cubature's vertex rows), at the state where
     // the slow step ended, and taken from the step after its last piece. The slow step and
     // those in between go on with the tangent they have (the residual decides the root, the
-    // tangent only how fast Newton gets there), so no step carries a whole evaluation. A
-    // step whose line search finds no decrease with the kept tangent, a step past half its
-    // iteration limit, and a step or part of another length still make it at once. 0: made
-    // at once in the step that asks for it.
-    unsigned tangent_steps = 0;
+    // tangent only how fast Newton gets there), so a slow step no longer makes a whole one.
+    // Still made at once: where an iteration leaves more than tangent_at_once_ratio of the
+    // residual (the kept tangent hardly steers), where the line search finds no decrease
+    // with it, past half a step's iteration limit, and for a step or part of another length.
+    // 0: made at once in the step that asks for it.
+    unsigned tangent_steps         = 0;
+    double   tangent_at_once_ratio = 0.5;
     // Keep the planes' and probes' tangent while their contacts (a probe's patch rows and
     // coupling weight) stay, and the factorization of the step's tangent while neither the
     // body's tangent nor that contact tangent change (the same matrices: the same steps, bit
@@ -238,7 +240,8 @@ namespace irdm
     /// compliance over one step, W = (1 - af) U_p T^-1 U_p^T (m/N, row-major 3 x 3): the
     /// change of the point's displacement at the next step's end per unit change of a force
     /// held on it over that step, T the step's tangent as Newton last factorized it (the
-    /// planes' contacts in it; a probe's coupling too if the step had one). False (nothing
+    /// planes' contacts in it; a probe's coupling too if the step had one; a body's tangent
+    /// made since, over steps, only once a step has iterated with it). False (nothing
     /// written) for a bad patch, before the first factorization at the model's step, or for a
     /// body in a floating frame (its state is the frame's).
     /// Allocates nothing.
@@ -450,11 +453,11 @@ namespace irdm
     // with), the planes' part, and their sum as factorized.
     Matrix body_tangent_, contact_tangent_, tangent_;
     double body_tangent_h_ = 0; // 0: none yet
-    // A tangent made over steps (tangent_steps): asked for by the step being solved, in the
-    // making (its state U q and U v at the cubature's vertices, the next piece: 0 the
-    // elements, then ranges of block rows), the sum so far (lower triangle; swapped with
-    // body_tangent_ when done).
-    bool          tangent_wanted_ = false, staging_ = false;
+    // A tangent made over steps (tangent_steps): asked for by the step being solved, to be
+    // staged at the next step's start, in the making (its state U q and U w at the cubature's
+    // vertices, the next piece: the elements' ranges, then the block rows'), the sum so far
+    // (lower triangle; swapped with body_tangent_ when done).
+    bool          tangent_wanted_ = false, stage_at_start_ = false, staging_ = false;
     unsigned      staged_piece_   = 0;
     Vector        staged_u_, staged_v_;
     Matrix        staged_tangent_;
@@ -577,11 +580,11 @@ namespace irdm
     // triangle where given; U x into vertex_x_. False if an element inverted.
     bool
     internal_force(const Vector &x, Matrix *T, double af, double c_c);
-    // The tangent's parts (reduced_tangent.cc). The weighted elements' stiffness at the
-    // cubature vertices' displacement u and velocity v (the latter read where damped) into
-    // stiffness_blocks_, times 1 - af, the damping's by c_c.
+    // The tangent's parts (reduced_tangent.cc). The weighted stiffness of elements [e0, e1)
+    // at the cubature vertices' displacement u and velocity v (the latter read where damped)
+    // added to stiffness_blocks_ (cleared where e0 = 0), times 1 - af, the damping's by c_c.
     void
-    element_stiffness(const Vector &u, const Vector &v, double af, double c_c);
+    element_stiffness(const Vector &u, const Vector &v, double af, double c_c, size_t e0, size_t e1);
     // U^T (K U) over block rows [i0, i1): K U's rows, then their share of U^T (K U) summed
     // into T's lower triangle (in double) or into tangent_rows_ (in float; cleared by
     // begin_tangent_sum(), added to T by end_tangent_sum()).
@@ -591,8 +594,8 @@ namespace irdm
     begin_tangent_sum();
     void
     end_tangent_sum(Matrix &T);
-    // The tangent made over steps: at the latest state (stage_tangent()), then one piece of
-    // `pieces` (true when it is done and in use).
+    // The tangent made over steps: staged at a step's start (stage_tangent(), after
+    // part_start_rows()), then one piece of `pieces` (true when it is done and in use).
     void
     stage_tangent();
     bool
