@@ -142,12 +142,13 @@ namespace irdm
     // the slow step ended, and taken from the step after its last piece. The slow step and
     // those in between go on with the tangent they have (the residual decides the root, the
     // tangent only how fast Newton gets there), so a slow step no longer makes a whole one.
-    // Still made at once: where an iteration leaves more than tangent_at_once_ratio of the
-    // residual (the kept tangent hardly steers), where the line search finds no decrease
-    // with it, past half a step's iteration limit, and for a step or part of another length.
-    // 0: made at once in the step that asks for it.
+    // Still made at once: where the line search finds no decrease with it, past half a
+    // step's iteration limit, for a step or part of another length, and where an iteration
+    // leaves more than tangent_at_once_ratio of the residual (below 1: where the kept tangent
+    // steers poorly; 1, the default, for its contraction alone never, which keeps the slowest
+    // step lowest where the tangent goes stale fast). 0: made at once in the step that asks.
     unsigned tangent_steps         = 0;
-    double   tangent_at_once_ratio = 0.5;
+    double   tangent_at_once_ratio = 1;
     // Keep the planes' and probes' tangent while their contacts (a probe's patch rows and
     // coupling weight) stay, and the factorization of the step's tangent while neither the
     // body's tangent nor that contact tangent change (the same matrices: the same steps, bit

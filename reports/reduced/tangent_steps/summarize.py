@@ -122,10 +122,20 @@ def main():
                                             span([r["implicit"] for r in rs], "{:.1e}"),
                                             sum(r["failed"] for r in rs), sum(r["cut"] for r in rs),
                                             sum(r["missed"] for r in rs), span([r["force_p99"] for r in rs], "{:.1f}")))
-    if os.path.exists("benchmarks.txt"):
-        print("\nirdm_reduced_kernels (a plane pressing 0 to 5 mm into the top with a period of 0.2 s):")
+    print("\nThe split with its force loop behind (offline, deterministic; lag.csv): force error against the "
+          "coupling solved in the step, peak window force, most Newton iterations a step")
+    for path in sorted(glob.glob("lag/*/lag.csv")):
+        cells = ["{} steps ({} ms): {:.3g}, {:.3f} N, {}".format(int(float(r["lag_steps"])), float(r["lag_ms"]),
+                                                               float(r["force_error"]), float(r["peak_force_N"]),
+                                                               int(float(r["most_newton_iterations"])))
+                 for r in read_rows(path)]
+        print(f"  {path.split('/')[1]}: " + "; ".join(cells))
+    for name, what in (("benchmarks.txt", ""), ("benchmarks_at_once_ratio_0.5.txt", ", tangent_at_once_ratio 0.5")):
+        if not os.path.exists(name):
+            continue
+        print(f"\nirdm_reduced_kernels (a plane pressing 0 to 5 mm into the top with a period of 0.2 s{what}):")
         head = None
-        for line in open("benchmarks.txt"):
+        for line in open(name):
             if line.startswith("== "):
                 head = line[3:].strip()
             elif "ratio to Newton" in line:
