@@ -717,6 +717,9 @@ TEST(Cli, PlayRunsTheReducedModelsTwoLoops)
   EXPECT_EQ(rows, 100);
   EXPECT_EQ(v["tangent_evaluations"], made + 1) << "the steps' and the one before the loops";
   EXPECT_EQ(v["tangent_steps"], 8) << "the default";
+  ASSERT_TRUE(v.count("late_steps")) << "the steps published more than a model step late";
+  EXPECT_GE(v["late_steps"], 0);
+  EXPECT_LE(v["late_steps"], v["deformation_steps"]);
   // The tangent made in the step and over 3 steps: the split as close to its reference.
   const std::string staged = dir + "_staged";
   fs::remove_all(staged);
