@@ -718,9 +718,13 @@ namespace irdm::play
           if (o.force_tolerance > 0 || o.force_modes > 0)
             throw InputError("--force-modes and --force-tolerance are for a linear model's modes; "
                              "a reduced nonlinear model's force loop has no modes to choose");
+          if (!o.lag_steps.empty() && !o.check)
+            throw InputError("--lag-steps reruns the offline check: not with --no-check");
           return run_reduced_play(o, out);
         }
     }
+    if (!o.lag_steps.empty())
+      throw InputError("--lag-steps is for a reduced nonlinear model's two loops");
     check_output_folder("--out", o.out_dir);
     const fs::path dir(o.out_dir);
     for (const auto &name :

@@ -398,21 +398,29 @@ namespace irdm::play
       std::string  lag_text;
       if (offline && offline->lagged.size() > 1)
         lag_text = write_lag_table(dir / "lag.csv", s, *offline);
-      else if (std::error_code ec; fs::exists(dir / "lag.csv", ec))
-        fs::remove(dir / "lag.csv"); // an earlier run's, not this one's
+      else if (std::error_code ec; fs::exists(dir / "lag.csv", ec) && !fs::remove(dir / "lag.csv", ec))
+        throw InputError("--out: cannot remove an earlier run's '" + (dir / "lag.csv").string() + "': " + ec.message());
       const double missed   = static_cast<double>(r.missed) / static_cast<double>(s.n_ticks);
-      // Steps published more than a model step late: the force loop then coupled some ticks
-      // to a state two steps older than the lockstep split's, which it does not hold for long
-      // (--lag-steps).
-      const long late = std::count_if(r.lag_ms.begin(), r.lag_ms.end(), [&](const double l) { return l > 1e3 * s.tau; });
+      // Steps published more than a model step late (the force loop then coupled some ticks to
+      // a state two steps older than the lockstep split's), and the most of them in a row.
+      long late = 0, streak = 0, longest = 0;
+      for (const double l : r.lag_ms)
+        {
+          streak  = l > 1e3 * s.tau ? streak + 1 : 0;
+          late   += streak > 0;
+          longest = std::max(longest, streak);
+        }
       const double late_share = static_cast<double>(late) / static_cast<double>(s.n_steps);
+      // Real time kept: the median step within the model's step, and caught up at the end.
+      const bool keeps_up = percentile(r.step_us, 0.5) <= 1e6 * s.tau && r.lag_ms.back() <= 1e3 * s.tau;
       const auto   one      = [](const double v) { return std::vector<double>{v}; };
       write_csv((dir / "summary.csv").string(),
                 {"rate_hz", "steps", "deformation_steps", "missed", "force_step_p50_us", "force_step_p99_us",
                  "force_step_max_us", "deformation_step_p50_us", "deformation_step_p99_us",
                  "deformation_step_max_us", "lag_p99_ms", "lag_max_ms", "peak_force_N",
                  "lockstep_force_error", "implicit_force_error", "split_force_error", "failed_steps",
-                 "cut_steps", "tangent_evaluations", "staged_tangent_evaluations", "tangent_steps", "late_steps"},
+                 "cut_steps", "tangent_evaluations", "staged_tangent_evaluations", "tangent_steps", "late_steps",
+                 "late_steps_in_a_row"},
                 {one(s.rate), one(static_cast<double>(s.n_ticks)), one(static_cast<double>(s.n_steps)),
                  one(static_cast<double>(r.missed)), one(percentile(r.force_us, 0.5)), one(percentile(r.force_us, 0.99)),
                  one(percentile(r.force_us, 1.0)), one(percentile(r.step_us, 0.5)), one(percentile(r.step_us, 0.99)),
@@ -420,7 +428,8 @@ namespace irdm::play
                  one(peak), one(lockstep), one(implicit), one(split), one(static_cast<double>(body.failed_steps())),
                  one(static_cast<double>(body.cut_steps())), one(static_cast<double>(body.tangent_evaluations())),
                  one(static_cast<double>(body.staged_tangent_evaluations())),
-                 one(static_cast<double>(s.options.tangent_steps)), one(static_cast<double>(late))});
+                 one(static_cast<double>(s.options.tangent_steps)), one(static_cast<double>(late)),
+                 one(static_cast<double>(longest))});
       const auto pct = [](const std::vector<double> &x) {
         return fmt(percentile(x, 0.5)) + " | " + fmt(percentile(x, 0.99)) + " | " + fmt(percentile(x, 0.999)) +
                " | " + fmt(percentile(x, 1.0));
@@ -454,7 +463,9 @@ namespace irdm::play
          {"step_percentiles", pct(r.step_us)},
          {"lag_percentiles", pct(r.lag_ms)},
          {"iterations_percentiles", pct(r.iterations)},
-         {"keeps_up", percentile(r.step_us, 0.5) <= 1e6 * s.tau && late_share <= 0.01 ? "1" : ""},
+         {"keeps_up", keeps_up ? "1" : ""},
+         {"late_in_a_row", std::to_string(longest)},
+         {"final_lag", fmt(r.lag_ms.back())},
          {"step_p50", fmt(percentile(r.step_us, 0.5))},
          {"tau_us", fmt(1e6 * s.tau)},
          {"late_steps", std::to_string(late)},

@@ -145,8 +145,9 @@ namespace irdm
     // Still made at once: where the line search finds no decrease with it, past half a
     // step's iteration limit, for a step or part of another length, and where an iteration
     // leaves more than tangent_at_once_ratio of the residual (below 1: where the kept tangent
-    // steers poorly; 1, the default, for its contraction alone never, which keeps the slowest
-    // step lowest where the tangent goes stale fast). 0: made at once in the step that asks.
+    // steers poorly; 1, the default: only where an iteration raised it, the full step taken
+    // past a failed line search, which keeps the slowest step lowest where the tangent goes
+    // stale fast). 0: made at once in the step that asks.
     unsigned tangent_steps         = 0;
     double   tangent_at_once_ratio = 1;
     // Keep the planes' and probes' tangent while their contacts (a probe's patch rows and
