@@ -160,7 +160,8 @@ def reduced_tangent_steps_headline(folder):
            for r in rows(os.path.join(folder, "lag", "cat_top_r222_tol1e-8", "lag.csv"))}
     return ("`irdm play`, r = 222 (stop 1e-8), steps making a tangent after the first: "
             f"{making('steps0')} with it made in the step, {making('steps8')} made over 8 steps; "
-            f"the two loops' split with its force loop 1 step behind {pct(lag[1])}, 2 steps {pct(lag[2])}")
+            f"the two loops' split with its force loop 1 step behind {100 * lag[1]:.2g} %, "
+            f"2 steps {100 * lag[2]:.0f} % from the coupled solution")
 
 
 def free_step_headline(folder):

@@ -3,10 +3,10 @@
 # step that asks for it (--tangent-steps 0) and over 4 or 8 steps, a piece a step, run
 # alternately, nothing else of ours running (the host's other load is not ours to stop). From
 # the work tree's root, after scripts/build.sh, with the models of
-# reports/reduced/step_kernels/commands.txt in out/models/reduced/. The runs here: the play and
-# lag runs with the binaries of f30658b (tangent_at_once_ratio 0.5 then, which fired in none of
-# them: no tangent was made at once after the first), benchmarks.txt with those of the commit
-# that made its default 1, benchmarks_at_once_ratio_0.5.txt with f30658b's.
+# reports/reduced/step_kernels/commands.txt in out/models/reduced/. The runs here: the play runs
+# with the binaries of f30658b (tangent_at_once_ratio 0.5 then, which fired in none of them: no
+# tangent was made at once after the first), benchmarks.txt with those of 38feda3 (its default
+# 1), benchmarks_at_once_ratio_0.5.txt with f30658b's, the lag runs with a233cae's.
 set -euo pipefail
 here=reports/reduced/tangent_steps
 IRDM=build/apps/irdm
