@@ -50,8 +50,8 @@ namespace irdm::play
     // largest force (ReducedBodyOptions::tolerance).
     double newton_tolerance = 1e-8;
     // A reduced nonlinear model's tangent made over this many deformation steps where Newton
-    // asks for a new one (ReducedBodyOptions::tangent_steps; 0: inside the step): a real-time
-    // loop's step then never carries a whole evaluation.
+    // asks for a new one (ReducedBodyOptions::tangent_steps; 0: inside the step): the step that
+    // asks then does not make a whole one.
     unsigned tangent_steps = 8;
     // A reduced nonlinear model's offline check again with the force loop working on the
     // state this many deformation steps old, each value a run (lag.csv): how much lag the
