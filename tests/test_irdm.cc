@@ -1605,6 +1605,57 @@ TEST(ReducedRuntime, AFloatingStepAllocatesNothing)
     }
 }
 
+// A floating body's tangent made over steps is the one made at once at the state the next step
+// starts from, in the frame the carry moved it into: the free beam thrown spinning onto a floor
+// with gravity, its tangent over 3 steps, asking at every iterating step; each one taken into
+// use equals prepare_tangent()'s on a body given the same inputs up to step k - 3, to float
+// rounding, and the one it replaces differs by far more.
+TEST(ReducedRuntime, AFloatingTangentMadeOverStepsIsTheOneMadeAtOnce)
+{
+  static const irdm::ReducedNonlinearModel m = make_reduced_beam(true, true);
+  irdm::ReducedBodyOptions                 o;
+  o.tangent_steps         = 3;
+  o.tangent_refresh_ratio = 0;
+  irdm::ReducedPlane floor;
+  floor.normal = {0, 0, 1};
+  floor.point  = {0, 0, -0.012};
+  const auto thrown = [&] {
+    auto body = std::make_unique<irdm::ReducedNonlinearBody>(m, o);
+    EXPECT_TRUE(body->start({0, 0, -9.81}, {0.1, 0, -0.8}, {0, 3, 1}));
+    return body;
+  };
+  const auto staged = thrown();
+  int        checked = 0, touching = 0;
+  double     worst = 0, moved = 0;
+  for (int k = 0; k < 120; ++k)
+    {
+      const Eigen::MatrixXd before = staged->body_tangent();
+      const auto            taken  = staged->staged_tangent_evaluations();
+      staged->step(&floor, 1);
+      touching += staged->plane_vertices(0) > 0;
+      if (staged->staged_tangent_evaluations() == taken)
+        continue;
+      const auto reference = thrown();
+      for (int j = 0; j <= k - int(o.tangent_steps); ++j)
+        reference->step(&floor, 1);
+      reference->prepare_tangent();
+      const Eigen::MatrixXd T = reference->body_tangent().triangularView<Eigen::Lower>();
+      const Eigen::MatrixXd S = staged->body_tangent().triangularView<Eigen::Lower>();
+      const Eigen::MatrixXd B = before.triangularView<Eigen::Lower>();
+      const double          scale = T.cwiseAbs().maxCoeff();
+      worst = std::max(worst, (S - T).cwiseAbs().maxCoeff() / scale);
+      moved = std::max(moved, (B - T).cwiseAbs().maxCoeff() / scale);
+      ++checked;
+    }
+  EXPECT_GT(touching, 0) << "the beam reached the floor";
+  EXPECT_GT((staged->frame_rotation() - Eigen::Matrix3d::Identity()).norm(), 0.01) << "the frame turned";
+  EXPECT_GE(checked, 4);
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_GT(moved, 1e-4) << "the tangent in use before differs (the check can fail)";
+  std::cout << checked << " tangents, largest difference " << worst << " of the largest entry, the one before it "
+            << moved << "\n";
+}
+
 // A coupled probe is solved with the body: its force is the spring's k (d - u_p) at the step's
 // end, and the body it moves is the body the same forces move when applied as known forces
 // (to Newton's tolerance). A coupling that is not positive, or a patch off the surface, is
