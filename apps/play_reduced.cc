@@ -12,8 +12,9 @@
 // The device is coupled to one surface vertex by a spring and a damper while its tip is
 // behind the rest surface along the vertex normal (its target: the tip's motion since it
 // crossed), unilateral. The trajectory plays in real time; where the deformation loop falls
-// behind, the force loop works on an older state (its lag is measured), its prediction held at
-// two steps past it. Nothing in either loop allocates or locks.
+// behind, the force loop works on an older state (its lag is measured), adds the answer to the
+// latest window's force that the state does not hold (irdm/reduced_force_loop.h), and holds
+// its prediction at two steps past the state. Nothing in either loop allocates or locks.
 #include "play.h"
 #include "play_realtime.h"
 
@@ -54,6 +55,7 @@ namespace irdm::play
       std::vector<CouplingTarget> targets; // per tick
       std::vector<double>         present; // per tick, 0 or 1
       std::vector<long>           window_end; // per deformation step: its last tick + 1
+      InertialLagResponse         lag_response; // the model's integrator's
     };
 
     /// The probed vertex (given, or the free surface vertex nearest the first sample) and
@@ -75,6 +77,7 @@ namespace irdm::play
         throw InputError("play: '" + o.model + "' is a free body's reduced model; play runs a "
                          "grounded one (a free one runs in irdm validate-free)");
       s.tau   = s.model.time_step;
+      s.lag_response = inertial_lag_response(s.model.alpha_m, s.model.alpha_f, s.model.beta, s.model.gamma);
       s.rate  = o.rate_hz > 0 ? o.rate_hz : 1 / s.tau;
       if (s.rate > 100000)
         throw InputError("--rate-hz must be at most 100000");
@@ -161,16 +164,34 @@ namespace irdm::play
       const ReducedVertexForce force{s.vertex, f};
       body.step(nullptr, 0, &force, 1);
       const double weight = 1;
-      c.step = k + 1, c.time = (k + 1) * s.tau, c.f = f;
+      c.step = k + 1, c.time = (k + 1) * s.tau, c.f = f, c.tau = s.tau;
       return body.point_state(&s.vertex, &weight, 1, c.u.data(), c.v.data(), c.a.data(), c.W.data());
     }
 
-    /// The force loop's time for tick n against state c: the tick's, held at two steps past
-    /// the state (a deformation loop far behind gives no extrapolation over its lag).
+    /// The force loop's time for tick n against state c: the tick's, held at the windows
+    /// the lag's answer covers and one more past the state (a deformation loop far behind gives
+    /// no extrapolation over its lag).
     double
     predicted_time(const ReducedSetup &s, const long n, const LocalCompliance &c)
     {
-      return std::min((n + 1) / s.rate, c.time + 2 * s.tau);
+      return std::min((n + 1) / s.rate, c.time + (InertialLagResponse::windows + 1) * s.tau);
+    }
+
+    /// Tick n's coupling force against state c, tick n in window w, `force` the ticks' forces so
+    /// far: the windows' between c and w answered (their means, as the deformation loop steps
+    /// with them; a window without a tick holds the force before it).
+    Vec3
+    tick_force(const ReducedSetup &s, const long n, const long w, const LocalCompliance &c, const std::vector<Vec3> &force)
+    {
+      if (s.present[n] <= 0)
+        return {0, 0, 0};
+      std::array<Vec3, InertialLagResponse::windows> since{};
+      const long first = static_cast<long>(std::max({c.step, static_cast<long long>(w) - InertialLagResponse::windows, 0LL}));
+      int        n_since = 0;
+      Vec3       before  = c.f;
+      for (long i = first; i < w; ++i)
+        before = since[n_since++] = mean_force(force, i > 0 ? s.window_end[i - 1] : 0, s.window_end[i], before);
+      return coupling_force(c, predicted_time(s, n, c), s.targets[n], &s.lag_response, since.data(), n_since);
     }
 
     struct ReducedRecords
@@ -215,13 +236,16 @@ namespace irdm::play
       std::thread force([&] {
         r.force_rt               = make_real_time(o.pin && cpus > 1 ? cpus - 1 : -1, 80);
         const std::int64_t start = wait_for_start();
+        long window = 0;
         for (long n = 0; n < s.n_ticks; ++n)
           {
+            while (window + 1 < s.n_steps && s.window_end[window] <= n)
+              ++window;
             const std::int64_t deadline = start + n * period_ns;
             const std::int64_t wake     = wait_for_tick(deadline, spin_ns, [] {}, r.force_seen);
             exchange.update();
             const LocalCompliance &c = exchange.front();
-            r.force[n]               = s.present[n] > 0 ? coupling_force(c, predicted_time(s, n, c), s.targets[n]) : Vec3{0, 0, 0};
+            r.force[n]               = tick_force(s, n, window, c, r.force);
             ticks_done.store(n + 1, std::memory_order_release);
             const std::int64_t done = now_ns();
             r.force_us[n]           = 1e-3 * static_cast<double>(done - wake);
@@ -289,7 +313,7 @@ namespace irdm::play
           const long             to = s.window_end[k];
           const LocalCompliance &c  = published[(k + 1) % (lag + 1)]; // after step k - 1 - lag
           for (long n = from; n < to; ++n)
-            tick[n] = s.present[n] > 0 ? coupling_force(c, predicted_time(s, n, c), s.targets[n]) : Vec3{0, 0, 0};
+            tick[n] = tick_force(s, n, k, c, tick);
           r.force[k] = mean_force(tick, from, to, k > 0 ? r.force[k - 1] : Vec3{0, 0, 0});
           deformation_step(body, s, k, r.force[k], published[(k + 1) % (lag + 1)]);
           r.most_iterations = std::max(r.most_iterations, body.newton_iterations());
