@@ -164,6 +164,18 @@ def reduced_tangent_steps_headline(folder):
             f"2 steps {100 * lag[2]:.0f} % from the coupled solution")
 
 
+def reduced_lag_headline(folder):
+    def errors(variant):
+        return {int(float(r["lag_steps"])): float(r["force_error"])
+                for r in rows(os.path.join(folder, variant, "lag.csv"))}
+    runs = [errors(v) for v in ("cat_top_r222_tol1e-8", "cat_top_r222_tol1e-6", "cat_top_r222_c05_tol1e-6")]
+    def at(lag):
+        return span([100 * e[lag] for e in runs], lambda x: f"{x:.2g} %")
+    return ("the two loops' split with its force loop behind for the whole run, answering the "
+            f"latest window's force: 1 step {at(1)}, 2 steps {at(2)}, 3 steps {at(3)} from the "
+            "coupled solution (r = 222, stops 1e-8 and 1e-6, two cubatures)")
+
+
 def free_step_headline(folder):
     def first_force(step, method):
         path = os.path.join(folder, "check", f"tau_{step}", "linearization.csv")
@@ -323,6 +335,9 @@ STUDIES = [
     ("The reduced step's tangent made over steps, and how much lag the two loops hold",
      "reduced/tangent_steps/README.md", None, reduced_tangent_steps_headline,
      RUNTIME + ["benchmarks/reduced_kernels.cc", "apps/play_reduced.cc"]),
+    ("The two loops behind: the force loop answers for the force its state does not hold",
+     "reduced/lag/README.md", None, reduced_lag_headline,
+     RUNTIME + ["apps/play_reduced.cc"]),
     ("Reduced nonlinear models of the free cat (50 kPa)", "reduced/free/report.md",
      None, reduced_free_headline,
      RUNTIME + ["reference_fem/src/nonlinear*", "reference_fem/src/reduced*",
