@@ -177,9 +177,20 @@ namespace irdm::play
       return std::min((n + 1) / s.rate, c.time + (InertialLagResponse::windows + 1) * s.tau);
     }
 
-    /// Tick n's coupling force against state c, tick n in window w, `force` the ticks' forces so
-    /// far: the windows' between c and w answered (their means, as the deformation loop steps
-    /// with them; a window without a tick holds the force before it).
+    /// The force deformation step i is taken with, from the ticks' forces: its window's mean,
+    /// or, for a window without a tick, that of the latest window before it with one (none: 0).
+    Vec3
+    window_force(const ReducedSetup &s, const std::vector<Vec3> &force, const long i)
+    {
+      for (long j = i; j >= 0; --j)
+        if (const long from = j > 0 ? s.window_end[j - 1] : 0; from < s.window_end[j])
+          return mean_force(force, from, s.window_end[j], Vec3{0, 0, 0});
+      return {0, 0, 0};
+    }
+
+    /// Tick n's coupling force against state c, tick n in window w (w = n_steps: after the last
+    /// window), `force` the ticks' forces so far: the latest InertialLagResponse::windows of the
+    /// windows between c and w answered, each with the force its deformation step is taken with.
     Vec3
     tick_force(const ReducedSetup &s, const long n, const long w, const LocalCompliance &c, const std::vector<Vec3> &force)
     {
@@ -188,9 +199,8 @@ namespace irdm::play
       std::array<Vec3, InertialLagResponse::windows> since{};
       const long first = static_cast<long>(std::max({c.step, static_cast<long long>(w) - InertialLagResponse::windows, 0LL}));
       int        n_since = 0;
-      Vec3       before  = c.f;
       for (long i = first; i < w; ++i)
-        before = since[n_since++] = mean_force(force, i > 0 ? s.window_end[i - 1] : 0, s.window_end[i], before);
+        since[n_since++] = window_force(s, force, i);
       return coupling_force(c, predicted_time(s, n, c), s.targets[n], &s.lag_response, since.data(), n_since);
     }
 
@@ -239,7 +249,7 @@ namespace irdm::play
         long window = 0;
         for (long n = 0; n < s.n_ticks; ++n)
           {
-            while (window + 1 < s.n_steps && s.window_end[window] <= n)
+            while (window < s.n_steps && s.window_end[window] <= n) // n_steps: after the last window
               ++window;
             const std::int64_t deadline = start + n * period_ns;
             const std::int64_t wake     = wait_for_tick(deadline, spin_ns, [] {}, r.force_seen);

@@ -8,10 +8,11 @@
 // compliance W over one step (ReducedNonlinearBody::point_state) and the force f_k the step was
 // taken with. The force loop predicts the point at a later time t, s = t - t_k, as the state
 // moving on at its acceleration under the same force (Newmark's own answer to an unchanged
-// force where inertia rules), plus the compliance's answer to the change of force:
-//   u(t) = u_k + v_k s + a_k s^2 / 2 + W (f - f_k),
-// and solves the virtual coupling's force against it, f = k (d - u(t)) + b (d' - v_k - a_k s):
-//   (I + k W) f = k (d - u_k - v_k s - a_k s^2 / 2 + W f_k) + b (d' - v_k - a_k s),
+// force where inertia rules), plus the compliance's answer to the change of force and the
+// answer m (u_m, v_m: below; zero in lockstep) to the forces since the state:
+//   u(t) = u_k + v_k s + a_k s^2 / 2 + u_m + W (f - f_k),
+// and solves the virtual coupling's force against it, f = k (d - u(t)) + b (d' - v_k - a_k s - v_m):
+//   (I + k W) f = k (d - u_k - v_k s - a_k s^2 / 2 - u_m + W f_k) + b (d' - v_k - a_k s - v_m),
 // none where a unilateral coupling would pull. A fixed-size 3 x 3 solve: no allocation, no lock.
 //
 // A deformation loop that falls behind leaves the force loop on a state older than the window
@@ -20,11 +21,13 @@
 // adds their answer, each change g_i - f_k as a force held over its window alone, through the
 // point's impulse response by inertia alone: m windows later, H_m = c_m W in displacement and
 // e_m W / tau in velocity, c_m and e_m the integrator's own for a free unit mass
-// (inertial_lag_response). Exact where inertia rules the point over the lag; the body's
-// stiffness and damping, left out, would make the true answer smaller. Answering more windows
-// than InertialLagResponse::windows, with the prediction held further, did worse on the cat
+// (inertial_lag_response); u_m and v_m are their sums. One step behind (one window between)
+// that is exact where inertia rules the point over the lag; the body's stiffness and damping,
+// left out, would make the true answer smaller. Answering more windows than
+// InertialLagResponse::windows, with the prediction held further, did worse on the cat
 // (docs/reduced-model.md, "Lag"): only the latest are answered, and a force loop holds its
-// prediction at windows + 1 steps past the state.
+// prediction at windows + 1 steps past the state, so that further behind the older windows'
+// forces are taken as the state's and the terms refer to the held time, a heuristic.
 #include <Eigen/Dense>
 
 #include <array>
