@@ -1908,10 +1908,10 @@ TEST(ReducedRuntime, OneStepBehindTheForceLoopsAnswerIsExactOnAFreeMass)
 
 // The split with its force loop two steps behind (each window's ticks on the state of three
 // steps before, its prediction held at two steps past it): without an answer for the force of
-// the window between, which the state does not know of, the loop overshoots and grows (over a
-// hundred times the coupling's force); with the point's inertial lag response it stays within
-// 30 % of the coupling solved in the step (the tip's stiffness, which that response leaves
-// out, is what is left).
+// the window between, which the state does not know of, the loop overshoots and grows; with the
+// point's inertial lag response it stays near the coupling solved in the step (the tip's
+// stiffness, which that response leaves out, is what is left). The bounds: the answer within
+// 30 %, and ten times closer than without.
 TEST(ReducedRuntime, AForceLoopTwoStepsBehindAnswersForTheForceBetween)
 {
   const irdm::ReducedNonlinearModel &m   = reduced_beam();
@@ -1924,7 +1924,7 @@ TEST(ReducedRuntime, AForceLoopTwoStepsBehindAnswersForTheForceBetween)
     for (int k = 0; k < 100; ++k)
       {
         irdm::ReducedProbe probe = tip_coupling(m, k, 0.5);
-        probe.stiffness          = 50; // k W about 0.02 at the tip (200 N/m: both diverge)
+        probe.stiffness          = 50; // soft enough for the answer to hold: a stiffer coupling grows either way
         EXPECT_TRUE(implicit.step(nullptr, 0, nullptr, 0, &probe, 1));
         irdm::CouplingTarget target;
         target.d = probe.target, target.d_dot = probe.target_velocity;
